@@ -1,0 +1,133 @@
+"""From raw eigenpairs to what users read: frequencies, stability, status; MAC tracking.
+
+FORMULATION.md §10.3-10.4: modes are the eigenvalues with Im λ > 0 sorted by Im λ;
+real eigenvalues are divergence and never frequencies; max Re λ is the stability indicator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from .qep import EigenSolution
+
+
+class Status(IntEnum):
+    """Per-point outcome (archived as an HDF5 enum).
+
+    Convergence takes precedence: a point is ``not_converged`` or ``failed`` whatever its
+    eigenvalues say. A converged point is ``divergent`` if it has a real eigenvalue pair,
+    else ``unstable`` if some Re λ > 0 beyond the stability threshold, else ``ok``.
+    The stability numbers themselves (max Re λ) are archived alongside, for every point.
+    """
+
+    PENDING = 0
+    OK = 1
+    NOT_CONVERGED = 2
+    UNSTABLE = 3
+    DIVERGENT = 4
+    FAILED = 5
+
+
+@dataclass(frozen=True)
+class PointResult:
+    eigenvalue: np.ndarray  # complex (n_modes,), NaN where fewer modes were found
+    frequency_hz: np.ndarray  # (n_modes,)
+    residual: np.ndarray  # (n_modes,) qep.pair_error of each mode
+    max_real: float  # max Re λ over every computed eigenvalue (NaN if none)
+    divergent: np.ndarray  # the positive real eigenvalues found (1/s)
+    status: Status
+    message: str = ""
+    shapes: np.ndarray | None = None  # complex (n_free, n_modes)
+    solver: str = ""
+
+
+def failed(n_modes: int, message: str, solver: str = "") -> PointResult:
+    nan = np.full(n_modes, np.nan)
+    return PointResult(nan + 0j, nan, nan, np.nan, np.zeros(0), Status.FAILED, message, None, solver)
+
+
+def postprocess(
+    sol: EigenSolution,
+    n_modes: int,
+    imag_tol: float = 1e-9,
+    stability_tol: float = 1e-9,
+    want_shapes: bool = False,
+) -> PointResult:
+    """Select, sort and classify the eigenpairs of one point (FORMULATION.md §10.4)."""
+    lam = np.asarray(sol.eigenvalues, dtype=complex)
+    err = np.asarray(sol.errors, dtype=float)
+    mag = np.abs(lam)
+    is_real = np.abs(lam.imag) <= imag_tol * np.maximum(mag, np.finfo(float).tiny)
+    osc = np.flatnonzero(~is_real & (lam.imag > 0))
+    osc = osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes]
+    k = osc.size
+
+    eig = np.full(n_modes, np.nan + 0j)
+    res = np.full(n_modes, np.nan)
+    eig[:k] = lam[osc]
+    res[:k] = err[osc]
+    freq = eig.imag / (2 * np.pi)
+    shapes = None
+    if want_shapes and sol.vectors is not None:
+        shapes = np.full((sol.vectors.shape[0], n_modes), np.nan + 0j)
+        shapes[:, :k] = normalize_shapes(sol.vectors[:, osc])
+
+    real_pos = np.sort(lam.real[is_real & (lam.real > 0)])
+    max_real = float(lam.real.max()) if lam.size else np.nan
+    unstable = bool(np.any(lam.real[~is_real] > stability_tol * mag[~is_real]))
+
+    if not sol.converged or k < n_modes:
+        status = Status.NOT_CONVERGED
+        msg = sol.message or f"{k} of {n_modes} modes found"
+    elif real_pos.size:
+        status, msg = Status.DIVERGENT, sol.message
+    elif unstable:
+        status, msg = Status.UNSTABLE, sol.message
+    else:
+        status, msg = Status.OK, sol.message
+    return PointResult(eig, freq, res, max_real, real_pos, status, msg, shapes, sol.solver)
+
+
+def normalize_shapes(X: np.ndarray) -> np.ndarray:
+    """Scale each column to unit max modulus with that entry real and positive."""
+    X = np.array(X, dtype=complex)
+    idx = np.argmax(np.abs(X), axis=0)
+    piv = X[idx, np.arange(X.shape[1])]
+    piv[piv == 0] = 1.0
+    return X / piv
+
+
+def mac(U: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """Modal assurance criterion matrix |uᴴv|² / (uᴴu · vᴴv) between columns of U and V."""
+    U = np.asarray(U, dtype=complex)
+    V = np.asarray(V, dtype=complex)
+    num = np.abs(U.conj().T @ V) ** 2
+    den = np.outer(np.sum(np.abs(U) ** 2, axis=0), np.sum(np.abs(V) ** 2, axis=0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / den, 0.0)
+
+
+def match_modes(prev: np.ndarray, cur: np.ndarray) -> np.ndarray:
+    """Permutation ``p`` such that ``cur[:, p[i]]`` continues ``prev[:, i]`` (greedy on MAC)."""
+    m = mac(np.nan_to_num(prev), np.nan_to_num(cur))
+    n = m.shape[0]
+    perm = -np.ones(n, dtype=int)
+    used_r, used_c = set(), set()
+    for flat in np.argsort(-m, axis=None):
+        r, c = divmod(int(flat), m.shape[1])
+        if r in used_r or c in used_c:
+            continue
+        perm[r] = c
+        used_r.add(r)
+        used_c.add(c)
+        if len(used_r) == n:
+            break
+    return perm
+
+
+def percent_error(freq_case: np.ndarray, freq_full: np.ndarray) -> np.ndarray:
+    """Signed % error of a simplified case against the full solution (FORMULATION.md §12)."""
+    return (np.asarray(freq_case) - np.asarray(freq_full)) / np.asarray(freq_full) * 100.0

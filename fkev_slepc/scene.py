@@ -1,0 +1,135 @@
+"""Scene files: TOML -> validated, frozen dataclass tree in SI units.
+
+This module owns the scene *schema*. It never imports PETSc, MPI or h5py.
+Loading and validation (``load_scene``) collect every problem with its dotted
+path and raise one :class:`SceneError`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+END_NAMES = ("root", "tip")
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem in a scene: dotted field path and a message (includes the value)."""
+
+    path: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.message}"
+
+
+class SceneError(ValueError):
+    """A scene with one or more problems; ``problems`` lists them all."""
+
+    def __init__(self, source: str, problems: list[Problem]):
+        self.source = source
+        self.problems = list(problems)
+        n = len(self.problems)
+        head = f"{source}: {n} problem{'s' if n != 1 else ''}"
+        super().__init__("\n".join([head, *(f"  {p}" for p in self.problems)]))
+
+
+@dataclass(frozen=True)
+class Link:
+    """A straight, uniform Euler-Bernoulli link running from its root to its tip."""
+
+    name: str
+    length: float  # m
+    youngs_modulus: float  # Pa
+    density: float  # kg/m^3
+    area: float  # m^2
+    second_moment: float  # m^4
+    elements: int
+
+
+@dataclass(frozen=True)
+class LinkEnd:
+    link: str
+    end: str  # "root" | "tip"
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A revolute joint between link ends, or between link ends and a ground point."""
+
+    name: str
+    type: str  # "revolute"
+    ends: tuple[LinkEnd, ...]  # the moving link ends it connects (1 or more)
+    ground: tuple[float, float] | None = None  # ground position (m) if pinned to ground
+    assembly: str = "left"  # dyad branch: joint left/right of the ray P->Q (see kinematics)
+
+
+@dataclass(frozen=True)
+class Driver:
+    link: str
+    speeds: tuple[float, ...]  # rad/s
+    acceleration: float = 0.0  # rad/s^2
+
+
+@dataclass(frozen=True)
+class LumpedMass:
+    joint: str
+    link: str  # the link whose end carries the particle (kinetostatics)
+    mass: float  # kg
+
+
+@dataclass(frozen=True)
+class Analysis:
+    crank_angles_deg: tuple[float, ...]
+    cases: tuple[str, ...]  # canonical case names (cases.CASE_NAMES order preserved as given)
+    modes: int = 4
+    mode_shapes: bool = False
+    # Named thresholds (recorded in archives): |Im λ| <= imag_tol*|λ| is a real eigenvalue;
+    # Re λ > stability_tol*|λ| marks a pair unstable.
+    imag_tol: float = 1e-9
+    stability_tol: float = 1e-9
+
+
+@dataclass(frozen=True)
+class Solver:
+    method: str = "auto"  # "auto" | "slepc" | "dense"
+    petsc: tuple[tuple[str, str], ...] = ()  # [solver.petsc] table, option name without "fkev_"
+
+
+@dataclass(frozen=True)
+class Scene:
+    title: str
+    links: tuple[Link, ...]
+    joints: tuple[Joint, ...]
+    driver: Driver
+    masses: tuple[LumpedMass, ...] = ()
+    analysis: Analysis = field(default_factory=lambda: Analysis((0.0,), ("full",)))
+    solver: Solver = field(default_factory=Solver)
+    source_text: str = ""  # the TOML text, verbatim (archived)
+    source: str = "<scene>"  # file name, for messages
+
+    def link_index(self, name: str) -> int:
+        return [lk.name for lk in self.links].index(name)
+
+
+def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
+    """Return ``scene`` with its links re-meshed (``--elements N`` or ``n1,n2,...``)."""
+    from dataclasses import replace
+
+    if isinstance(elements, int):
+        elements = (elements,) * len(scene.links)
+    if len(elements) != len(scene.links):
+        raise SceneError(
+            scene.source,
+            [Problem("--elements", f"needs 1 or {len(scene.links)} values (got {len(elements)})")],
+        )
+    bad = [Problem(f"--elements[{i}]", f"must be >= 1 (got {n})") for i, n in enumerate(elements) if n < 1]
+    if bad:
+        raise SceneError(scene.source, bad)
+    links = tuple(replace(lk, elements=int(n)) for lk, n in zip(scene.links, elements))
+    return replace(scene, links=links)
+
+
+def load_scene(path: str | Path) -> Scene:  # implemented by the scene-validation work
+    raise NotImplementedError
