@@ -1,0 +1,156 @@
+"""Operators of the instantaneous structure: per-angle pieces, combined per speed and case.
+
+At a fixed crank angle, with crank speed Ω and crank acceleration α (FORMULATION.md §6-7):
+
+    M                       (angle only)
+    C = Ω · G,              G  = Σ 2φ'_j m_a                     (Coriolis)
+    K = K_s                                                     (structural)
+      + Ω² T₂ + α T₁,       T₂ = Σ φ''_j m_a, T₁ = Σ φ'_j m_a    (tangential)
+      + Ω² N₂,              N₂ = -Σ φ'_j² m                      (normal)
+      + Ω² P₂ + α P₁,       k_g of the per-Ω² / per-α axial forces (pseudo-normal)
+
+so the pieces are assembled once per angle and only summed per (Ω, case). Pieces of terms that
+no requested case keeps are never assembled.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import elements as el
+from .assembly import Pattern
+from .cases import CASE_NAMES, CASES, terms_used
+from .kinematics import solve_kinematics
+from .kinetostatics import axial_polynomials, solve_loads
+from .mechanism import build_mechanism
+from .qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
+from .scene import Scene
+
+
+class AssemblyError(ValueError):
+    """The linkage cannot be assembled (or is at a dead centre) at the requested crank angle."""
+
+
+@dataclass(frozen=True)
+class OperatorPieces:
+    """CSR data arrays (on ``Model.pattern``) of one crank angle. Pairs are (per Ω², per α)."""
+
+    theta: float
+    mass: np.ndarray
+    structural: np.ndarray
+    coriolis: np.ndarray | None  # per unit Ω
+    tangential: tuple[np.ndarray, np.ndarray] | None
+    normal: np.ndarray | None  # per Ω²
+    pseudo_normal: tuple[np.ndarray, np.ndarray] | None
+
+
+def classify(has_damping: bool, k_symmetric: bool) -> str:
+    """Problem kind from the structure of the terms present (see qep.KINDS)."""
+    if not has_damping:
+        return LINEAR_SYMMETRIC if k_symmetric else LINEAR
+    return GYROSCOPIC if k_symmetric else GENERAL
+
+
+class Model:
+    """A meshed mechanism with its constant element data and cached sparsity pattern.
+
+    Parameters
+    ----------
+    scene : Scene
+    cases : tuple of case names, optional
+        The cases that will be asked for (default: the scene's); terms none of them keep are
+        not assembled.
+    """
+
+    def __init__(self, scene: Scene, cases: tuple[str, ...] | None = None):
+        self.scene = scene
+        self.mechanism = mech = build_mechanism(scene)
+        self.n_free = mech.n_free
+        self.pattern = Pattern(mech.elem_dofs, mech.n_free)
+        self.cases = tuple(cases or scene.analysis.cases)
+        self.terms = terms_used(self.cases)
+        lk, l = mech.elem_link, mech.elem_length
+        self._m = el.mass_local(mech.rho_a[lk], l)
+        self._ma = el.skew_mass_local(mech.rho_a[lk], l)
+        self._ks = el.structural_local(mech.ea[lk], mech.ei[lk], l)
+
+    # -- per angle -------------------------------------------------------------------------
+    def kinematics(self, theta: float):
+        kin = solve_kinematics(self.mechanism, [theta])
+        if not kin.ok[0]:
+            raise AssemblyError(
+                f"the linkage cannot be assembled at crank angle {np.degrees(theta):g} deg"
+            )
+        return kin
+
+    def pieces(self, theta: float) -> OperatorPieces:
+        """Assemble every piece needed by the model's cases at crank angle ``theta`` (rad)."""
+        mech, pat, terms = self.mechanism, self.pattern, self.terms
+        kin = self.kinematics(theta)
+        lk = mech.elem_link
+        T = el.rotation(kin.phi[0, lk])
+        m_g = el.to_global(self._m, T)
+        mass = pat.add_diagonal(pat.scatter(m_g), mech.mass_dofs, mech.mass_value[:, None])
+        structural = pat.scatter(el.to_global(self._ks, T))
+        dphi, ddphi = kin.dphi[0, lk][:, None, None], kin.ddphi[0, lk][:, None, None]
+        ma_g = el.to_global(self._ma, T) if terms & {"coriolis", "tangential"} else None
+        coriolis = pat.scatter(2.0 * dphi * ma_g) if "coriolis" in terms else None
+        tangential = (
+            (pat.scatter(ddphi * ma_g), pat.scatter(dphi * ma_g)) if "tangential" in terms else None
+        )
+        normal = pat.scatter(-(dphi**2) * m_g) if "normal" in terms else None
+        pseudo = None
+        if "pseudo_normal" in terms:
+            loads = solve_loads(mech, kin)
+            c_w2, c_acc = axial_polynomials(mech, kin, loads, 0)
+            l = mech.elem_length
+            pseudo = (
+                pat.scatter(el.to_global(el.axial_force_local(c_w2, l), T)),
+                pat.scatter(el.to_global(el.axial_force_local(c_acc, l), T)),
+            )
+        return OperatorPieces(float(theta), mass, structural, coriolis, tangential, normal, pseudo)
+
+    # -- per speed and case ----------------------------------------------------------------
+    def qep(self, p: OperatorPieces, omega: float, case: str, accel: float | None = None) -> QEP:
+        """The QEP at crank speed ``omega`` (rad/s), crank acceleration ``accel`` (rad/s²;
+        default the scene's) for the named case (Table 3.1)."""
+        if case not in CASES:
+            raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
+        t = CASES[case]
+        acc = self.scene.driver.acceleration if accel is None else float(accel)
+        w2 = omega * omega
+        K = p.structural.copy()
+        moving = t.motion and (omega != 0.0 or acc != 0.0)
+        k_sym = True
+        for name, piece in (("tangential", p.tangential), ("pseudo_normal", p.pseudo_normal)):
+            if moving and t.keeps(name):
+                self._require(name, piece)
+                part = w2 * piece[0] + acc * piece[1]
+                K += part
+                # a tangential term that vanishes (e.g. a lone crank at constant speed) keeps K symmetric
+                k_sym &= name != "tangential" or not np.any(part)
+        if moving and t.keeps("normal") and w2 != 0.0:
+            self._require("normal", p.normal)
+            K += w2 * p.normal
+        C = None
+        if t.keeps("coriolis") and omega != 0.0:
+            self._require("coriolis", p.coriolis)
+            C = self.pattern.matrix(omega * p.coriolis)
+        return QEP(self.pattern.matrix(p.mass), C, self.pattern.matrix(K), classify(C is not None, k_sym))
+
+    def _require(self, name, piece):
+        if piece is None:
+            raise ValueError(
+                f"term {name!r} was not assembled: build the Model with the cases that need it"
+            )
+
+    # -- geometry for drawing --------------------------------------------------------------
+    def node_positions(self, theta: float) -> np.ndarray:
+        """Undeformed node positions (n_node, 2) at crank angle ``theta`` (rad)."""
+        mech = self.mechanism
+        kin = self.kinematics(theta)
+        lk = mech.node_link
+        e = np.stack([np.cos(kin.phi[0, lk]), np.sin(kin.phi[0, lk])], axis=1)
+        return kin.root[0, lk] + mech.node_s[:, None] * e
