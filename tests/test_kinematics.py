@@ -1,0 +1,122 @@
+"""Rigid-body kinematics and kinetostatics (FORMULATION.md §3, §7) against first principles."""
+
+import numpy as np
+import pytest
+from builders import bahgat_willmert, turcic_midha
+
+from fkev_slepc.kinematics import point_on_link, solve_kinematics
+from fkev_slepc.kinetostatics import solve_loads
+from fkev_slepc.mechanism import build_mechanism
+
+THETA = np.radians(np.arange(0.0, 360.0, 7.5))
+
+
+@pytest.fixture(params=["bahgat_willmert", "turcic_midha"])
+def mech(request):
+    return build_mechanism({"bahgat_willmert": bahgat_willmert, "turcic_midha": turcic_midha}[request.param]())
+
+
+def _tips(kin, mech):
+    e = np.stack([np.cos(kin.phi), np.sin(kin.phi)], axis=-1)
+    return kin.root + mech.length[None, :, None] * e
+
+
+def test_loop_closure(mech):
+    kin = solve_kinematics(mech, THETA)
+    assert kin.ok.all()
+    tips = _tips(kin, mech)
+    # crank tip = coupler root (A); coupler tip = follower tip (B); follower root = O2
+    res = [tips[:, 0] - kin.root[:, 1], tips[:, 1] - tips[:, 2], kin.root[:, 2] - [0.254, 0.0]]
+    assert max(np.abs(r).max() for r in res) < 1e-12 * mech.length.max()
+
+
+def test_thesis_assembly_branch():
+    """B lies to the left of the ray A->O2 (FORMULATION §3, RBK: γ ≥ 0): above ground at θ = 0."""
+    mech = build_mechanism(bahgat_willmert())
+    kin = solve_kinematics(mech, [0.0])
+    assert kin.pos[0, 2, 1] > 0
+
+
+def test_derivatives_equal_finite_differences(mech):
+    h = 1e-5
+    k0, kp, km = (solve_kinematics(mech, THETA + d) for d in (0.0, h, -h))
+    unwrap = lambda a: np.angle(np.exp(1j * a))  # noqa: E731
+    np.testing.assert_allclose(unwrap(kp.phi - km.phi) / (2 * h), k0.dphi, atol=1e-7)
+    np.testing.assert_allclose(unwrap(kp.phi - 2 * k0.phi + km.phi) / h**2, k0.ddphi, atol=2e-4 * np.abs(k0.ddphi).max())
+    np.testing.assert_allclose((kp.pos - km.pos) / (2 * h), k0.dpos, atol=1e-9)
+    np.testing.assert_allclose((kp.pos - 2 * k0.pos + km.pos) / h**2, k0.ddpos, atol=1e-5)
+
+
+def test_impossible_angles_are_flagged():
+    # crank longer than allowed by the other links: cannot close near θ = 180°
+    from builders import STEEL, four_bar
+
+    mech = build_mechanism(four_bar((0.3, 0.2, 0.2), 0.254, STEEL))
+    kin = solve_kinematics(mech, np.radians([0.0, 180.0]))
+    assert kin.ok.tolist() == [True, False]
+
+
+@pytest.mark.parametrize("omega,alpha", [(500.0, 0.0), (300.0, 4e4), (0.0, -2e5)])
+def test_newton_euler_of_every_link(mech, omega, alpha):
+    """ΣF = m a_G and ΣM_G = J θ̈ for every link (lumped masses on their carrying link)."""
+    kin = solve_kinematics(mech, THETA)
+    loads = solve_loads(mech, kin)
+    f = omega**2 * loads.end_force[0] + alpha * loads.end_force[1]  # (n, link, end, 2)
+    links = np.arange(mech.n_link)
+    L, m = mech.length, mech.link_mass
+    G, dG, ddG = point_on_link(kin, mech, links, L / 2)
+    aG = omega**2 * ddG + alpha * dG
+    th_dd = omega**2 * kin.ddphi + alpha * kin.dphi
+    # particles: add their m·a to the carrying link's required force and moment
+    aJ = omega**2 * kin.ddpos + alpha * kin.dpos
+    need_F = m[None, :, None] * aG
+    need_M = m * L**2 / 12 * th_dd
+    for jm, lk, mv in zip(mech.mass_joint, mech.mass_link, mech.mass_value):
+        need_F[:, lk] += mv * aJ[:, jm]
+        r = kin.pos[:, jm] - G[:, lk]
+        need_M[:, lk] += mv * (r[:, 0] * aJ[:, jm, 1] - r[:, 1] * aJ[:, jm, 0])
+    sumF = f.sum(axis=2)
+    e = np.stack([np.cos(kin.phi), np.sin(kin.phi)], axis=-1)
+    arm = np.stack([-0.5 * L[None, :, None] * e, 0.5 * L[None, :, None] * e], axis=2)
+    sumM = (arm[..., 0] * f[..., 1] - arm[..., 1] * f[..., 0]).sum(axis=2)
+    torque = omega**2 * loads.torque[0] + alpha * loads.torque[1]
+    sumM[:, mech.driver] += torque
+    scale_F = np.abs(need_F).max() + np.abs(f).max()
+    scale_M = np.abs(need_M).max() + np.abs(sumM).max()
+    assert np.abs(sumF - need_F).max() <= 1e-9 * scale_F
+    assert np.abs(sumM - need_M).max() <= 1e-9 * scale_M
+
+
+def test_driving_power_equals_rate_of_kinetic_energy(mech):
+    """T·Ω = dE_k/dt at constant crank speed (no gravity, no dissipation)."""
+    omega = 700.0
+    h = 1e-5
+    L, m = mech.length, mech.link_mass
+
+    def energy(theta):
+        kin = solve_kinematics(mech, theta)
+        _, dG, _ = point_on_link(kin, mech, np.arange(mech.n_link), L / 2)
+        ek = 0.5 * (m * (dG**2).sum(-1) + m * L**2 / 12 * kin.dphi**2).sum(-1)
+        ek += 0.5 * (mech.mass_value * (kin.dpos[:, mech.mass_joint] ** 2).sum(-1)).sum(-1)
+        return omega**2 * ek
+
+    dE_dtheta = (energy(THETA + h) - energy(THETA - h)) / (2 * h)
+    kin = solve_kinematics(mech, THETA)
+    torque = omega**2 * solve_loads(mech, kin).torque[0]
+    np.testing.assert_allclose(torque * omega, dE_dtheta * omega, rtol=1e-6, atol=1e-6 * np.abs(torque * omega).max())
+
+
+def test_axial_force_balances_at_both_ends(mech):
+    """N(0) from integrating the tip load along the link equals the root pin force along the link."""
+    from fkev_slepc.kinetostatics import axial_polynomials
+
+    kin = solve_kinematics(mech, THETA[:5])
+    loads = solve_loads(mech, kin)
+    for ang in range(5):
+        c_w2, _ = axial_polynomials(mech, kin, loads, ang)
+        for lk in range(mech.n_link):
+            first = np.flatnonzero(mech.elem_link == lk)[0]
+            n_root = c_w2[first, 0]  # F(ξ=0) of the root element
+            e = np.array([np.cos(kin.phi[ang, lk]), np.sin(kin.phi[ang, lk])])
+            f_root = loads.end_force[0][ang, lk, 0]
+            assert abs(n_root + f_root @ e) <= 1e-9 * (abs(n_root) + 1.0)
