@@ -1,0 +1,104 @@
+"""``fkev point``: frequencies, eigenvalues and stability at one operating point."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from ..cases import case_name
+from ..scene import Problem, SceneError
+from .common import add_elements_argument, load_checked, report_scene_error
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("point", help="solve one operating point (angle, speed, case)",
+                       description="Natural frequencies and stability at one crank angle, speed and case.")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--angle", type=float, help="crank angle, deg (default: the scene's first)")
+    p.add_argument("--speed", type=float, help="crank speed, rad/s (default: the scene's first)")
+    p.add_argument("--case", help="case name or Table 3.1 number (default: the scene's first)")
+    p.add_argument("--modes", type=int, help="number of modes (default: the scene's)")
+    add_elements_argument(p)
+    p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default: the scene's)")
+    p.add_argument("--cross-check", action="store_true", help="solve with SLEPc and dense QZ and compare")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..engines import cross_check, make_engine
+    from ..modes import postprocess
+    from ..operators import Model
+
+    try:
+        scene = load_checked(args.scene, args.elements)
+        case = case_name(args.case) if args.case is not None else scene.analysis.cases[0]
+    except SceneError as err:
+        return report_scene_error(err)
+    except ValueError as err:
+        return report_scene_error(SceneError(args.scene, [Problem("--case", str(err))]))
+    angle = scene.analysis.crank_angles_deg[0] if args.angle is None else args.angle
+    speed = scene.driver.speeds[0] if args.speed is None else args.speed
+    n_modes = args.modes or scene.analysis.modes
+    bad = []
+    if n_modes < 1:
+        bad.append(Problem("--modes", f"must be >= 1 (got {n_modes})"))
+    if not np.isfinite(angle):
+        bad.append(Problem("--angle", f"must be finite (got {angle})"))
+    if not np.isfinite(speed):
+        bad.append(Problem("--speed", f"must be finite (got {speed})"))
+    if bad:
+        return report_scene_error(SceneError(args.scene, bad))
+
+    model = Model(scene, cases=(case,))
+    try:
+        pieces = model.pieces(np.radians(angle))
+    except ValueError as err:
+        return report_scene_error(SceneError(args.scene, [Problem("--angle", f"{err} (got {angle:g})")]))
+    qep = model.qep(pieces, speed, case)
+    method = args.solver or scene.solver.method
+    engine = make_engine(method, model.n_free, scene.solver.petsc)
+    sol = engine.solve(qep, n_modes)
+    res = postprocess(sol, n_modes, scene.analysis.imag_tol, scene.analysis.stability_tol)
+    out = {
+        "scene": scene.title, "angle_deg": angle, "speed_rad_s": speed, "case": case,
+        "n_free": model.n_free, "kind": qep.kind, "solver": sol.solver,
+        "frequency_hz": _nan_to_none(res.frequency_hz),
+        "eigenvalue": [[_f(z.real), _f(z.imag)] for z in res.eigenvalue],
+        "residual": _nan_to_none(res.residual),
+        "max_real": _f(res.max_real), "divergent": [float(v) for v in res.divergent],
+        "status": res.status.name.lower(), "message": res.message,
+    }  # fmt: skip
+    if args.cross_check:
+        out["cross_check_max_rel_diff"] = cross_check(qep, n_modes, scene.solver.petsc)
+    engine.close()
+    if args.json:
+        json.dump(out, sys.stdout, indent=1)
+        print()
+    else:
+        _print_table(out)
+    return 0 if res.status.name in ("OK", "UNSTABLE", "DIVERGENT") else 3
+
+
+def _f(v):
+    return None if not np.isfinite(v) else float(v)
+
+
+def _nan_to_none(a):
+    return [_f(v) for v in np.asarray(a, dtype=float)]
+
+
+def _print_table(o: dict) -> None:
+    print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {o['speed_rad_s']:g} rad/s, case {o['case']}, "
+          f"{o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
+    print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'residual':>10}")
+    for i, (f, (re, im), r) in enumerate(zip(o["frequency_hz"], o["eigenvalue"], o["residual"]), 1):
+        fmt = lambda v, w: f"{v:{w}.6g}" if v is not None else f"{'—':>{w}}"  # noqa: E731
+        print(f"{i:>4} {fmt(f, 14)} {fmt(re, 14)} {fmt(im, 14)} {fmt(r, 10) if r is None else f'{r:10.1e}'}")
+    print(f"max Re λ = {o['max_real']!r} 1/s; status: {o['status']}"
+          + (f"; divergent (real) eigenvalues: {o['divergent']}" if o["divergent"] else ""))
+    if "cross_check_max_rel_diff" in o:
+        print(f"cross-check SLEPc vs dense: max relative frequency difference {o['cross_check_max_rel_diff']:.2e}")
