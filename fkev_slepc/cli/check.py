@@ -1,0 +1,78 @@
+"""``fkev check SCENE [SCENE...]``: validate scene files without computing anything.
+
+Schema problems come first (:func:`fkev_slepc.scene.load_scene`); only a scene without them is
+checked for assembly at every requested crank angle (kinematics) and meshed (to report the
+number of free DOFs). Every problem of every file is printed; the exit code is 2 if any file
+has one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..scene import Scene, SceneError, load_scene
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "check",
+        help="validate scene files (schema, references, assembly at every crank angle)",
+        description="Validate scene files and report every problem, with its dotted field path.",
+    )
+    p.add_argument("scenes", nargs="+", type=Path, metavar="SCENE", help="scene TOML file(s)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check every scene in ``args.scenes``; 0 if all are valid, else 2."""
+    from . import EXIT_BAD_SCENE, EXIT_OK
+
+    status = EXIT_OK
+    for path in args.scenes:
+        try:
+            print(f"{path}: ok ({summary(check_scene(path))})", flush=True)
+        except SceneError as err:
+            print(err, file=sys.stderr, flush=True)
+            status = EXIT_BAD_SCENE
+    return status
+
+
+def check_scene(path: str | Path) -> Scene:
+    """Load ``path`` and check that the linkage assembles at every requested crank angle.
+
+    Raises
+    ------
+    SceneError
+        With every schema problem, or else with every assembly/topology problem.
+    """
+    scene = load_scene(path)
+    # Imported here: kinematics needs numpy and the mechanism, which a schema check does not.
+    from ..kinematics import assembly_problems
+
+    problems = assembly_problems(scene)
+    if problems:
+        raise SceneError(scene.source, problems)
+    return scene
+
+
+def summary(scene: Scene) -> str:
+    """One-line description: counts of links, joints, elements, free DOFs and sweep points."""
+    from ..mechanism import build_mechanism
+
+    n_free = build_mechanism(scene).n_free
+    a = scene.analysis
+    n_el = sum(lk.elements for lk in scene.links)
+    plural = lambda n, word: f"{n} {word}{'' if n == 1 else 's'}"  # noqa: E731
+    return ", ".join(
+        [
+            plural(len(scene.links), "link"),
+            plural(len(scene.joints), "joint"),
+            plural(n_el, "element"),
+            f"n_free {n_free}",
+            f"{plural(len(a.crank_angles_deg), 'angle')} x {plural(len(scene.driver.speeds), 'speed')}"
+            f" x {plural(len(a.cases), 'case')}",
+            plural(a.modes, "mode"),
+        ]
+    )

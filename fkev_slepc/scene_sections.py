@@ -1,0 +1,361 @@
+"""Readers for the sections of a scene file (links, joints, driver, masses, analysis, solver).
+
+Each reader validates one section with a :class:`~fkev_slepc.scene_schema.Reader`, which
+records problems instead of raising, and returns the section's dataclasses (``None`` for a bad
+item). Cross-references (joint ends, driver, masses) and the topology are checked here too.
+The key names carry the units; this is the only place where values are converted.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+
+from .cases import CASE_NAMES, case_name
+from .scene import END_NAMES, Analysis, Driver, Joint, Link, LinkEnd, LumpedMass, Solver
+from .scene_schema import REQUIRED, Reader, is_number, join, show
+
+# --------------------------------------------------------------------------------------------
+# Schema: the keys of every section. Units live in the key names and are converted once, here.
+# --------------------------------------------------------------------------------------------
+LINK_PROPERTIES = {  # TOML key -> Link field; all must be finite and > 0
+    "length_m": "length",
+    "youngs_modulus_pa": "youngs_modulus",
+    "density_kg_m3": "density",
+    "area_m2": "area",
+    "second_moment_m4": "second_moment",
+}
+LINK_KEYS = ("name", *LINK_PROPERTIES, "elements")
+JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly")
+JOINT_TYPES = ("revolute",)
+ASSEMBLIES = ("left", "right")
+DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
+MASS_KEYS = ("joint", "link", "mass_kg")
+ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "stability_tol")
+SOLVER_KEYS = ("method", "petsc")
+SOLVER_METHODS = ("auto", "slepc", "dense")
+TOP_KEYS = ("title", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver")
+GROUND = "ground"
+# Where a misplaced key belongs (``modes`` under [solver] -> analysis.modes).
+SECTIONS = {
+    "link_defaults": LINK_KEYS[1:],
+    "driver": DRIVER_KEYS,
+    "analysis": ANALYSIS_KEYS,
+    "solver": SOLVER_KEYS,
+}
+_PETSC_PREFIXES = ("pep_", "eps_", "st_", "ksp_", "pc_", "bv_", "ds_", "rg_", "fn_", "mat_", "log_")
+_OPTION_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+
+
+def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None]:
+    """``[[links]]`` merged over ``[link_defaults]``: (links, None where bad; valid names).
+
+    The names are returned separately so that references to a link whose *other* fields are
+    bad do not also show up as "unknown link"; they are ``None`` if ``[[links]]`` itself is
+    missing or malformed (then no reference is reported as unknown).
+    """
+    defaults: dict = {}
+    table = r.table(doc, "link_defaults", "")
+    if table:
+        r.check_keys({k: v for k, v in table.items() if k != "name"}, "link_defaults", LINK_KEYS[1:])
+        if "name" in table:
+            r.add("link_defaults.name", "links need their own names; set name in each [[links]]")
+        # A bad default is reported once, here, and then stays silent (None) in every link.
+        for key in LINK_PROPERTIES:
+            if key in table:
+                defaults[key] = r.number(table, key, "link_defaults", positive=True)
+        if "elements" in table:
+            defaults["elements"] = r.integer(table, "elements", "link_defaults", minimum=1)
+    out: list[Link | None] = []
+    seen: dict[str, str] = {}
+    remark = "set it here or in [link_defaults]"
+    for path, item in r.tables(doc, "links", "", required=True):
+        r.check_keys(item, path, LINK_KEYS)
+        name = r.string(item, "name", path)
+        if name is not None:
+            name = _check_name(r, join(path, "name"), name, seen, "link")
+        values = {
+            field_: r.number(item, key, path, positive=True, remark=remark,
+                             default=defaults.get(key, REQUIRED))
+            for key, field_ in LINK_PROPERTIES.items()
+        }
+        default = defaults.get("elements", REQUIRED)
+        elements = r.integer(item, "elements", path, default=default, minimum=1, remark=remark)
+        ok = name is not None and elements is not None and None not in values.values()
+        out.append(Link(name=name, elements=elements, **values) if ok else None)
+    if not isinstance(doc.get("links"), list):
+        return out, None  # no usable [[links]]: references to links cannot be judged
+    return out, list(seen)
+
+
+def _check_name(r: Reader, where: str, name: str, seen: dict[str, str], kind: str) -> str | None:
+    """Names are unique per kind; link names also appear in ``"<link>.<end>"`` references."""
+    if not name.strip():
+        r.add(where, f"must not be empty (got {show(name)})")
+        return None
+    if kind == "link" and ("." in name or name == GROUND):
+        r.add(where, f"must not contain '.' or be '{GROUND}' (got {show(name)})")
+        return None
+    if name in seen:
+        r.add(where, f"duplicate {kind} name {show(name)} (first used at {seen[name]})")
+        return None
+    seen[name] = where
+    return name
+
+
+def read_joints(r: Reader, doc, link_names: list[str] | None) -> tuple[list[Joint | None], list[str]]:
+    """``[[joints]]``: (joints, None where bad; valid joint names)."""
+    valid_refs = [f"{n}.{e}" for n in link_names or () for e in END_NAMES] + [GROUND]
+    names: dict[str, str] = {}
+    used: dict[LinkEnd, tuple[str, str]] = {}  # link end -> (joint name, path)
+    out: list[Joint | None] = []
+    for path, item in r.tables(doc, "joints", "", required=True):
+        r.check_keys(item, path, JOINT_KEYS)
+        name = r.string(item, "name", path)
+        if name is not None:
+            name = _check_name(r, join(path, "name"), name, names, "joint")
+        jtype = r.string(item, "type", path, default="revolute", choices=JOINT_TYPES)
+        assembly = r.string(item, "assembly", path, default="left", choices=ASSEMBLIES)
+        ends, grounded = _read_connects(r, item, join(path, "connects"), link_names, valid_refs)
+        position = None
+        if grounded:
+            position = r.point(item, "position_m", path, remark="a ground joint needs its [x, y] position")
+        elif "position_m" in item and isinstance(item.get("connects"), list):
+            r.add(join(path, "position_m"), f"only a joint with '{GROUND}' in connects takes a position")
+        if ends is not None and name is not None:
+            for k, end in enumerate(ends):
+                if end in used:
+                    other, other_path = used[end]
+                    r.add(
+                        join(join(path, "connects"), k),
+                        f"link end '{end.link}.{end.end}' is already connected by joint {show(other)}"
+                        f" ({other_path})",
+                    )
+                    ends = None
+                else:
+                    used[end] = (name, path)
+        ok = None not in (name, jtype, assembly, ends) and (position is not None or not grounded)
+        out.append(Joint(name, jtype, tuple(ends), position, assembly) if ok else None)
+    return out, list(names)
+
+
+def _read_connects(r: Reader, item, where, link_names, valid_refs):
+    """``connects`` -> (link ends or None if bad, whether 'ground' is one of them)."""
+    if "connects" not in item:
+        r.missing(where, f"list the link ends it joins, e.g. ['{GROUND}', 'crank.root']")
+        return None, False
+    value = item["connects"]
+    if not isinstance(value, list) or len(value) < 2:
+        form = f"'<link>.root', '<link>.tip', '{GROUND}'"
+        r.add(where, f"must be a list of at least two of {form} (got {show(value)})")
+        return None, False
+    ends: list[LinkEnd] = []
+    grounded, ok = False, True
+    for k, ref in enumerate(value):
+        at = join(where, k)
+        if ref == GROUND:
+            if grounded:
+                r.add(at, f"'{GROUND}' listed twice")
+                ok = False
+            grounded = True
+            continue
+        end = _parse_end(r, at, ref, link_names, valid_refs)
+        if end is None:
+            ok = False
+        elif end.link in [e.link for e in ends]:
+            r.add(at, f"joint connects link '{end.link}' to itself (got {show(ref)})")
+            ok = False
+        else:
+            ends.append(end)
+    if ok and not ends:
+        r.add(where, f"must name at least one link end (got {show(value)})")
+        ok = False
+    return (ends if ok else None), grounded
+
+
+def _parse_end(r: Reader, at: str, ref, link_names, valid_refs) -> LinkEnd | None:
+    form = f"'<link>.root', '<link>.tip' or '{GROUND}'"
+    if not isinstance(ref, str):
+        r.add(at, f"must be a string {form} (got {show(ref)})")
+        return None
+    link, dot, end = ref.rpartition(".")
+    close = difflib.get_close_matches(ref, valid_refs, n=1)
+    tip = f"; did you mean '{close[0]}'?" if close else ""
+    if not dot or end not in END_NAMES:
+        r.add(at, f"must be {form} (got {show(ref)}{tip})")
+        return None
+    if link_names is None:
+        return None
+    if link not in link_names:
+        r.add(at, f"unknown link '{link}' (got {show(ref)}{tip})")
+        return None
+    return LinkEnd(link, end)
+
+
+def read_driver(r: Reader, doc, link_names: list[str] | None, joints: list[Joint] | None) -> Driver | None:
+    """``[driver]``; ``joints`` is ``None`` when they had problems (no root-at-ground check)."""
+    table = r.table(doc, "driver", "", required=True)
+    if table is None:
+        return None
+    r.check_keys(table, "driver", DRIVER_KEYS)
+    link = r.string(table, "link", "driver", choices=link_names, what="link")
+    if link is not None and joints is not None:
+        # The driver is clamped at its root, which must sit on a ground pivot (§9.3).
+        root = [j for j in joints if LinkEnd(link, "root") in j.ends]
+        if not root or root[0].ground is None:
+            where = f"joint {show(root[0].name)}" if root else "no joint"
+            r.add("driver.link", f"the root of {show(link)} must be at a ground joint (it is at {where})")
+    if "speeds_rad_s" in table and "speeds_rpm" in table:
+        r.add("driver.speeds_rpm", "give speeds_rad_s or speeds_rpm, not both")
+        speeds = None
+    elif "speeds_rpm" in table:
+        rpm = r.values(table, "speeds_rpm", "driver")
+        speeds = None if rpm is None else tuple(v * 2.0 * math.pi / 60.0 for v in rpm)
+    else:
+        speeds = r.values(table, "speeds_rad_s", "driver", remark="or give speeds_rpm")
+    accel = r.number(table, "acceleration_rad_s2", "driver", default=0.0)
+    if None in (link, speeds, accel):
+        return None
+    return Driver(link=link, speeds=speeds, acceleration=accel)
+
+
+def read_masses(r: Reader, doc, joints: list[Joint | None], joint_names: list[str]) -> list[LumpedMass]:
+    """``[[masses]]``: point masses at joints, each carried by one link of its joint."""
+    by_name = {j.name: j for j in joints if j is not None}
+    out = []
+    for path, item in r.tables(doc, "masses", ""):
+        r.check_keys(item, path, MASS_KEYS)
+        joint = r.string(item, "joint", path, choices=joint_names, what="joint")
+        mass = r.number(item, "mass_kg", path, positive=True)
+        carriers = [e.link for e in by_name[joint].ends] if joint in by_name else None
+        if carriers is not None and len(carriers) == 1 and "link" not in item:
+            link = carriers[0]  # unambiguous: the joint holds one link end
+        else:
+            remark = "the link that carries the mass"
+            link = r.string(item, "link", path, choices=carriers, what="link for this joint", remark=remark)
+        if None not in (joint, link, mass):
+            out.append(LumpedMass(joint=joint, link=link, mass=mass))
+    return out
+
+
+def read_analysis(r: Reader, doc) -> Analysis | None:
+    table = r.table(doc, "analysis", "")
+    if table is None:
+        return None
+    r.check_keys(table, "analysis", ANALYSIS_KEYS)
+    values = dict(
+        crank_angles_deg=r.values(table, "crank_angles_deg", "analysis", default=(0.0,)),
+        cases=_read_cases(r, table),
+        modes=r.integer(table, "modes", "analysis", default=4, minimum=1),
+        mode_shapes=r.boolean(table, "mode_shapes", "analysis", default=False),
+        imag_tol=r.number(table, "imag_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
+        stability_tol=r.number(table, "stability_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
+    )
+    return None if None in values.values() else Analysis(**values)
+
+
+def _read_cases(r: Reader, table) -> tuple[str, ...] | None:
+    """Names or Table 3.1 numbers, deduplicated in the order given; ``"all"`` is all six."""
+    where = "analysis.cases"
+    value = table.get("cases", ["full"])
+    items = list(enumerate(value)) if isinstance(value, list) else [(None, value)]
+    if not items:
+        r.add(where, "must not be empty")
+        return None
+    out, ok = [], True
+    for k, item in items:
+        at = where if k is None else join(where, k)
+        try:
+            if item == "all":
+                names = CASE_NAMES
+            elif isinstance(item, (str, int)) and not isinstance(item, bool):
+                names = (case_name(item),)
+            else:
+                r.add(at, f"must be a case name or a Table 3.1 number 0-5 (got {show(item)})")
+                ok = False
+                continue
+        except ValueError:
+            if isinstance(item, int):
+                r.add(at, f"case number must be 0-5, in Table 3.1 order (got {item})")
+                ok = False
+                continue
+            close = difflib.get_close_matches(str(item), (*CASE_NAMES, "all"), n=1)
+            tip = f"did you mean '{close[0]}'? " if close else ""
+            known = ", ".join(CASE_NAMES)
+            r.add(at, f"unknown case (got {show(item)}; {tip}known: {known}, 'all' or Table 3.1 numbers 0-5)")
+            ok = False
+            continue
+        out.extend(n for n in names if n not in out)
+    return tuple(out) if ok else None
+
+
+def read_solver(r: Reader, doc) -> Solver | None:
+    table = r.table(doc, "solver", "")
+    if table is None:
+        return None
+
+    def petsc_hint(key: str) -> str | None:
+        name = key.lstrip("-").removeprefix("fkev_")
+        return "PETSc options go in [solver.petsc]" if name.startswith(_PETSC_PREFIXES) else None
+
+    r.check_keys(table, "solver", SOLVER_KEYS, hint=petsc_hint)
+    method = r.string(table, "method", "solver", default="auto", choices=SOLVER_METHODS)
+    petsc = r.table(table, "petsc", "solver")
+    options: dict[str, str] = {}
+    ok = petsc is not None
+    for key, value in (petsc or {}).items():
+        at = join("solver.petsc", key)
+        name = key.lstrip("-").removeprefix("fkev_")
+        if not _OPTION_NAME.fullmatch(name):
+            r.add(at, f"not a PETSc option name (got {show(key)}; e.g. pep_type)")
+            ok = False
+        elif name in options:
+            r.add(at, f"option {show(name)} given twice")
+            ok = False
+        elif isinstance(value, bool):
+            options[name] = "true" if value else "false"
+        elif isinstance(value, str):
+            options[name] = value
+        elif is_number(value) and r.check_number(value, at) is not None:
+            options[name] = str(value)
+        elif not is_number(value):
+            hint = " (quote option names that contain dots)" if isinstance(value, dict) else ""
+            r.add(at, f"must be a string, number or boolean (got {show(value)}){hint}")
+            ok = False
+        else:
+            ok = False
+    if method is None or not ok:
+        return None
+    return Solver(method=method, petsc=tuple(options.items()))
+
+
+def check_topology(r: Reader, links: list[Link], joints: list[Joint]) -> None:
+    """Every link reaches ground through joints, and the linkage has exactly one degree of
+    freedom (Grübler: 3 per link, minus 2 per pin per extra body), which the driver takes."""
+    index = {lk.name: i for i, lk in enumerate(links)}
+    parent = list(range(len(links) + 1))  # union-find; the last entry is ground
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    constraints = 0
+    for j in joints:
+        bodies = [index[e.link] for e in j.ends] + ([len(links)] if j.ground is not None else [])
+        constraints += 2 * (len(bodies) - 1)
+        for b in bodies[1:]:
+            parent[find(b)] = find(bodies[0])
+    ground = find(len(links))
+    for i, lk in enumerate(links):
+        if find(i) != ground:
+            r.add(f"links[{i}]", f"link {show(lk.name)} is not connected to ground through any joint")
+    dof = 3 * len(links) - constraints
+    if dof != 1:
+        r.add(
+            "joints",
+            f"the linkage has {dof} degrees of freedom (3 x {len(links)} links - {constraints} pin "
+            "constraints); a single driver needs exactly 1",
+        )
