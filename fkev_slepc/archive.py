@@ -1,0 +1,517 @@
+"""The HDF5 sweep archive (writer side of the archive contract; the reader is ``results.py``).
+
+Layout (see ``docs_archive.md``): the grid scales ``crank_angle_deg``, ``speed_rad_s``,
+``case``, ``mode`` and every gridded dataset live in the root group, which is what xarray's
+h5netcdf engine needs to open the file as one labelled Dataset. ``/errors``, ``/mesh``,
+``/tracking`` and the optional ``/modes`` group hold what is not on that grid.
+
+Life cycle of a run:
+
+1. :func:`create` (rank 0, serial driver) writes every dataset at full size, filled with NaN /
+   ``pending``, with its storage allocated at once, under the temporary name
+   :func:`partial_path`. Rank 0 does this alone because parallel HDF5 1.10 cannot write
+   variable-length strings (the ``case`` scale, ``/mesh/link_names``); the other ranks wait
+   at a barrier, so the file exists at full size before any solve.
+2. :class:`Writer` (every rank) opens it again: with the ``mpio`` driver when h5py has MPI and
+   there is more than one rank (each rank writes its own points with independent hyperslab
+   writes; ``flush`` and the resizing of ``/errors`` are collective), otherwise only rank 0
+   opens it and the others send it their results once per round. Point data are written when
+   a point completes; its ``status`` only at the next flush, after a first flush has put the
+   data on disk, so a point marked done after a crash always has its data.
+3. :func:`finalize` (rank 0, serial) writes the tracked frequencies and the run attributes,
+   drops stale error rows, and renames the file to its final name.
+
+Resuming (:func:`open_for_resume`) reopens the temporary file (or moves a finished archive
+back to it), refuses when the scene or grid differ, and lists the points left to do.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from .modes import Status
+
+FORMAT, FORMAT_VERSION = "fkev-archive", 1
+STATUS_DTYPE = h5py.enum_dtype({s.name.lower(): int(s) for s in Status}, basetype="u1")
+MESSAGE_BYTES = 1024  # /errors/message: fixed-length UTF-8 (parallel HDF5 1.10 cannot write VL data)
+CONVERGED = (int(Status.OK), int(Status.UNSTABLE), int(Status.DIVERGENT))
+_STR = h5py.string_dtype("utf-8")
+_GRIDDED = {  # name: (dtype, fill, units, long_name)
+    "frequency_hz": ("f8", np.nan, "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency"),
+    "tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank angle (MAC)"),
+    "eigenvalue": ("c16", complex(np.nan, np.nan), "1/s", "eigenvalue lambda of the mode (Im > 0 member)"),
+    "residual": ("f8", np.nan, "1", "relative residual |P(lambda)x| / (|Kx| + |lambda||Cx| + |lambda|^2|Mx|)"),
+}
+_POINT = {
+    "max_real": ("f8", np.nan, "1/s", "max Re(lambda) over every computed eigenvalue (stability indicator)"),
+}
+
+
+class ArchiveMismatch(ValueError):
+    """``--resume`` asked for a run the archive does not hold (message names what differs)."""
+
+
+@dataclass(frozen=True)
+class Grid:
+    """The sweep grid: crank angles (deg), speeds (rad/s), case names, modes per point."""
+
+    angles_deg: np.ndarray
+    speeds: np.ndarray
+    cases: tuple[str, ...]
+    n_modes: int
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (len(self.angles_deg), len(self.speeds), len(self.cases))
+
+    @property
+    def n_points(self) -> int:
+        return int(np.prod(self.shape))
+
+    def index(self, flat) -> tuple:
+        """(angle, speed, case) indices of flat point number(s), C order (case fastest)."""
+        return np.unravel_index(flat, self.shape)
+
+
+def partial_path(path: str | Path) -> Path:
+    """Temporary name of an archive being written (renamed to ``path`` when complete)."""
+    path = Path(path)
+    return path.with_name(path.name + ".part")
+
+
+def software_versions() -> dict:
+    """Versions of fkev_slepc and of the libraries it ran with (root attributes)."""
+    from mpi4py import MPI
+
+    from . import __version__
+
+    out = {
+        "fkev_version": __version__,
+        "h5py_version": h5py.version.version,
+        "hdf5_version": h5py.version.hdf5_version,
+        "mpi_version": MPI.Get_library_version().replace("\0", "").splitlines()[0].strip(),
+    }
+    try:  # PETSc is already initialised by the CLI; importing it here only reads versions
+        from petsc4py import PETSc
+        from slepc4py import SLEPc
+
+        out["petsc_version"] = ".".join(map(str, PETSc.Sys.getVersion()))
+        out["slepc_version"] = ".".join(map(str, SLEPc.Sys.getVersion()))
+    except ImportError:  # pragma: no cover - the stack always has them
+        out["petsc_version"] = out["slepc_version"] = "unavailable"
+    return out
+
+
+def _early(chunks=None):
+    """Dataset creation properties: storage allocated (and filled) at creation, so that
+    ranks can later write hyperslabs independently without collective allocation."""
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
+    return dcpl
+
+
+def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int = 0,
+           mode_shapes: bool = False, tracking_dofs: np.ndarray | None = None) -> None:
+    """Write a new, empty archive at ``path`` (serial; rank 0 only).
+
+    Parameters
+    ----------
+    path : path of the file to write (normally :func:`partial_path` of the output).
+    grid : the sweep grid.
+    attrs : root attributes (scene_toml, scene_source, command_line, solver_settings (dict or
+        JSON string), elements, imag_tol, stability_tol, n_ranks, versions, ...).
+    mesh : ``node_link, node_s, node_dofs, elem_nodes`` arrays and ``link_names``.
+    n_free : number of free DOFs (size of a mode shape).
+    mode_shapes : create ``/modes/shape`` and ``/modes/node_xy``.
+    tracking_dofs : free-DOF indices whose eigenvector entries are stored in
+        ``/tracking/signature`` for mode tracking; None when nothing is tracked (one angle).
+    """
+    na, ns, nc = grid.shape
+    nm = grid.n_modes
+    with h5py.File(path, "w") as f:
+        scales = {
+            "crank_angle_deg": (np.asarray(grid.angles_deg, "f8"), "f8", "degree", "crank angle"),
+            "speed_rad_s": (np.asarray(grid.speeds, "f8"), "f8", "rad/s", "crank speed"),
+            "case": (list(grid.cases), _STR, "1", "case of Table 3.1 (terms kept)"),
+            "mode": (np.arange(1, nm + 1, dtype="i4"), "i4", "1", "mode number, 1-based"),
+        }
+        for name, (data, dtype, units, long_name) in scales.items():
+            ds = f.create_dataset(name, data=data, dtype=dtype)
+            ds.make_scale(name)
+            ds.attrs.update(units=units, long_name=long_name)
+        dims4 = ("crank_angle_deg", "speed_rad_s", "case", "mode")
+        for name, (dtype, fill, units, long_name) in _GRIDDED.items():
+            _gridded(f, name, (na, ns, nc, nm), dtype, fill, units, long_name, dims4)
+        for name, (dtype, fill, units, long_name) in _POINT.items():
+            _gridded(f, name, (na, ns, nc), dtype, fill, units, long_name, dims4[:3])
+        st = _gridded(f, "status", (na, ns, nc), STATUS_DTYPE, 0, "1", "outcome of the point", dims4[:3])
+        st.attrs["flag_values"] = np.array([int(s) for s in Status], dtype="u1")
+        st.attrs["flag_meanings"] = " ".join(s.name.lower() for s in Status)
+        st.attrs["description"] = (
+            "convergence first: pending (not solved yet), failed (the solver raised), not_converged "
+            "(fewer modes than asked or the solver stopped short); a converged point is divergent if "
+            "it has a positive real eigenvalue, else unstable if some Re(lambda) > stability_tol*|lambda|, "
+            "else ok. max_real holds the stability number of every point.")
+
+        err = f.create_group("errors")
+        err.attrs["description"] = "messages of failed and not-converged points (one row per point)"
+        err.create_dataset("index", (0, 3), "i4", maxshape=(None, 3), chunks=(256, 3), dcpl=_early())
+        err["index"].attrs["long_name"] = "(angle, speed, case) indices of the point"
+        err.create_dataset("status", (0,), STATUS_DTYPE, maxshape=(None,), chunks=(256,), dcpl=_early())
+        err.create_dataset("message", (0,), h5py.string_dtype("utf-8", MESSAGE_BYTES),
+                           maxshape=(None,), chunks=(64,), dcpl=_early())
+
+        if mesh is not None:
+            g = f.create_group("mesh")
+            for key, units, long_name in (
+                ("node_link", "1", "link of each node (index into link_names)"),
+                ("node_s", "m", "station of the node along its link, from the link's root"),
+                ("node_dofs", "1", "free DOF index of (U, V, Phi) at each node, -1 if constrained"),
+                ("elem_nodes", "1", "(left, right) node of each element"),
+            ):
+                ds = g.create_dataset(key, data=np.asarray(mesh[key]))
+                ds.attrs.update(units=units, long_name=long_name)
+            g.create_dataset("link_names", data=list(mesh["link_names"]), dtype=_STR)
+        if tracking_dofs is not None:
+            g = f.create_group("tracking")
+            g.attrs["description"] = ("eigenvector entries at the free DOFs `dofs`, used to follow modes "
+                                      "between neighbouring crank angles by MAC")
+            g.create_dataset("dofs", data=np.asarray(tracking_dofs, dtype="i4"))
+            _plain(g, "signature", (na, ns, nc, len(tracking_dofs), nm), "c16", complex(np.nan, np.nan))
+        if mode_shapes:
+            if mesh is None:
+                raise ValueError("an archive with mode shapes needs the mesh (node positions)")
+            g = f.create_group("modes")
+            ds = _plain(g, "shape", (na, ns, nc, n_free, nm), "c16", complex(np.nan, np.nan))
+            ds.attrs.update(units="1", long_name="mode shape over the free DOFs, max |entry| = 1 and real")
+            ds = _plain(g, "node_xy", (na, len(mesh["node_link"]), 2), "f8", np.nan)
+            ds.attrs.update(units="m", long_name="undeformed node positions at each crank angle")
+        now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, created=now, wall_time_s=0.0, complete=0)
+        _set_attrs(f, attrs)
+
+
+def _plain(group, name, shape, dtype, fill):
+    return group.create_dataset(name, shape, dtype, fillvalue=fill, dcpl=_early())
+
+
+def _gridded(f, name, shape, dtype, fill, units, long_name, dims):
+    ds = _plain(f, name, shape, dtype, fill)
+    ds.attrs.update(units=units, long_name=long_name)
+    for i, dim in enumerate(dims):
+        ds.dims[i].attach_scale(f[dim])
+    return ds
+
+
+def _set_attrs(f, attrs: dict) -> None:
+    for key, value in attrs.items():
+        if isinstance(value, dict):
+            value = json.dumps(value, sort_keys=True, default=str)
+        elif isinstance(value, (tuple, list)):
+            value = np.asarray(value)
+        f.attrs[key] = value
+
+
+def _text(v) -> str:
+    return v.decode("utf-8") if isinstance(v, bytes) else str(v)
+
+
+# ----------------------------------------------------------------------------------- resume
+@dataclass(frozen=True)
+class ArchiveState:
+    """What a (partial) archive already holds: per-point status and |λ1| (NaN if unknown)."""
+
+    status: np.ndarray  # (angle, speed, case) uint8
+    lam1: np.ndarray  # (angle, speed, case) |eigenvalue of mode 1| of converged points
+
+    def todo(self, retry_failed: bool = False) -> np.ndarray:
+        """Mask of the points to solve: pending ones, and failed ones if ``retry_failed``."""
+        mask = self.status == int(Status.PENDING)
+        if retry_failed:
+            mask |= self.status == int(Status.FAILED)
+        return mask
+
+
+def modulus(z) -> np.ndarray:
+    """|z| as sqrt(re² + im²) with one correctly rounded ufunc per operation, so that it is
+    bitwise the same for one value and for a whole array (``np.abs`` of complex is not: its
+    vectorised and scalar loops can differ in the last bit). Continuation hints computed
+    during a run and read back by a resume must be identical."""
+    z = np.asarray(z, dtype=complex)
+    return np.sqrt(np.add(np.multiply(z.real, z.real), np.multiply(z.imag, z.imag)))
+
+
+def read_state(path) -> ArchiveState:
+    """Status and |λ1| of every point (|λ1| only where the point converged)."""
+    with h5py.File(path, "r") as f:
+        status = np.asarray(f["status"][()], dtype=np.uint8)
+        lam1 = modulus(f["eigenvalue"][..., 0])
+    lam1[~np.isin(status, CONVERGED)] = np.nan
+    return ArchiveState(status, lam1)
+
+
+def open_for_resume(path, grid: Grid, expect: dict) -> Path:
+    """Check that the archive of ``path`` holds the run described, and return the temporary
+    file to continue writing (a finished archive is renamed back to its temporary name only
+    by :func:`reopen_finished`).
+
+    ``expect`` holds root attributes that must match exactly (scene_toml, elements,
+    mode_shapes, n_free). Raises :class:`ArchiveMismatch` naming every difference, or
+    FileNotFoundError when there is nothing to resume.
+    """
+    path = Path(path)
+    part = partial_path(path)
+    src = part if part.exists() else path
+    if not src.exists():
+        raise FileNotFoundError(f"{path}: nothing to resume (neither it nor {part.name} exists)")
+    problems = []
+    try:
+        f = h5py.File(src, "r")
+    except OSError as exc:
+        raise ArchiveMismatch(f"{src}: cannot be opened to resume ({exc})") from None
+    with f:
+        if _text(f.attrs.get("format", "")) != FORMAT:
+            raise ArchiveMismatch(f"{src}: not an fkev archive")
+        for key, value in expect.items():
+            have = f.attrs.get(key)
+            if key == "scene_toml":
+                if _text(have) != value:
+                    problems.append("the scene file changed since the archive was written (scene_toml differs)")
+            elif have is None or not np.array_equal(np.asarray(have), np.asarray(value)):
+                problems.append(f"{key}: archive has {_show(have)}, this run {_show(value)}")
+        for flag, name, want in (
+            ("--angles", "crank_angle_deg", np.asarray(grid.angles_deg, float)),
+            ("--speeds", "speed_rad_s", np.asarray(grid.speeds, float)),
+            ("--modes", "mode", np.arange(1, grid.n_modes + 1)),
+        ):
+            have = f[name][()]
+            if have.shape != want.shape or not np.array_equal(have, want):
+                problems.append(f"{flag}: archive has {_show(have)}, this run {_show(want)}")
+        cases = tuple(_text(c) for c in f["case"][()])
+        if cases != tuple(grid.cases):
+            problems.append(f"--cases: archive has {','.join(cases)}, this run {','.join(grid.cases)}")
+    if problems:
+        raise ArchiveMismatch(f"{src}: cannot resume: " + "; ".join(problems))
+    return src
+
+
+def _show(v) -> str:
+    a = np.atleast_1d(np.asarray(v))
+    if a.size > 6:
+        return f"{a.size} values {a[0]!r}..{a[-1]!r}"
+    return ",".join(_text(x) if isinstance(x, bytes) else f"{x:g}" if np.isreal(x) and a.dtype.kind in "fiu"
+                    else str(x) for x in a.tolist())
+
+
+def reopen_finished(path) -> Path:
+    """Move a finished archive back to its temporary name (to add points to it)."""
+    part = partial_path(path)
+    os.replace(path, part)
+    return part
+
+
+# ----------------------------------------------------------------------------------- writing
+def use_mpio(comm) -> bool:
+    """Parallel HDF5 when h5py has MPI, there is more than one rank and the environment
+    does not say ``FKEV_HDF5_MPIO=0`` (for file systems without working MPI-IO locking)."""
+    return bool(h5py.get_config().mpi and comm.size > 1 and os.environ.get("FKEV_HDF5_MPIO", "1") != "0")
+
+
+@dataclass
+class Block:
+    """Results of the points of one crank angle ``ia`` marked in ``mask`` (speed, case).
+
+    ``data`` maps dataset paths to arrays shaped (speed, case, ...) (``frequency_hz``,
+    ``eigenvalue``, ``residual``, ``max_real``, ``tracking/signature``, ``modes/shape``);
+    ``errors`` lists ((angle, speed, case), status, message) of failed/not-converged points.
+    """
+
+    ia: int
+    mask: np.ndarray
+    data: dict
+    status: np.ndarray
+    errors: list
+    node_xy: np.ndarray | None = None
+
+
+class Writer:
+    """Per-rank writer of :class:`Block` s; see the module docstring for the two modes.
+
+    :meth:`sync` is collective: all ranks call it at the same rounds (it tells them when the
+    next one is due: about every ``interval`` seconds of rank 0's work), and :meth:`close`
+    once at the end.
+    """
+
+    def __init__(self, path, comm, parallel: bool | None = None, interval: float = 2.0):
+        import time
+
+        self.comm = comm
+        self.parallel = use_mpio(comm) if parallel is None else parallel
+        self.root = comm.rank == 0
+        self.interval = interval
+        self._clock = time.monotonic
+        self._t_sync, self._rounds = self._clock(), 0
+        self.next_gap = 1  # rounds until the next sync (the first one measures the round time)
+        if self.parallel:
+            self.f = h5py.File(path, "r+", driver="mpio", comm=comm)
+        else:
+            self.f = h5py.File(path, "r+") if self.root else None
+        self._ds = {} if self.f is None else {k: self.f[k] for k in _DATA if k in self.f}
+        self._blocks: list[Block] = []  # serial mode: not yet sent to rank 0
+        self._count = 0  # points this rank completed since the last sync
+        self._new_errors: list = []  # this rank's error rows since the last sync
+        self._done: list = []  # (ia, mask, status) to write at the next flush
+        self._errors: list = []  # every rank's error rows, appended at the next flush
+
+    def write_block(self, block: Block) -> None:
+        """Store one angle's results (their status becomes visible at the next sync)."""
+        self._count += int(block.mask.sum())
+        if not self.parallel:
+            self._blocks.append(block)
+            return
+        self._write(block)
+        self._new_errors.extend(block.errors)
+
+    def end_round(self) -> bool:
+        """Count a round; True when every rank must now call :meth:`sync`."""
+        self._rounds += 1
+        return self._rounds >= self.next_gap
+
+    def _write(self, b: Block) -> None:
+        whole = bool(b.mask.all())
+        for name, arr in b.data.items():
+            ds = self._ds.get(name)
+            if ds is None:
+                continue
+            arr = np.asarray(arr, dtype=ds.dtype)
+            if whole:  # one hyperslab for the whole angle
+                ds[b.ia] = arr
+            else:
+                for js, jc in np.argwhere(b.mask):
+                    ds[b.ia, js, jc] = arr[js, jc]
+        if b.node_xy is not None and "modes/node_xy" in self._ds:
+            self._ds["modes/node_xy"][b.ia] = b.node_xy
+        self._done.append((b.ia, b.mask, b.status))
+
+    def sync(self, final: bool = False) -> int:
+        """Collective: send results to rank 0 (serial mode), exchange error rows, flush, and
+        agree on the next sync. Returns the number of points completed since the last sync."""
+        n = self._count
+        if not self.parallel:
+            blocks = self.comm.gather(self._blocks, root=0)
+            self._blocks = []
+            for b in (x for rank_blocks in blocks or () for x in rank_blocks):
+                self._write(b)
+                self._errors.extend(b.errors)
+        now = self._clock()
+        gap = self.next_gap
+        if self.root and self._rounds:
+            per_round = (now - self._t_sync) / self._rounds
+            gap = int(np.clip(np.ceil(self.interval / max(per_round, 1e-6)), 1, 10_000))
+        ctrl = self.comm.allgather((n, gap, self._new_errors))
+        self._count, self._new_errors, self._rounds = 0, [], 0
+        self.next_gap = ctrl[0][1]
+        for _, _, errors in ctrl:  # parallel mode: every rank now holds the same rows
+            self._errors.extend(errors)
+        self._flush()
+        self._t_sync = self._clock()
+        return int(sum(c[0] for c in ctrl))
+
+    def _flush(self) -> None:
+        """Collective: append error rows, put the data on disk, then mark the points done."""
+        f = self.f
+        if f is None:
+            return
+        if self._errors:
+            n0, k = f["errors/index"].shape[0], len(self._errors)
+            for name in ("index", "status", "message"):
+                f["errors/" + name].resize(n0 + k, axis=0)  # collective in mpio mode
+            if self.root:
+                f["errors/index"][n0:] = np.array([e[0] for e in self._errors], dtype="i4")
+                f["errors/status"][n0:] = np.array([e[1] for e in self._errors], dtype="u1")
+                f["errors/message"][n0:] = [_clip(e[2]) for e in self._errors]
+            self._errors = []
+        f.flush()  # data first ...
+        status = self._ds["status"]
+        for ia, mask, st in self._done:
+            if mask.all():
+                status[ia] = st
+            else:
+                for js, jc in np.argwhere(mask):
+                    status[ia, js, jc] = st[js, jc]
+        self._done = []
+        f.flush()  # ... then the statuses that say the points are done
+
+    def close(self) -> None:
+        """Final collective sync, then close."""
+        self.sync(final=True)
+        if self.f is not None:
+            self.f.close()
+            self.f = None
+
+
+_DATA = ("frequency_hz", "eigenvalue", "residual", "max_real", "status", "tracking/signature",
+         "modes/shape", "modes/node_xy")
+
+
+def _clip(msg: str) -> bytes:
+    """UTF-8 bytes of ``msg`` cut to MESSAGE_BYTES at a character boundary."""
+    raw = str(msg).encode("utf-8")
+    if len(raw) <= MESSAGE_BYTES:
+        return raw
+    return raw[: MESSAGE_BYTES - 3].decode("utf-8", "ignore").encode("utf-8") + b"..."
+
+# ------------------------------------------------------------------------------ completion
+def read_tracking_inputs(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(frequency_hz, status, tracking signature or None) of every point."""
+    with h5py.File(path, "r") as f:
+        sig = f["tracking/signature"][()] if "tracking" in f else None
+        return f["frequency_hz"][()], np.asarray(f["status"][()], dtype=np.uint8), sig
+
+
+def finalize(part, path, tracked: np.ndarray | None, attrs: dict, add_wall_time: float = 0.0) -> Path:
+    """Rank 0, after every rank closed the file: store the tracked frequencies and the run
+    attributes, add ``add_wall_time`` to ``wall_time_s`` (summed over resumed runs), keep one
+    error row per point that still failed (the newest), set ``complete=1`` and rename
+    ``part`` to ``path``."""
+    with h5py.File(part, "r+") as f:
+        if tracked is not None:
+            f["tracked_frequency_hz"][...] = tracked
+        _compact_errors(f)
+        _set_attrs(f, attrs)
+        f.attrs["wall_time_s"] = float(f.attrs.get("wall_time_s", 0.0)) + float(add_wall_time)
+        f.attrs["complete"] = 1
+    os.replace(part, path)
+    return Path(path)
+
+
+def _compact_errors(f) -> None:
+    g = f["errors"]
+    index = g["index"][()]
+    if index.shape[0] == 0:
+        return
+    status = f["status"][()]
+    bad = (int(Status.FAILED), int(Status.NOT_CONVERGED))
+    # newest row of each point: reverse, take the first occurrence
+    flat = np.ravel_multi_index(index.T, status.shape)
+    _, first = np.unique(flat[::-1], return_index=True)
+    keep = np.sort(index.shape[0] - 1 - first)
+    keep = keep[np.isin(status.ravel()[flat[keep]], bad)]
+    rows = {name: g[name][()][keep] for name in ("index", "status", "message")}
+    for name, data in rows.items():
+        g[name].resize(len(keep), axis=0)
+        if len(keep):
+            g[name][...] = data
+
+
+def status_counts(status: np.ndarray) -> dict[str, int]:
+    """Number of points of each status, by lower-case name."""
+    counts = np.bincount(np.asarray(status, dtype=np.int64).ravel(), minlength=len(Status))
+    return {s.name.lower(): int(counts[int(s)]) for s in Status}

@@ -1,0 +1,258 @@
+"""The sweep over crank angle × speed × case: distribution over ranks, continuation, tracking.
+
+**Unit of work: one crank angle.** Points are numbered in C order over (angle, speed, case)
+(:meth:`archive.Grid.index`, ``np.unravel_index``), and the angles that still hold points to
+solve are dealt cyclically to the ranks (mpi4py's mandelbrot demo), one angle per rank per
+round, in equal rounds so that the collective flushes of :class:`archive.Writer` line up.
+Every angle carries the same mix of cases, so rounds cost the same on every rank although
+cases differ in cost (a cyclic split of single points would give one rank every expensive
+case). Inside an angle the operator pieces are assembled once, the ``structure`` case (which
+does not depend on speed) is solved once and copied to every speed, and the other points are
+solved speed by speed.
+
+**Continuation.** The engine ``hint`` (|λ| of the lowest mode) of point (θ, Ω_j, case) is
+|λ1| of (θ, Ω_{j-1}, case), or of the structure at θ for the first speed. It comes only from
+points of the same angle, which one rank solves in a fixed order, so a point gets the same
+hint on any number of ranks and after a resume (the hint then comes from the archive, where
+|λ1| was stored exactly): results do not depend on the rank count.
+
+**Tracking.** Modes are followed along crank angle by MAC between neighbouring angles
+(:func:`track`) after the sweep, from eigenvector entries at up to :data:`TRACK_DOFS` free DOFs
+stored per point in the archive (``/tracking/signature``), so tracking does not need
+neighbouring angles on the same rank and survives a resume. Eigenvectors are therefore
+computed for every point when the sweep has more than one angle.
+
+**Failures.** ``PETSc.Error``, ``LinAlgError`` and ``FloatingPointError`` raised while solving
+a point mark it ``failed`` with the message; any other exception is a bug and propagates
+(``parallel.install_abort_hook`` then aborts every rank).
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from .archive import CONVERGED, Block, Grid, Writer, modulus
+from .modes import PointResult, Status, failed, match_modes, postprocess
+
+log = logging.getLogger(__name__)
+TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
+
+
+@dataclass(frozen=True)
+class SweepOptions:
+    """What to compute at each point (thresholds as in the scene's ``[analysis]``)."""
+
+    n_modes: int
+    imag_tol: float = 1e-9
+    stability_tol: float = 1e-9
+    mode_shapes: bool = False
+    tracking_dofs: np.ndarray | None = None  # None: no tracking (a single angle)
+
+    @property
+    def want_vectors(self) -> bool:
+        return self.mode_shapes or self.tracking_dofs is not None
+
+
+def tracking_dofs(n_free: int, n_angles: int, limit: int = TRACK_DOFS) -> np.ndarray | None:
+    """Free DOFs whose eigenvector entries are stored for tracking; None for one angle.
+
+    Every DOF of models with at most ``limit`` of them, else ``limit`` DOFs spread evenly
+    over the numbering (a non-integer stride, so U, V and Φ entries all appear)."""
+    if n_angles < 2:
+        return None
+    if n_free <= limit:
+        return np.arange(n_free)
+    return np.unique(np.linspace(0, n_free - 1, limit).round().astype(int))
+
+
+def recoverable_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions that mark a point failed instead of stopping the sweep."""
+    errs: list[type[BaseException]] = [np.linalg.LinAlgError, FloatingPointError]
+    petsc = sys.modules.get("petsc4py.PETSc")  # only if an engine already uses PETSc
+    if petsc is not None:
+        errs.append(petsc.Error)
+    return tuple(errs)
+
+
+def assign(todo: np.ndarray, rank: int, size: int) -> tuple[np.ndarray, int]:
+    """Angles this rank solves (cyclic over the angles that have points to do) and the
+    number of rounds every rank must take part in."""
+    angles = np.flatnonzero(np.asarray(todo).reshape(todo.shape[0], -1).any(axis=1))
+    return angles[rank::size], -(-angles.size // size)
+
+
+class Sweep:
+    """Solve the points of ``todo`` on this rank and hand them to ``writer``.
+
+    Parameters
+    ----------
+    model : operators.Model of the scene (built with the grid's cases).
+    grid : archive.Grid.
+    engine : an engine (``solve(qep, n_modes, want_vectors, hint)``, ``name``).
+    writer : archive.Writer of this rank.
+    opts : SweepOptions.
+    lam1 : (angle, speed, case) |λ1| of the points already in the archive (NaN elsewhere).
+    """
+
+    def __init__(self, model, grid: Grid, engine, writer: Writer, opts: SweepOptions, lam1: np.ndarray):
+        self.model, self.grid, self.engine, self.writer, self.opts = model, grid, engine, writer, opts
+        self.lam1 = np.array(lam1, dtype=float, copy=True)
+        self._errors = recoverable_errors()
+        self.counts = np.zeros(len(Status), dtype=np.int64)  # statuses of this rank's points
+
+    def run(self, todo: np.ndarray, comm, progress=None) -> int:
+        """Collective over ``comm``. Returns the number of points solved by all ranks."""
+        mine, n_rounds = assign(todo, comm.rank, comm.size)
+        total, done = int(np.count_nonzero(todo)), 0
+        log.info("%d points to solve on %d rank(s): %d angle(s) here, %d rounds",
+                 total, comm.size, mine.size, n_rounds)
+        for rnd in range(n_rounds):
+            if rnd < mine.size:
+                self.writer.write_block(self.solve_angle(int(mine[rnd]), todo[mine[rnd]]))
+            if self.writer.end_round() or rnd == n_rounds - 1:
+                done += self.writer.sync()
+                if progress is not None and comm.rank == 0:
+                    progress(done, total)
+        return done
+
+    def solve_angle(self, ia: int, todo: np.ndarray) -> Block:
+        """Solve the points of crank angle ``ia`` marked in ``todo`` (speed, case)."""
+        grid, model, o = self.grid, self.model, self.opts
+        theta = float(np.radians(grid.angles_deg[ia]))
+        pieces = model.pieces(theta)
+        ns, nc = todo.shape
+        results: dict[tuple[int, int], PointResult] = {}
+        cases = list(grid.cases)
+        struct_lam1 = np.nan
+        if "structure" in cases:
+            jc = cases.index("structure")
+            need = np.flatnonzero(todo[:, jc])
+            if need.size:  # independent of speed: solve once, store at every speed
+                res = self._solve(model.qep(pieces, float(grid.speeds[0]), "structure"), None, (ia, 0, jc))
+                for js in need:
+                    self._keep(results, (ia, js, jc), res)
+            known = self.lam1[ia, :, jc][np.isfinite(self.lam1[ia, :, jc])]
+            struct_lam1 = known[0] if known.size else np.nan
+        for js, speed in enumerate(grid.speeds):
+            for jc, case in enumerate(cases):
+                if case == "structure" or not todo[js, jc]:
+                    continue
+                prev = self.lam1[ia, js - 1, jc] if js > 0 else np.nan
+                hint = prev if np.isfinite(prev) else struct_lam1
+                res = self._solve(model.qep(pieces, float(speed), case),
+                                  float(hint) if np.isfinite(hint) else None, (ia, js, jc))
+                self._keep(results, (ia, js, jc), res)
+        return self._block(ia, todo, results, model.node_positions(theta) if o.mode_shapes else None)
+
+    def _solve(self, qep, hint, where) -> PointResult:
+        o = self.opts
+        try:
+            sol = self.engine.solve(qep, o.n_modes, want_vectors=o.want_vectors, hint=hint)
+            return postprocess(sol, o.n_modes, o.imag_tol, o.stability_tol, want_shapes=o.want_vectors)
+        except self._errors as exc:
+            a, s, c = where
+            log.warning("point (%g deg, %g rad/s, %s) failed: %s: %s", self.grid.angles_deg[a],
+                        self.grid.speeds[s], self.grid.cases[c], type(exc).__name__, exc)
+            return failed(o.n_modes, f"{type(exc).__name__}: {exc}", getattr(self.engine, "name", ""))
+
+    def _keep(self, results, index, res: PointResult) -> None:
+        results[index[1:]] = res
+        lam = float(modulus(res.eigenvalue[:1])[0]) if res.eigenvalue.size else np.nan
+        self.lam1[index] = lam if int(res.status) in CONVERGED else np.nan
+        self.counts[int(res.status)] += 1
+
+    def _block(self, ia, todo, results, node_xy) -> Block:
+        """Stack one angle's results into (speed, case, ...) arrays (NaN where not solved)."""
+        o, (ns, nc), nm = self.opts, todo.shape, self.opts.n_modes
+        data = {"frequency_hz": np.full((ns, nc, nm), np.nan),
+                "eigenvalue": np.full((ns, nc, nm), np.nan + 0j),
+                "residual": np.full((ns, nc, nm), np.nan),
+                "max_real": np.full((ns, nc), np.nan)}
+        status = np.zeros((ns, nc), dtype=np.uint8)
+        if o.tracking_dofs is not None:
+            data["tracking/signature"] = np.full((ns, nc, len(o.tracking_dofs), nm), np.nan + 0j)
+        if o.mode_shapes:
+            data["modes/shape"] = np.full((ns, nc, self.model.n_free, nm), np.nan + 0j)
+        errors = []
+        for (js, jc), r in results.items():
+            data["frequency_hz"][js, jc] = r.frequency_hz
+            data["eigenvalue"][js, jc] = r.eigenvalue
+            data["residual"][js, jc] = r.residual
+            data["max_real"][js, jc] = r.max_real
+            status[js, jc] = int(r.status)
+            if r.shapes is not None:
+                if o.tracking_dofs is not None:
+                    data["tracking/signature"][js, jc] = r.shapes[o.tracking_dofs]
+                if o.mode_shapes:
+                    data["modes/shape"][js, jc] = r.shapes
+            if r.status in (Status.FAILED, Status.NOT_CONVERGED):
+                errors.append(((ia, js, jc), int(r.status), r.message))
+        return Block(ia, np.asarray(todo, bool), data, status, errors, node_xy)
+
+
+# ---------------------------------------------------------------------------------- tracking
+def chain_order(angles_deg) -> tuple[np.ndarray, bool]:
+    """Order in which to walk the crank angles for tracking, and whether it closes a loop.
+
+    Angles are walked in ascending order. A grid spanning less than a revolution whose
+    largest hole (on the circle) is not across 360° → 0° is walked across 360° → 0° instead,
+    starting after that hole (300, 330, 0, 30 → 300, 330, 0, 30 rather than 0, 30, 300, 330).
+    The walk closes a loop when it covers a whole revolution, its last step back to the start
+    included (0..360 or 0..355 by 5°)."""
+    a = np.asarray(angles_deg, dtype=float)
+    order = np.argsort(a, kind="stable")
+    if a.size < 2:
+        return order, False
+    if a[order[-1]] - a[order[0]] < 360.0 - 1e-9:
+        on_circle = np.argsort(a % 360.0, kind="stable")
+        m = a[on_circle] % 360.0
+        gaps = np.diff(m)
+        if gaps.max() > m[0] + 360.0 - m[-1] + 1e-9:
+            order = np.roll(on_circle, -(int(np.argmax(gaps)) + 1))
+    steps = np.abs((np.diff(a[order]) + 180.0) % 360.0 - 180.0)
+    closed = bool(steps.sum() + steps.max() >= 360.0 - 1e-6)
+    return order, closed
+
+
+def track(freq: np.ndarray, status: np.ndarray, sig: np.ndarray | None, angles_deg) -> tuple[np.ndarray, int]:
+    """Frequencies with modes followed along crank angle, and the number of open loops.
+
+    Parameters
+    ----------
+    freq : (angle, speed, case, mode) frequencies sorted at each point.
+    status : (angle, speed, case) statuses; points that did not converge are skipped (their
+        tracked frequencies are NaN) and the walk continues from the last converged angle.
+    sig : (angle, speed, case, n_sig, mode) eigenvector entries; None: no tracking (copy).
+    angles_deg : the crank-angle grid.
+
+    Returns
+    -------
+    tracked : same shape as ``freq``; at the first angle of the walk the sorted order.
+    open_loops : number of (speed, case) lines that cover a whole revolution and whose modes
+        come back permuted (MAC across 360° → 0°: a veering pair exchanged identities).
+    """
+    conv = np.isin(status, CONVERGED)
+    tracked = np.where(conv[..., None], freq, np.nan)
+    if sig is None or freq.shape[0] < 2:
+        return tracked, 0
+    order, closed = chain_order(angles_deg)
+    na, ns, nc, nm = freq.shape
+    open_loops = 0
+    for js in range(ns):
+        for jc in range(nc):
+            prev = first = None
+            for ia in order:
+                if not conv[ia, js, jc]:
+                    continue
+                cur = sig[ia, js, jc]
+                p = np.arange(nm) if prev is None else match_modes(prev, cur)
+                tracked[ia, js, jc] = freq[ia, js, jc][p]
+                prev = cur[:, p]
+                first = prev if first is None else first
+            if closed and first is not None and not np.array_equal(match_modes(prev, first), np.arange(nm)):
+                open_loops += 1
+    return tracked, open_loops
