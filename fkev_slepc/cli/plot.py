@@ -1,0 +1,109 @@
+"""``fkev plot ARCHIVE [ARCHIVE ...] --kind KIND [options] [-o FILE]``: figures from archives.
+
+Wiring only: load the archive(s), call :func:`fkev_slepc.plots.draw`, save. Without ``-o``
+the figure goes next to the (first) archive as ``<archive stem>_<kind>.png``. A bad request
+(unknown case, angle or speed not on the grid, no mode shapes in the archive, not an
+archive) is reported in one line on stderr with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+EXIT_BAD_INPUT = 2
+FORMATS = (".png", ".pdf", ".svg")
+
+
+def _floats(text: str) -> list[float]:
+    try:
+        return [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected numbers separated by commas (got {text!r})") from None
+
+
+def _ints(text: str) -> list[int]:
+    try:
+        return [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected integers separated by commas (got {text!r})") from None
+
+
+def _words(text: str) -> list[str]:
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def _flatten(groups):
+    return [v for g in groups for v in g] if groups else None
+
+
+def add_parser(subparsers) -> None:
+    from ..plots import KINDS
+
+    p = subparsers.add_parser(
+        "plot",
+        help="draw a figure from sweep archive(s)",
+        description=(
+            "Draw a figure from a sweep archive. Kinds: freq-angle (frequency vs crank angle, one curve "
+            "per speed; several archives of one scene at different meshes are overlaid), param-speed "
+            "(ω_i/ω_i(structure) vs α = Ω/ω_1(structure) at one angle), error-angle (% error of the "
+            "simplified cases vs full over the cycle at one speed), mode-shape (needs an archive made "
+            "with `fkev run SCENE --mode-shapes`), stability (max Re λ over angle × speed), campbell "
+            "(frequency vs speed with crank-order lines)."
+        ),
+    )
+    p.add_argument("archive", type=Path, nargs="+", help="HDF5 archive(s) written by `fkev run`")
+    p.add_argument("--kind", required=True, choices=KINDS, help="which figure")
+    p.add_argument("--case", dest="cases", type=_words, action="append", metavar="NAME[,NAME]",
+                   help="case name(s) or Table 3.1 numbers (repeatable; default depends on the kind)")
+    p.add_argument("--speed", dest="speeds", type=_floats, action="append", metavar="RAD_S[,...]",
+                   help="crank speed(s) in rad/s (default: all for freq-angle, the highest otherwise)")
+    p.add_argument("--angle", dest="angles", type=_floats, action="append", metavar="DEG",
+                   help="crank angle in degrees (default: 10 if on the grid, else the first)")
+    p.add_argument("--modes", type=_ints, action="append", metavar="I[,J]",
+                   help="1-based mode numbers (default: all archived modes)")
+    p.add_argument("--order", choices=("sorted", "tracked"),
+                   help="mode order (default: tracked for freq-angle, sorted otherwise)")
+    p.add_argument("--orders", type=int, metavar="K", help="campbell: crank orders drawn (default: enough to "
+                   "reach the highest frequency, at most 8)")
+    p.add_argument("--dpi", type=int, default=110, help="resolution of raster output (default 110)")
+    p.add_argument("-o", "--output", type=Path, help="output file (.png, .pdf or .svg)")
+    p.set_defaults(func=run)
+
+
+def default_output(archive: Path, kind: str) -> Path:
+    """``<archive dir>/<archive stem>_<kind>.png``."""
+    return archive.with_name(f"{archive.stem}_{kind}.png")
+
+
+def run(args) -> int:
+    from ..plots import draw
+    from ..results import ArchiveError, load
+
+    out = args.output or default_output(args.archive[0], args.kind)
+    if out.suffix.lower() not in FORMATS:
+        print(f"fkev plot: -o: unsupported format {out.suffix!r} (use {', '.join(FORMATS)})", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if args.orders is not None and args.orders < 1:
+        print(f"fkev plot: --orders: must be >= 1 (got {args.orders})", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        runs = [load(a) for a in args.archive]
+        fig = draw(
+            runs if len(runs) > 1 else runs[0],
+            args.kind,
+            cases=_flatten(args.cases),
+            speeds=_flatten(args.speeds),
+            angles=_flatten(args.angles),
+            modes=_flatten(args.modes),
+            order=args.order,
+            orders=args.orders,
+        )
+    except ArchiveError as exc:
+        print(f"fkev plot: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=args.dpi)
+    print(out)
+    return 0

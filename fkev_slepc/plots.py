@@ -1,0 +1,193 @@
+"""Figures drawn from :class:`~fkev_slepc.results.SweepResults` (matplotlib, no pyplot state).
+
+Every function returns a :class:`matplotlib.figure.Figure` and never recomputes physics: it
+draws archive arrays, or the §12 ratios :mod:`fkev_slepc.results` derives from them. Lines
+carry labels naming the speed / case / mode they draw, so tests (and users) can read the
+plotted data back from the figure. One axes per mode; the figure title names the scene.
+
+Kinds (thesis Chapter 3 figure numbers in brackets):
+
+``freq-angle``  natural frequency vs crank angle, one curve per speed  [3.2-3.4, 3.6-3.9]
+``param-speed`` ω_i(case)/ω_i(structure) vs α = Ω/ω_1(structure) at one angle  [3.10-3.13]
+``error-angle`` % error of the simplified cases vs ``full`` over the cycle  [3.14-3.21]
+``mode-shape``  mode shapes on the undeformed linkage  [3.22-3.25]  (:mod:`.plots_shapes`)
+``stability``   max Re λ over (crank angle, speed), unstable/divergent marked  (:mod:`.plots_maps`)
+``campbell``    frequency vs speed at one angle with crank-order lines k·Ω/2π  (:mod:`.plots_maps`)
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .cases import CASE_NAMES
+from .plots_common import (
+    FREQ_LABEL,
+    SIMPLIFIED,
+    angle_axis,
+    case_label,
+    case_style,
+    default_case,
+    elements_tag,
+    mode_grid,
+    only_one,
+    pick_angle,
+    pick_cases,
+    pick_modes,
+    pick_speed,
+    set_title,
+    speed_label,
+)
+from .plots_maps import campbell, stability
+from .plots_shapes import mode_shape
+from .results import ArchiveError, SweepResults
+
+KINDS = ("freq-angle", "param-speed", "error-angle", "mode-shape", "stability", "campbell")
+__all__ = ["KINDS", "draw", "freq_angle", "param_speed", "error_angle", "mode_shape", "stability",
+           "campbell", "case_label"]
+
+
+def freq_angle(
+    results: SweepResults | Sequence[SweepResults],
+    cases: Sequence[str | int] | None = None,
+    speeds: Sequence[float] | None = None,
+    modes: Sequence[int] | None = None,
+    order: str = "tracked",
+) -> Figure:
+    """Natural frequency vs crank angle, one axes per mode, one curve per speed (Figs 3.6-3.9).
+
+    Several archives of one scene at different meshes (``--elements``) are overlaid and
+    labelled by their element counts (Figs 3.2-3.4: convergence). Points that did not converge
+    are gaps. Defaults: case ``full`` (else the first case), every speed and mode, modes
+    tracked along the crank angle (``order="sorted"``: the i-th lowest at each angle).
+    """
+    runs = [results] if isinstance(results, SweepResults) else list(results)
+    first = runs[0]
+    mode_idx = pick_modes(first, modes)
+    fig, axes = mode_grid(len(mode_idx))
+    dashes = ["-", "--", ":", "-."]
+    for r_i, res in enumerate(runs):
+        c_idx = pick_cases(res, cases, [default_case(res)])
+        s_idx = [res.speed_index(s) for s in speeds] if speeds else list(range(res.speed_rad_s.size))
+        f = res.frequency(order)
+        for ax, m in zip(axes, mode_idx):
+            for c_n, c in enumerate(c_idx):
+                for s_n, s in enumerate(s_idx):
+                    parts = [speed_label(res.speed_rad_s[s])]
+                    if len(c_idx) > 1 or cases:
+                        parts.append(res.cases[c])
+                    if len(runs) > 1:
+                        parts.append(elements_tag(res))
+                    ax.plot(res.crank_angle_deg, f[:, s, c, m], dashes[(r_i if len(runs) > 1 else c_n) % 4],
+                            color=f"C{r_i * len(s_idx) + s_n}", label=", ".join(parts))
+    for ax, m in zip(axes, mode_idx):
+        ax.set_title(f"mode {first.modes[m]}")
+        angle_axis(ax)
+        ax.set_ylabel(FREQ_LABEL)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    names = sorted({first.cases[c] for c in pick_cases(first, cases, [default_case(first)])})
+    what = f"natural frequency vs crank angle ({', '.join(names)}; {order} modes)"
+    if len(runs) > 1:  # the meshes differ by design: name the scene, list the meshes
+        meshes = ", ".join(elements_tag(r) for r in runs)
+        fig.suptitle(f"{first.title}\n{what}; meshes: {meshes}", fontsize=11)
+    else:
+        set_title(fig, first, what)
+    return fig
+
+
+def param_speed(
+    res: SweepResults,
+    angle: float | None = None,
+    cases: Sequence[str | int] | None = None,
+    modes: Sequence[int] | None = None,
+    order: str = "sorted",
+) -> Figure:
+    """Frequency parameter ω_i(case)/ω_i(structure) vs speed parameter α = Ω/ω_1(structure)
+    at one crank angle, one curve per case (Figs 3.10-3.13; FORMULATION §12).
+
+    Needs case ``structure`` in the archive and, to be useful, many speeds. Defaults: θ = 10°
+    if on the grid (else the first angle), every case, every mode, sorted modes.
+    """
+    if "structure" not in res.cases:
+        raise ArchiveError("param-speed: the archive has no 'structure' case (the reference ω_i(structure))")
+    a = pick_angle(res, angle)
+    c_idx = pick_cases(res, cases, CASE_NAMES)
+    mode_idx = pick_modes(res, modes)
+    alpha = res.speed_parameter()[a]
+    p = res.frequency_parameter(order)[a]
+    fig, axes = mode_grid(len(mode_idx))
+    for ax, m in zip(axes, mode_idx):
+        for c in c_idx:
+            ax.plot(alpha, p[:, c, m], marker="." if alpha.size < 15 else None,
+                    label=case_label(res.cases[c]), **case_style(res.cases[c]))
+        ax.set_title(f"mode {res.modes[m]}")
+        ax.set_xlabel("speed parameter α = Ω / ω₁(structure) (–)")
+        ax.set_ylabel("frequency parameter ω_i / ω_i(structure) (–)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    w1 = 2 * np.pi * res.structure_frequency("sorted")[a, 0]
+    theta = res.crank_angle_deg[a]
+    what = f"frequency parameter vs speed parameter, θ = {theta:g}° (ω₁(structure) = {w1:.1f} rad/s)"
+    set_title(fig, res, what)
+    return fig
+
+
+def error_angle(
+    res: SweepResults,
+    speed: float | None = None,
+    cases: Sequence[str | int] | None = None,
+    modes: Sequence[int] | None = None,
+    order: str = "sorted",
+) -> Figure:
+    """Signed % error (ω_i(case) − ω_i(full))/ω_i(full) × 100 of the simplified cases over the
+    crank cycle at one speed, one axes per mode (Figs 3.14-3.21; FORMULATION §12).
+
+    Defaults: the highest speed, cases ``no_coriolis`` … ``no_pseudo_normal``, every mode.
+    """
+    s = pick_speed(res, speed)
+    res.case_index("full")  # the reference must be there (clear error otherwise)
+    c_idx = pick_cases(res, cases, SIMPLIFIED)
+    mode_idx = pick_modes(res, modes)
+    fig, axes = mode_grid(len(mode_idx))
+    err = {c: res.percent_error(res.cases[c], order)[:, s, :] for c in c_idx}
+    for ax, m in zip(axes, mode_idx):
+        ax.axhline(0.0, color="0.5", lw=0.8, label="_zero")
+        for c in c_idx:
+            name = res.cases[c]
+            ax.plot(res.crank_angle_deg, err[c][:, m], label=case_label(name), **case_style(name))
+        ax.set_title(f"mode {res.modes[m]}")
+        angle_axis(ax)
+        ax.set_ylabel("error vs full (%)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    what = f"percentage error in natural frequency vs crank angle, {speed_label(res.speed_rad_s[s])}"
+    set_title(fig, res, what)
+    return fig
+
+
+def draw(results: SweepResults | Sequence[SweepResults], kind: str, *, cases=None, speeds=None,
+         angles=None, modes=None, order=None, orders=None) -> Figure:
+    """Draw ``kind`` with options as the CLI gives them (lists; a kind that takes one angle or
+    speed rejects several). Only ``freq-angle`` accepts several archives."""
+    runs = [results] if isinstance(results, SweepResults) else list(results)
+    if kind != "freq-angle" and len(runs) > 1:
+        raise ArchiveError(
+            f"--kind {kind}: takes one archive (got {len(runs)}); only freq-angle overlays several"
+        )
+    res = runs[0]
+    if kind == "freq-angle":
+        return freq_angle(runs if len(runs) > 1 else res, cases, speeds, modes, order or "tracked")
+    if kind == "param-speed":
+        return param_speed(res, only_one(angles, "--angle"), cases, modes, order or "sorted")
+    if kind == "error-angle":
+        return error_angle(res, only_one(speeds, "--speed"), cases, modes, order or "sorted")
+    if kind == "stability":
+        return stability(res, only_one(cases, "--case"))
+    if kind == "campbell":
+        return campbell(res, only_one(angles, "--angle"), cases, modes, orders, order or "sorted")
+    if kind == "mode-shape":
+        return mode_shape(res, only_one(angles, "--angle"), only_one(speeds, "--speed"), cases, modes)
+    raise ArchiveError(f"--kind: unknown kind {kind!r} (known: {', '.join(KINDS)})")

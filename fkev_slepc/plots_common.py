@@ -1,0 +1,145 @@
+"""Shared pieces of the figure modules: option defaults, axes layout, labels, case styles.
+
+Option resolution turns what a user asked for (labels: degrees, rad/s, case names, 1-based
+modes) into archive indices, with the defaults of each kind, and raises
+:class:`~fkev_slepc.results.ArchiveError` with the CLI option name when a label is not there.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .cases import CASE_NAMES
+from .results import ArchiveError, SweepResults, declared_elements
+
+SIMPLIFIED = ("no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal")
+PREFERRED_ANGLE_DEG = 10.0  # the thesis's detailed-study position (Figs 3.10-3.13, 3.22-3.25)
+ANGLE_LABEL = "crank angle θ (deg)"
+FREQ_LABEL = "natural frequency (Hz)"
+SPEED_LABEL = "crank speed Ω (rad/s)"
+
+# One look per case in every figure; `no_tangential` is dashed because it lies on `full`.
+CASE_STYLE = {
+    "structure": dict(color="0.45", ls=":", lw=1.6),
+    "full": dict(color="k", ls="-", lw=2.4),
+    "no_coriolis": dict(color="tab:green", ls="-", lw=1.4),
+    "no_tangential": dict(color="tab:red", ls="--", lw=1.4),
+    "no_normal": dict(color="tab:purple", ls="-", lw=1.4),
+    "no_pseudo_normal": dict(color="tab:brown", ls="-.", lw=1.6),
+}
+
+
+# ------------------------------------------------------------------ option resolution
+def default_case(res: SweepResults) -> str:
+    """``full`` if the archive has it, else its first case."""
+    return "full" if "full" in res.cases else res.cases[0]
+
+
+def pick_angle(res: SweepResults, angle_deg: float | None) -> int:
+    """Index of ``angle_deg``; default 10° (the thesis's study position) if on the grid,
+    else the first angle."""
+    if angle_deg is not None:
+        return res.angle_index(angle_deg)
+    try:
+        return res.angle_index(PREFERRED_ANGLE_DEG)
+    except ArchiveError:
+        return 0
+
+
+def pick_speed(res: SweepResults, speed: float | None) -> int:
+    """Index of ``speed``; default the highest speed (where motion terms matter most)."""
+    return res.speed_index(speed) if speed is not None else int(np.argmax(res.speed_rad_s))
+
+
+def pick_cases(res: SweepResults, cases: Sequence[str | int] | None, default: Sequence[str]) -> list[int]:
+    """Indices of ``cases`` (names or Table 3.1 numbers); else of the ``default`` names present."""
+    if cases:
+        return [res.case_index(c) for c in cases]
+    idx = [res.cases.index(c) for c in default if c in res.cases]
+    if not idx:
+        raise ArchiveError(
+            f"--case: none of {', '.join(default)} is in this archive (it has: {', '.join(res.cases)})"
+        )
+    return idx
+
+
+def pick_modes(res: SweepResults, modes: Sequence[int] | None) -> list[int]:
+    """Indices of 1-based ``modes``; default every archived mode."""
+    return [res.mode_index(m) for m in modes] if modes else list(range(res.modes.size))
+
+
+def only_one(values, option: str):
+    """A single value from a CLI list option (``--angle 10``), or a clear error."""
+    if values is None or np.isscalar(values):
+        return values
+    values = list(values)
+    if len(values) > 1:
+        raise ArchiveError(f"{option}: this kind takes one value (got {', '.join(map(str, values))})")
+    return values[0] if values else None
+
+
+# --------------------------------------------------------------------- layout, labels
+def mode_grid(n_axes: int, width: float = 10.0, height: float = 3.4) -> tuple[Figure, list]:
+    """A figure with one axes per mode: one column for 1 mode, two columns otherwise."""
+    ncols = 1 if n_axes == 1 else 2
+    nrows = math.ceil(n_axes / ncols)
+    size = (width if ncols > 1 else 0.62 * width, 0.9 + height * nrows)
+    fig = Figure(figsize=size, layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axes[n_axes:]:
+        ax.remove()  # an odd mode count leaves one cell empty
+    return fig, list(axes[:n_axes])
+
+
+def angle_axis(ax) -> None:
+    """Crank-angle x axis over one cycle, ticks every 60°."""
+    ax.set_xlabel(ANGLE_LABEL)
+    ax.set_xlim(0, 360)
+    ax.set_xticks(np.arange(0, 361, 60))
+
+
+def case_style(name: str) -> dict:
+    """Line style of a case (colour, dash, width); empty for unknown names."""
+    return dict(CASE_STYLE.get(name, {}))
+
+
+def speed_label(omega: float) -> str:
+    return f"Ω = {omega:g} rad/s"
+
+
+def case_label(name: str) -> str:
+    """Case name with its Table 3.1 number, e.g. ``no_normal (4)``."""
+    return f"{name} ({CASE_NAMES.index(name)})" if name in CASE_NAMES else name
+
+
+def elements_tag(res: SweepResults) -> str:
+    """``9 el (3+3+3)``: the mesh of an archive."""
+    el = res.elements_per_link()
+    return f"{sum(el)} el ({'+'.join(map(str, el))})" if el else res.path.stem
+
+
+def scene_heading(res: SweepResults) -> str:
+    """The scene's title, plus the mesh when the run re-meshed the scene (``--elements``)."""
+    el, declared = res.elements_per_link(), declared_elements(res.scene_toml)
+    if el and declared is not None and tuple(declared) != tuple(el):
+        return f"{res.title} [re-meshed: {elements_tag(res)}]"
+    return res.title
+
+
+def set_title(fig: Figure, res: SweepResults, what: str) -> None:
+    """Two-line figure title: the scene, then what the figure shows."""
+    fig.suptitle(f"{scene_heading(res)}\n{what}", fontsize=11)
+
+
+def edges(centers: np.ndarray) -> np.ndarray:
+    """Cell edges around grid centres (midpoints; half a step beyond the ends)."""
+    c = np.asarray(centers, dtype=float)
+    if c.size == 1:
+        h = 0.5 * (abs(c[0]) or 1.0)
+        return np.array([c[0] - h, c[0] + h])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])

@@ -1,0 +1,169 @@
+"""Mode shapes drawn on the undeformed linkage (thesis Figs 3.22-3.25).
+
+The archive holds nodal DOFs (U, V, Φ) in the global frame and the undeformed node positions.
+Between nodes the displacement is interpolated with the element's own shape functions
+(FORMULATION.md §4) in its link frame: linear for the axial displacement u, cubic Hermite
+for the transverse displacement v (which uses the nodal rotations Φ). Drawing straight
+segments between displaced nodes would hide the bending that distinguishes the modes.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .plots_common import (
+    case_label,
+    case_style,
+    mode_grid,
+    pick_angle,
+    pick_cases,
+    pick_modes,
+    pick_speed,
+    scene_heading,
+    speed_label,
+)
+from .results import ArchiveError, Mesh, SweepResults
+
+N_SUB = 17  # samples per element: enough for a smooth cubic at figure resolution
+AMPLITUDE = 0.12  # drawn peak displacement as a fraction of the linkage's extent
+
+
+def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.ndarray) -> np.ndarray:
+    """Global displacement (n_el, n_xi, 2) of every element at stations ``xi`` ∈ [0, 1].
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Node/DOF map (``node_dofs`` -1 marks a constrained, i.e. zero, DOF).
+    node_xy : (n_node, 2) array
+        Undeformed node positions (m); they define each element's frame and length.
+    q : (n_free,) real array
+        Nodal DOF values (U, V in m; Φ in rad) in the global frame.
+    xi : (n_xi,) array
+        Stations along each element from its left node (0) to its right node (1).
+    """
+    vals = np.append(np.asarray(q, dtype=float), 0.0)[mesh.node_dofs]  # index -1 -> the appended 0
+    n1, n2 = mesh.elem_nodes[:, 0], mesh.elem_nodes[:, 1]
+    d = node_xy[n2] - node_xy[n1]
+    ln = np.linalg.norm(d, axis=1)
+    e = d / ln[:, None]
+    en = np.stack([-e[:, 1], e[:, 0]], axis=1)
+    # q_local = T q_global (FORMULATION §8): translations rotated into the link frame, Φ unchanged
+    u1, u2 = np.sum(vals[n1, :2] * e, 1), np.sum(vals[n2, :2] * e, 1)
+    v1, v2 = np.sum(vals[n1, :2] * en, 1), np.sum(vals[n2, :2] * en, 1)
+    p1, p2 = vals[n1, 2], vals[n2, 2]
+    x = np.asarray(xi, dtype=float)[None, :]
+    L = ln[:, None]
+    u = (1 - x) * u1[:, None] + x * u2[:, None]
+    v = (
+        (1 - 3 * x**2 + 2 * x**3) * v1[:, None]
+        + L * x * (1 - x) ** 2 * p1[:, None]
+        + (3 * x**2 - 2 * x**3) * v2[:, None]
+        - L * x**2 * (1 - x) * p2[:, None]
+    )
+    return u[..., None] * e[:, None, :] + v[..., None] * en[:, None, :]
+
+
+def linkage_polyline(mesh: Mesh, node_xy: np.ndarray, disp: np.ndarray | None, xi: np.ndarray) -> np.ndarray:
+    """(N, 2) polyline through every element, link by link (elements ordered from the link's
+    root), links separated by a NaN row; ``disp`` (n_el, n_xi, 2) is added if given."""
+    n1, n2 = mesh.elem_nodes[:, 0], mesh.elem_nodes[:, 1]
+    x = np.asarray(xi, dtype=float)[None, :, None]
+    pts = node_xy[n1][:, None, :] + x * (node_xy[n2] - node_xy[n1])[:, None, :]
+    if disp is not None:
+        pts = pts + disp
+    link = mesh.node_link[n1]
+    order = np.lexsort((mesh.node_s[n1], link))
+    pieces = []
+    for k in np.unique(link):
+        els = order[link[order] == k]
+        pieces.append(pts[els].reshape(-1, 2))
+        pieces.append(np.full((1, 2), np.nan))
+    return np.concatenate(pieces[:-1]) if pieces else np.zeros((0, 2))
+
+
+def align_phase(x: np.ndarray, ref: np.ndarray | None) -> np.ndarray:
+    """``x`` times a unit phase factor, so that its real part is the shape to draw.
+
+    With no reference: the phase that maximizes ‖Re x‖ (ψ = ½ arg Σx²). With a reference:
+    the phase that best matches it (ψ = arg refᴴx), so the cases of one mode are drawn in
+    the same sense. Real shapes (no Coriolis term) come back real up to sign.
+    """
+    if ref is None:
+        s = np.sum(x * x)
+        psi = 0.5 * np.angle(s) if abs(s) > 0 else 0.0
+    else:
+        psi = np.angle(np.vdot(ref, x))
+    return x * np.exp(-1j * psi)
+
+
+def mode_shape(
+    res: SweepResults,
+    angle: float | None = None,
+    speed: float | None = None,
+    cases: Sequence[str | int] | None = None,
+    modes: Sequence[int] | None = None,
+) -> Figure:
+    """Mode shapes on the undeformed linkage at one crank angle and speed, one axes per mode,
+    one deformed line per case (Figs 3.22-3.25). Defaults: θ = 10° (else the first angle), the
+    highest speed, every case. Shapes of one mode share a peak drawn displacement
+    (``AMPLITUDE`` × linkage extent) and are phase-aligned to the first case drawn."""
+    if not res.has_mode_shapes:
+        raise ArchiveError(
+            f"{res.path}: this archive has no mode shapes; produce one with "
+            "`fkev run SCENE --mode-shapes` (or `mode_shapes = true` in the scene's [analysis])"
+        )
+    if res.mesh is None or res.node_xy is None:
+        raise ArchiveError(
+            f"{res.path}: the archive has mode shapes but no /mesh or /modes/node_xy to draw them on"
+        )
+    a = pick_angle(res, angle)
+    s = pick_speed(res, speed)
+    c_idx = pick_cases(res, cases, res.cases)
+    mode_idx = pick_modes(res, modes)
+    xy = np.asarray(res.node_xy[a], dtype=float)
+    xi = np.linspace(0.0, 1.0, N_SUB)
+    extent = float(np.max(np.ptp(xy, axis=0)))
+    base = linkage_polyline(res.mesh, xy, None, xi)
+    f = res.frequency("sorted")
+    shapes = {c: res.mode_shape(a, s, c) for c in c_idx}
+    fig, axes = mode_grid(len(mode_idx), width=10.0, height=3.6)
+    ground = np.all(res.mesh.node_dofs[:, :2] < 0, axis=1)
+    for ax, m in zip(axes, mode_idx):
+        ax.plot(base[:, 0], base[:, 1], color="0.6", lw=2.5, ls="-", label="undeformed", zorder=1)
+        ax.plot(xy[ground, 0], xy[ground, 1], "k^", ms=8, label="_ground", zorder=2)
+        ref = None
+        for c_n, c in enumerate(c_idx):
+            x = shapes[c][:, m]
+            name = case_label(res.cases[c])
+            if not np.all(np.isfinite(x)):
+                ax.plot([], [], label=f"{name}: no shape")
+                continue
+            z = align_phase(x, ref)
+            ref = z if ref is None else ref
+            disp = element_displacement(res.mesh, xy, z.real, xi)
+            peak = float(np.max(np.linalg.norm(disp, axis=-1)))
+            k = AMPLITUDE * extent / peak if peak > 0 else 0.0
+            line = linkage_polyline(res.mesh, xy, k * disp, xi)
+            style = case_style(res.cases[c]) or dict(color=f"C{c_n}")
+            style["lw"] = min(style.get("lw", 1.3), 1.8)
+            ax.plot(line[:, 0], line[:, 1], label=f"{name}: {f[a, s, c, m]:.1f} Hz", zorder=3, **style)
+        ax.set_title(f"mode {res.modes[m]}")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s])}"
+    fig.suptitle(
+        f"{scene_heading(res)}\nmode shapes at {where} "
+        f"(peak drawn displacement {AMPLITUDE:.0%} of the linkage's extent)",
+        fontsize=11,
+    )
+    return fig
+
+
+__all__ = ["element_displacement", "linkage_polyline", "align_phase", "mode_shape"]

@@ -1,0 +1,333 @@
+"""Sweep archives as named arrays: :class:`SweepResults`, read with h5py (no matplotlib here).
+
+The reader side of the archive contract (issue 4; the writer is :mod:`fkev_slepc.archive`).
+Gridded data live in the root group, shaped (angle, speed, case, mode) or (angle, speed, case);
+``/mesh`` holds the node/DOF map and the optional ``/modes`` group the mode shapes with the
+undeformed node positions. Mode shapes can be large (n_free × every grid point), so they are
+read lazily, one (angle, speed, case) at a time, by :meth:`SweepResults.mode_shape`.
+
+Derived quantities follow FORMULATION.md §12:
+
+- frequency parameter ω_i(case) / ω_i(structure) at one crank angle,
+- speed parameter α = Ω / ω_1(structure) at one crank angle (ω in rad/s),
+- percentage error (ω_i(case) − ω_i(full)) / ω_i(full) × 100 (:func:`modes.percent_error`).
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+
+from .cases import case_name
+from .modes import Status, percent_error
+
+ARCHIVE_FORMAT = "fkev-archive"
+SUPPORTED_VERSIONS = (1,)
+# Points whose eigenvalues are trustworthy. Unstable and divergent points converged; their
+# oscillatory frequencies are real results. Pending/failed/not-converged points are masked.
+CONVERGED = (Status.OK, Status.UNSTABLE, Status.DIVERGENT)
+ORDERS = ("sorted", "tracked")
+
+
+class ArchiveError(ValueError):
+    """An archive that cannot be read, or a selection it cannot satisfy (message says which)."""
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Node and DOF map of the model (archive group ``/mesh``).
+
+    Every node belongs to one link (pin joints are two nodes sharing translation DOFs),
+    ``node_s`` is its station along the link from the link's root (m), ``node_dofs`` its
+    global (U, V, Φ) free-DOF indices with -1 for a constrained DOF, and ``elem_nodes``
+    the (left, right) nodes of each element, left nearer the link's root.
+    """
+
+    node_link: np.ndarray  # (n_node,) int
+    node_s: np.ndarray  # (n_node,) m
+    node_dofs: np.ndarray  # (n_node, 3) int, -1 = constrained
+    elem_nodes: np.ndarray  # (n_el, 2) int
+    link_names: tuple[str, ...]
+
+    @property
+    def n_free(self) -> int:
+        return int(self.node_dofs.max()) + 1 if self.node_dofs.size else 0
+
+
+@dataclass(frozen=True)
+class SweepResults:
+    """Everything a sweep archive holds on its (angle, speed, case, mode) grid.
+
+    Arrays are the archive's, unmodified; use :meth:`frequency` for frequencies masked
+    to converged points. Build with :func:`load`.
+    """
+
+    path: Path
+    crank_angle_deg: np.ndarray  # (n_angle,)
+    speed_rad_s: np.ndarray  # (n_speed,)
+    cases: tuple[str, ...]
+    modes: np.ndarray  # (n_mode,) 1-based
+    status: np.ndarray  # (n_angle, n_speed, n_case) uint8, values of modes.Status
+    eigenvalue: np.ndarray  # (n_angle, n_speed, n_case, n_mode) complex, 1/s
+    frequency_hz: np.ndarray  # same shape, sorted by frequency
+    tracked_frequency_hz: np.ndarray  # same shape, modes followed along crank angle
+    residual: np.ndarray  # same shape
+    max_real: np.ndarray  # (n_angle, n_speed, n_case) 1/s
+    title: str
+    scene_toml: str
+    mesh: Mesh | None
+    has_mode_shapes: bool
+    node_xy: np.ndarray | None  # (n_angle, n_node, 2) undeformed node positions, m
+    attrs: dict = field(default_factory=dict)  # every root attribute, decoded
+
+    # ---------------------------------------------------------------- selection by labels
+    def angle_index(self, angle_deg: float, tol: float = 1e-6) -> int:
+        """Index of crank angle ``angle_deg`` (deg, compared modulo 360)."""
+        d = np.abs((self.crank_angle_deg - angle_deg + 180.0) % 360.0 - 180.0)
+        i = int(np.argmin(d))
+        if d[i] > tol:
+            raise ArchiveError(
+                f"--angle: {angle_deg:g} deg is not on the archive's crank-angle grid "
+                f"({_describe_grid(self.crank_angle_deg)} deg)"
+            )
+        return i
+
+    def speed_index(self, speed_rad_s: float, tol: float = 1e-9) -> int:
+        """Index of crank speed ``speed_rad_s`` (rad/s)."""
+        d = np.abs(self.speed_rad_s - speed_rad_s)
+        i = int(np.argmin(d))
+        if d[i] > tol * max(1.0, abs(speed_rad_s)):
+            raise ArchiveError(
+                f"--speed: {speed_rad_s:g} rad/s is not on the archive's speed grid "
+                f"({_describe_grid(self.speed_rad_s)} rad/s)"
+            )
+        return i
+
+    def case_index(self, case: str | int) -> int:
+        """Index of a case given by name or Table 3.1 number."""
+        try:
+            name = case_name(case)
+        except ValueError as exc:
+            raise ArchiveError(f"--case: {exc}") from None
+        if name not in self.cases:
+            raise ArchiveError(
+                f"--case: case {name!r} is not in this archive (it has: {', '.join(self.cases)})"
+            )
+        return self.cases.index(name)
+
+    def mode_index(self, mode: int) -> int:
+        """Index of 1-based mode number ``mode``."""
+        hit = np.flatnonzero(self.modes == int(mode))
+        if hit.size == 0:
+            raise ArchiveError(
+                f"--modes: mode {mode} is not in this archive (it has modes "
+                f"{int(self.modes.min())}..{int(self.modes.max())})"
+            )
+        return int(hit[0])
+
+    # ------------------------------------------------------------------- derived arrays
+    @property
+    def converged(self) -> np.ndarray:
+        """(angle, speed, case) bool: the point's eigenvalues converged (ok/unstable/divergent)."""
+        return np.isin(self.status, [int(s) for s in CONVERGED])
+
+    def frequency(self, order: str = "sorted") -> np.ndarray:
+        """Frequencies (Hz), (angle, speed, case, mode), NaN where the point did not converge.
+
+        ``order="sorted"``: the i-th lowest at each point (FORMULATION §10.4);
+        ``"tracked"``: modes followed along crank angle by eigenvector correlation.
+        """
+        if order not in ORDERS:
+            raise ArchiveError(f"--order: must be one of {', '.join(ORDERS)} (got {order!r})")
+        f = self.frequency_hz if order == "sorted" else self.tracked_frequency_hz
+        return np.where(self.converged[..., None], f, np.nan)
+
+    def structure_frequency(self, order: str = "sorted") -> np.ndarray:
+        """ω_i(structure) in Hz, (angle, mode). Case ``structure`` does not depend on speed,
+        so the median over the speeds where it converged is taken (they agree to round-off)."""
+        c = self.case_index("structure")
+        f = self.frequency(order)[:, :, c, :]
+        out = np.full((f.shape[0], f.shape[2]), np.nan)
+        have = np.any(np.isfinite(f), axis=1)
+        out[have] = np.nanmedian(f.transpose(0, 2, 1)[have], axis=-1)
+        return out
+
+    def frequency_parameter(self, order: str = "sorted") -> np.ndarray:
+        """ω_i(case) / ω_i(structure), (angle, speed, case, mode) (FORMULATION §12)."""
+        return self.frequency(order) / self.structure_frequency(order)[:, None, None, :]
+
+    def speed_parameter(self) -> np.ndarray:
+        """α = Ω / ω_1(structure), (angle, speed), with ω_1 the lowest structure frequency in
+        rad/s at that crank angle (FORMULATION §12)."""
+        w1 = 2.0 * np.pi * self.structure_frequency("sorted")[:, 0]
+        return self.speed_rad_s[None, :] / w1[:, None]
+
+    def percent_error(self, case: str | int, order: str = "sorted") -> np.ndarray:
+        """Signed % error of ``case`` against ``full``, (angle, speed, mode) (FORMULATION §12)."""
+        f = self.frequency(order)
+        return percent_error(f[:, :, self.case_index(case), :], f[:, :, self.case_index("full"), :])
+
+    def elements_per_link(self) -> tuple[int, ...]:
+        """Elements per link (root attribute ``elements``; else counted from the mesh)."""
+        el = self.attrs.get("elements")
+        if el is not None:
+            return tuple(int(n) for n in np.atleast_1d(el))
+        if self.mesh is None:
+            return ()
+        links = self.mesh.node_link[self.mesh.elem_nodes[:, 0]]
+        return tuple(int(np.sum(links == k)) for k in range(len(self.mesh.link_names)))
+
+    # ------------------------------------------------------------------------ mode shapes
+    def mode_shape(self, angle_index: int, speed_index: int, case_index: int) -> np.ndarray:
+        """Complex mode shapes (n_free, n_mode) at one grid point, read from the archive."""
+        if not self.has_mode_shapes:
+            raise ArchiveError(
+                f"{self.path}: this archive has no mode shapes; produce one with "
+                "`fkev run SCENE --mode-shapes` (or `mode_shapes = true` in the scene's [analysis])"
+            )
+        import h5py
+
+        with h5py.File(self.path, "r") as h5:
+            return np.asarray(h5["modes/shape"][angle_index, speed_index, case_index])
+
+
+# ------------------------------------------------------------------------------ loading
+def load(path: str | Path) -> SweepResults:
+    """Read a sweep archive into :class:`SweepResults` (mode shapes stay on disk).
+
+    Raises
+    ------
+    ArchiveError
+        The file is missing, is not HDF5, or is not an fkev archive of a supported version.
+    """
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise ArchiveError(f"{path}: no such archive")
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError as exc:
+        raise ArchiveError(f"{path}: not an HDF5 file ({exc})") from None
+    with h5:
+        attrs = {k: _decode(v) for k, v in h5.attrs.items()}
+        if attrs.get("format") != ARCHIVE_FORMAT:
+            raise ArchiveError(f"{path}: not an fkev archive (root attribute format={attrs.get('format')!r})")
+        version = int(attrs.get("format_version", -1))
+        if version not in SUPPORTED_VERSIONS:
+            raise ArchiveError(f"{path}: archive format_version {version} is not supported (reader knows 1)")
+        missing = [n for n in _REQUIRED if n not in h5]
+        if missing:
+            raise ArchiveError(f"{path}: archive lacks dataset(s) {', '.join(missing)}")
+        mesh = _read_mesh(h5["mesh"]) if "mesh" in h5 else None
+        has_shapes = "modes" in h5 and "shape" in h5["modes"]
+        node_xy = np.asarray(h5["modes/node_xy"][()]) if has_shapes and "node_xy" in h5["modes"] else None
+        scene_toml = str(attrs.get("scene_toml", ""))
+        return SweepResults(
+            path=path,
+            crank_angle_deg=np.asarray(h5["crank_angle_deg"][()], dtype=float),
+            speed_rad_s=np.asarray(h5["speed_rad_s"][()], dtype=float),
+            cases=tuple(_strings(h5["case"])),
+            modes=np.asarray(h5["mode"][()], dtype=int),
+            status=np.asarray(h5["status"][()], dtype=np.uint8),
+            eigenvalue=np.asarray(h5["eigenvalue"][()], dtype=complex),
+            frequency_hz=np.asarray(h5["frequency_hz"][()], dtype=float),
+            tracked_frequency_hz=np.asarray(h5["tracked_frequency_hz"][()], dtype=float),
+            residual=np.asarray(h5["residual"][()], dtype=float),
+            max_real=np.asarray(h5["max_real"][()], dtype=float),
+            title=scene_title(scene_toml, attrs.get("scene_source", path.stem)),
+            scene_toml=scene_toml,
+            mesh=mesh,
+            has_mode_shapes=bool(has_shapes),
+            node_xy=node_xy,
+            attrs=attrs,
+        )
+
+
+_REQUIRED = (
+    "crank_angle_deg",
+    "speed_rad_s",
+    "case",
+    "mode",
+    "status",
+    "eigenvalue",
+    "frequency_hz",
+    "tracked_frequency_hz",
+    "residual",
+    "max_real",
+)
+
+
+def scene_title(scene_toml: str, fallback: str) -> str:
+    """The scene's ``title`` (top level or under ``[scene]``); the source file stem otherwise."""
+    try:
+        doc = tomllib.loads(scene_toml) if scene_toml else {}
+    except tomllib.TOMLDecodeError:
+        doc = {}
+    for table in (doc, doc.get("scene", {}) if isinstance(doc.get("scene"), dict) else {}):
+        if isinstance(table.get("title"), str) and table["title"].strip():
+            return table["title"].strip()
+    return Path(str(fallback)).stem
+
+
+def declared_elements(scene_toml: str) -> tuple[int, ...] | None:
+    """Elements per link as the scene text declares them (``links[].elements`` or
+    ``link_defaults.elements``); None if the text does not say. Compared with the archive's
+    ``elements`` attribute, it tells whether the run re-meshed the scene (``--elements``)."""
+    try:
+        doc = tomllib.loads(scene_toml) if scene_toml else {}
+    except tomllib.TOMLDecodeError:
+        return None
+    links = doc.get("links")
+    defaults = doc.get("link_defaults")
+    default = defaults.get("elements") if isinstance(defaults, dict) else None
+    if not isinstance(links, list) or not links:
+        return None
+    counts = [lk.get("elements", default) if isinstance(lk, dict) else None for lk in links]
+    return tuple(int(n) for n in counts) if all(isinstance(n, int) for n in counts) else None
+
+
+def solver_settings(res: SweepResults) -> dict:
+    """The archived effective solver settings (root attribute ``solver_settings``, JSON)."""
+    raw = res.attrs.get("solver_settings")
+    try:
+        return json.loads(raw) if raw else {}
+    except (TypeError, json.JSONDecodeError):
+        return {}
+
+
+def _read_mesh(g) -> Mesh:
+    return Mesh(
+        node_link=np.asarray(g["node_link"][()], dtype=int),
+        node_s=np.asarray(g["node_s"][()], dtype=float),
+        node_dofs=np.asarray(g["node_dofs"][()], dtype=int),
+        elem_nodes=np.asarray(g["elem_nodes"][()], dtype=int),
+        link_names=tuple(_strings(g["link_names"])) if "link_names" in g else (),
+    )
+
+
+def _strings(dset) -> list[str]:
+    return [_decode(v) for v in np.atleast_1d(dset[()])]
+
+
+def _decode(v):
+    if isinstance(v, bytes):
+        return v.decode("utf-8")
+    if isinstance(v, np.ndarray) and v.dtype.kind in "OS":
+        return [_decode(x) for x in v.tolist()]
+    return v
+
+
+def _describe_grid(values: Iterable[float]) -> str:
+    v = np.asarray(list(values), dtype=float)
+    if v.size > 6:
+        step = np.diff(v)
+        if np.allclose(step, step[0]):
+            return f"{v[0]:g} to {v[-1]:g} step {step[0]:g}"
+        return f"{v.size} values from {v.min():g} to {v.max():g}"
+    return ", ".join(f"{x:g}" for x in v)
