@@ -147,8 +147,9 @@ def error_angle(
 
     Defaults: the highest speed, cases ``no_coriolis`` … ``no_pseudo_normal``, every mode.
     """
+    if "full" not in res.cases:
+        raise ArchiveError("error-angle: the archive has no 'full' case (the reference of the percentage error)")
     s = pick_speed(res, speed)
-    res.case_index("full")  # the reference must be there (clear error otherwise)
     c_idx = pick_cases(res, cases, SIMPLIFIED)
     mode_idx = pick_modes(res, modes)
     fig, axes = mode_grid(len(mode_idx))

@@ -123,11 +123,15 @@ def elements_tag(res: SweepResults) -> str:
 
 
 def scene_heading(res: SweepResults) -> str:
-    """The scene's title, plus the mesh when the run re-meshed the scene (``--elements``)."""
+    """The scene's title, plus the mesh when the run re-meshed the scene (``--elements``),
+    and a warning when the archive is still being written (or was killed: ``--resume``)."""
+    head = res.title
     el, declared = res.elements_per_link(), declared_elements(res.scene_toml)
     if el and declared is not None and tuple(declared) != tuple(el):
-        return f"{res.title} [re-meshed: {elements_tag(res)}]"
-    return res.title
+        head += f" [re-meshed: {elements_tag(res)}]"
+    if int(res.attrs.get("complete", 1)) == 0:
+        head += " [incomplete archive]"
+    return head
 
 
 def set_title(fig: Figure, res: SweepResults, what: str) -> None:

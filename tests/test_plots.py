@@ -363,3 +363,20 @@ def test_cli_bad_requests_exit_2(archives, tmp_path, capsys):
     assert code == 2 and "no such archive" in err
     code, _, err = fkev_plot(capsys, archives["tm1"], "--kind", "param-speed", "--case", "no_normal")
     assert code == 2 and "case 'no_normal' is not in this archive" in err
+    code, _, err = fkev_plot(capsys, archives["tm2"], "--kind", "error-angle")
+    assert code == 2 and "no 'full' case" in err
+    code, _, err = fkev_plot(capsys, archives["bw"], archives["tm1"], "--kind", "stability")
+    assert code == 2 and "only freq-angle overlays several" in err
+
+
+def test_title_names_scene_mesh_and_completeness(archives, tmp_path):
+    """The title is the scene's; a re-meshed run (--elements) and an unfinished archive say so."""
+    fig = plots.stability(load(archives["tm1"]))
+    head = fig._suptitle.get_text().splitlines()[0]
+    assert head == "Turcic-Midha crank-rocker (Table 3.2), 9 elements [re-meshed: 3 el (1+1+1)]"
+    part = tmp_path / "bw.h5.part"
+    part.write_bytes(archives["bw"].read_bytes())
+    with h5py.File(part, "r+") as f:
+        f.attrs["complete"] = 0
+    assert plots.error_angle(load(part))._suptitle.get_text().splitlines()[0].endswith("[incomplete archive]")
+    assert "[" not in plots.error_angle(load(archives["bw"]))._suptitle.get_text().splitlines()[0]
