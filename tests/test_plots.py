@@ -42,11 +42,20 @@ def fkev(*args, check=True):
 
 
 def fkev_plot(capsys, *args):
-    """`fkev plot ...` in this process (plotting needs no PETSc state): (exit code, out, err)."""
+    """`fkev plot ...` in this process (plotting needs no PETSc state): (exit code, out, err).
+    The CLI configures the package logger; it is restored so other tests' caplog still works."""
+    import logging
+
     from fkev_slepc.cli import main
 
+    log = logging.getLogger("fkev_slepc")
+    saved = (list(log.handlers), log.level, log.propagate)
     capsys.readouterr()
-    code = main(["plot", *map(str, args)])
+    try:
+        code = main(["plot", *map(str, args)])
+    finally:
+        log.handlers[:], log.propagate = saved[0], saved[2]
+        log.setLevel(saved[1])
     out = capsys.readouterr()
     return code, out.out, out.err
 
