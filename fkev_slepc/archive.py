@@ -15,9 +15,10 @@ Life cycle of a run:
 2. :class:`Writer` (every rank) opens it again: with the ``mpio`` driver when h5py has MPI and
    there is more than one rank (each rank writes its own points with independent hyperslab
    writes; ``flush`` and the resizing of ``/errors`` are collective), otherwise only rank 0
-   opens it and the others send it their results once per round. Point data are written when
-   a point completes; its ``status`` only at the next flush, after a first flush has put the
-   data on disk, so a point marked done after a crash always has its data.
+   opens it and the others send it their results at each sync. The results of an angle are
+   written when it completes (mpio) or at the next sync (rank 0); their ``status`` only at the
+   sync, after a first flush has put the data on disk, so a point marked done after a crash
+   always has its data. Syncs come about every 2 s of work.
 3. :func:`finalize` (rank 0, serial) writes the tracked frequencies and the run attributes,
    drops stale error rows, and renames the file to its final name.
 
@@ -30,6 +31,7 @@ from __future__ import annotations
 import datetime
 import json
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,15 +45,13 @@ STATUS_DTYPE = h5py.enum_dtype({s.name.lower(): int(s) for s in Status}, basetyp
 MESSAGE_BYTES = 1024  # /errors/message: fixed-length UTF-8 (parallel HDF5 1.10 cannot write VL data)
 CONVERGED = (int(Status.OK), int(Status.UNSTABLE), int(Status.DIVERGENT))
 _STR = h5py.string_dtype("utf-8")
-_GRIDDED = {  # name: (dtype, fill, units, long_name)
+_GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, case, mode)
     "frequency_hz": ("f8", np.nan, "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency"),
     "tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank angle (MAC)"),
     "eigenvalue": ("c16", complex(np.nan, np.nan), "1/s", "eigenvalue lambda of the mode (Im > 0 member)"),
     "residual": ("f8", np.nan, "1", "relative residual |P(lambda)x| / (|Kx| + |lambda||Cx| + |lambda|^2|Mx|)"),
 }
-_POINT = {
-    "max_real": ("f8", np.nan, "1/s", "max Re(lambda) over every computed eigenvalue (stability indicator)"),
-}
+_MAX_REAL = ("f8", np.nan, "1/s", "max Re(lambda) over every computed eigenvalue (stability indicator)")
 
 
 class ArchiveMismatch(ValueError):
@@ -86,30 +86,7 @@ def partial_path(path: str | Path) -> Path:
     return path.with_name(path.name + ".part")
 
 
-def software_versions() -> dict:
-    """Versions of fkev_slepc and of the libraries it ran with (root attributes)."""
-    from mpi4py import MPI
-
-    from . import __version__
-
-    out = {
-        "fkev_version": __version__,
-        "h5py_version": h5py.version.version,
-        "hdf5_version": h5py.version.hdf5_version,
-        "mpi_version": MPI.Get_library_version().replace("\0", "").splitlines()[0].strip(),
-    }
-    try:  # PETSc is already initialised by the CLI; importing it here only reads versions
-        from petsc4py import PETSc
-        from slepc4py import SLEPc
-
-        out["petsc_version"] = ".".join(map(str, PETSc.Sys.getVersion()))
-        out["slepc_version"] = ".".join(map(str, SLEPc.Sys.getVersion()))
-    except ImportError:  # pragma: no cover - the stack always has them
-        out["petsc_version"] = out["slepc_version"] = "unavailable"
-    return out
-
-
-def _early(chunks=None):
+def _early():
     """Dataset creation properties: storage allocated (and filled) at creation, so that
     ranks can later write hyperslabs independently without collective allocation."""
     dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
@@ -149,8 +126,7 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
         dims4 = ("crank_angle_deg", "speed_rad_s", "case", "mode")
         for name, (dtype, fill, units, long_name) in _GRIDDED.items():
             _gridded(f, name, (na, ns, nc, nm), dtype, fill, units, long_name, dims4)
-        for name, (dtype, fill, units, long_name) in _POINT.items():
-            _gridded(f, name, (na, ns, nc), dtype, fill, units, long_name, dims4[:3])
+        _gridded(f, "max_real", (na, ns, nc), *_MAX_REAL, dims4[:3])
         st = _gridded(f, "status", (na, ns, nc), STATUS_DTYPE, 0, "1", "outcome of the point", dims4[:3])
         st.attrs["flag_values"] = np.array([int(s) for s in Status], dtype="u1")
         st.attrs["flag_meanings"] = " ".join(s.name.lower() for s in Status)
@@ -350,8 +326,6 @@ class Writer:
     """
 
     def __init__(self, path, comm, parallel: bool | None = None, interval: float = 2.0):
-        import time
-
         self.comm = comm
         self.parallel = use_mpio(comm) if parallel is None else parallel
         self.root = comm.rank == 0
@@ -400,7 +374,7 @@ class Writer:
             self._ds["modes/node_xy"][b.ia] = b.node_xy
         self._done.append((b.ia, b.mask, b.status))
 
-    def sync(self, final: bool = False) -> int:
+    def sync(self) -> int:
         """Collective: send results to rank 0 (serial mode), exchange error rows, flush, and
         agree on the next sync. Returns the number of points completed since the last sync."""
         n = self._count
@@ -451,7 +425,7 @@ class Writer:
 
     def close(self) -> None:
         """Final collective sync, then close."""
-        self.sync(final=True)
+        self.sync()
         if self.f is not None:
             self.f.close()
             self.f = None
@@ -467,6 +441,7 @@ def _clip(msg: str) -> bytes:
     if len(raw) <= MESSAGE_BYTES:
         return raw
     return raw[: MESSAGE_BYTES - 3].decode("utf-8", "ignore").encode("utf-8") + b"..."
+
 
 # ------------------------------------------------------------------------------ completion
 def read_tracking_inputs(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:

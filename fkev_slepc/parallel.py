@@ -45,3 +45,27 @@ def install_abort_hook() -> None:
         comm.Abort(1)
 
     sys.excepthook = hook
+
+
+def software_versions() -> dict:
+    """Versions of fkev_slepc and of the libraries it runs with (archived as root attributes)."""
+    import h5py
+    from mpi4py import MPI
+
+    from . import __version__
+
+    out = {
+        "fkev_version": __version__,
+        "h5py_version": h5py.version.version,
+        "hdf5_version": h5py.version.hdf5_version,
+        "mpi_version": MPI.Get_library_version().replace("\0", "").splitlines()[0].strip(),
+    }
+    try:  # PETSc is already initialised by the CLI; importing it here only reads versions
+        from petsc4py import PETSc
+        from slepc4py import SLEPc
+
+        out["petsc_version"] = ".".join(map(str, PETSc.Sys.getVersion()))
+        out["slepc_version"] = ".".join(map(str, SLEPc.Sys.getVersion()))
+    except ImportError:  # pragma: no cover - the stack always has them
+        out["petsc_version"] = out["slepc_version"] = "unavailable"
+    return out

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .archive import CONVERGED, Block, Grid, Writer, modulus
-from .modes import PointResult, Status, failed, match_modes, postprocess
+from .modes import PointResult, Status, failed, postprocess
 
 log = logging.getLogger(__name__)
 TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
@@ -221,6 +221,10 @@ def chain_order(angles_deg) -> tuple[np.ndarray, bool]:
 def track(freq: np.ndarray, status: np.ndarray, sig: np.ndarray | None, angles_deg) -> tuple[np.ndarray, int]:
     """Frequencies with modes followed along crank angle, and the number of open loops.
 
+    Walking the angles in :func:`chain_order`, the modes at each angle are matched to the
+    (already tracked) modes of the previous converged angle by greedy MAC assignment (the
+    largest MAC first, as :func:`modes.match_modes`), for every (speed, case) line at once.
+
     Parameters
     ----------
     freq : (angle, speed, case, mode) frequencies sorted at each point.
@@ -241,18 +245,43 @@ def track(freq: np.ndarray, status: np.ndarray, sig: np.ndarray | None, angles_d
         return tracked, 0
     order, closed = chain_order(angles_deg)
     na, ns, nc, nm = freq.shape
-    open_loops = 0
-    for js in range(ns):
-        for jc in range(nc):
-            prev = first = None
-            for ia in order:
-                if not conv[ia, js, jc]:
-                    continue
-                cur = sig[ia, js, jc]
-                p = np.arange(nm) if prev is None else match_modes(prev, cur)
-                tracked[ia, js, jc] = freq[ia, js, jc][p]
-                prev = cur[:, p]
-                first = prev if first is None else first
-            if closed and first is not None and not np.array_equal(match_modes(prev, first), np.arange(nm)):
-                open_loops += 1
+    n_lines = ns * nc
+    f = freq.reshape(na, n_lines, nm)
+    ok = conv.reshape(na, n_lines)
+    v = np.nan_to_num(sig.reshape(na, n_lines, -1, nm))
+    out = tracked.reshape(na, n_lines, nm)
+    prev = np.zeros_like(v[0])
+    first = np.zeros_like(v[0])
+    seen = np.zeros(n_lines, bool)
+    for ia in order:
+        now = ok[ia]
+        perm = np.where(seen[:, None], _greedy_mac(prev, v[ia]), np.arange(nm))
+        pick = perm[now]
+        out[ia, now] = np.take_along_axis(f[ia, now], pick, axis=1)
+        cur = np.take_along_axis(v[ia], perm[:, None, :], axis=2)
+        first[now & ~seen] = cur[now & ~seen]
+        prev[now] = cur[now]
+        seen |= now
+    if not closed:
+        return tracked, 0
+    back = _greedy_mac(prev, first)
+    open_loops = int(np.count_nonzero(seen & np.any(back != np.arange(nm), axis=1)))
     return tracked, open_loops
+
+
+def _greedy_mac(prev: np.ndarray, cur: np.ndarray) -> np.ndarray:
+    """Per line l, ``perm[l, i]``: the column of ``cur[l]`` that continues column i of
+    ``prev[l]``; greedy on the MAC matrix (largest first), vectorised over lines."""
+    n_lines, _, nm = prev.shape
+    num = np.abs(np.einsum("lki,lkj->lij", prev.conj(), cur)) ** 2
+    den = np.einsum("lki,lki->li", prev.conj(), prev).real[:, :, None] * \
+        np.einsum("lkj,lkj->lj", cur.conj(), cur).real[:, None, :]
+    m = np.divide(num, den, out=np.zeros_like(num), where=den > 0)
+    perm = np.zeros((n_lines, nm), dtype=int)
+    rows = np.arange(n_lines)
+    for _ in range(nm):
+        r, c = np.divmod(np.argmax(m.reshape(n_lines, -1), axis=1), nm)
+        perm[rows, r] = c
+        m[rows, r, :] = -1.0
+        m[rows, :, c] = -1.0
+    return perm

@@ -140,6 +140,7 @@ def test_kill_midway_then_resume_equals_uninterrupted(work, two_ranks):
         status = f["status"][()]
         assert f.attrs["complete"] == 0
     n_done = int(np.count_nonzero(status))
+    print(f"killed with {n_done} of {N_POINTS} points flushed; resuming")
     assert 100 <= n_done < N_POINTS
     # the points marked done already hold their final data
     ref = read(two_ranks)

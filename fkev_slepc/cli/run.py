@@ -221,13 +221,14 @@ def run(args) -> int:
     if progress is not None:
         progress.close()
     comm.Barrier()
-    code = _finish(part, out, grid, comm.size, time.monotonic() - t0, args.quiet) if rank0 else None
+    code = _finish(part, out, grid, comm.size, t0, args.quiet) if rank0 else None
     return int(comm.bcast(code, root=0))
 
 
 def _open_or_create(args, out, part, grid, expect, model, engine, scene, n_ranks, track_dofs):
     """Rank 0: a state and todo mask, or 'code:message' when refusing (message printed)."""
     from .. import archive
+    from ..parallel import software_versions
 
     if args.resume:
         try:
@@ -253,7 +254,7 @@ def _open_or_create(args, out, part, grid, expect, model, engine, scene, n_ranks
             "elem_nodes": mech.elem_nodes, "link_names": list(mech.link_names)}
     attrs = dict(expect, scene_source=str(scene.source), command_line=" ".join(sys.argv),
                  n_ranks=n_ranks, solver_settings=_settings(engine), imag_tol=scene.analysis.imag_tol,
-                 stability_tol=scene.analysis.stability_tol, title=scene.title, **archive.software_versions())
+                 stability_tol=scene.analysis.stability_tol, title=scene.title, **software_versions())
     archive.create(part, grid, attrs, mesh, model.n_free, scene.analysis.mode_shapes, track_dofs)
     shape = grid.shape
     state = archive.ArchiveState(np.zeros(shape, np.uint8), np.full(shape, np.nan))
@@ -272,7 +273,7 @@ def _exit_code(status) -> int:
     return 3 if bad.any() else 0
 
 
-def _finish(part, out, grid, n_ranks, wall, quiet) -> int:
+def _finish(part, out, grid, n_ranks, t0, quiet) -> int:
     """Rank 0: track modes, write the run attributes, rename; summary line; exit code."""
     from .. import archive
     from ..sweep import track
@@ -280,6 +281,7 @@ def _finish(part, out, grid, n_ranks, wall, quiet) -> int:
     freq, status, sig = archive.read_tracking_inputs(part)
     tracked, open_loops = track(freq, status, sig, grid.angles_deg)
     attrs = {"n_ranks": n_ranks, "last_command_line": " ".join(sys.argv), "tracking_open_loops": open_loops}
+    wall = time.monotonic() - t0  # this run, from the checked scene to the finished archive
     archive.finalize(part, out, tracked, attrs, add_wall_time=wall)
     counts = archive.status_counts(status)
     if not quiet:
