@@ -42,7 +42,7 @@ def run(args) -> int:
         return report_scene_error(SceneError(args.scene, [Problem("--case", str(err))]))
     angle = scene.analysis.crank_angles_deg[0] if args.angle is None else args.angle
     speed = scene.driver.speeds[0] if args.speed is None else args.speed
-    n_modes = args.modes or scene.analysis.modes
+    n_modes = scene.analysis.modes if args.modes is None else args.modes
     bad = []
     if n_modes < 1:
         bad.append(Problem("--modes", f"must be >= 1 (got {n_modes})"))

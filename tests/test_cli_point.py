@@ -1,0 +1,52 @@
+"""`fkev point`: one operating point from a scene file, text and JSON output, bad flags."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BW = str(ROOT / "runs/bahgat-willmert-1976.toml")
+
+
+def fkev(*args):
+    return subprocess.run([sys.executable, "-m", "fkev_slepc", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_point_json_reports_frequencies_stability_and_status():
+    r = fkev("point", BW, "--angle", "10", "--speed", "1000", "--case", "1", "--json", "--solver", "dense")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert set(out) >= {"frequency_hz", "eigenvalue", "max_real", "divergent", "status"}
+    assert out["case"] == "full"
+    f = np.array(out["frequency_hz"])
+    lam = np.array(out["eigenvalue"])
+    np.testing.assert_allclose(f, lam[:, 1] / (2 * np.pi), rtol=1e-14)
+    np.testing.assert_allclose(f, [362.71, 652.08, 1078.94, 2898.89], atol=0.01)  # runs/README.md table
+    assert out["max_real"] == pytest.approx(lam[:, 0].max(), rel=1e-9)
+    assert out["status"] == "unstable"  # Coriolis + tangential: growth rates of either sign (§10.3)
+
+
+def test_point_structure_text_output_and_refinement():
+    r = fkev("point", BW, "--angle", "10", "--speed", "0", "--case", "structure", "--elements", "2,4,4",
+             "--solver", "dense", "--modes", "2")
+    assert r.returncode == 0, r.stderr
+    assert "30 DOFs" in r.stdout and "status: ok" in r.stdout
+
+
+@pytest.mark.parametrize(
+    "args,needle",
+    [
+        (["--case", "no_gravity"], "--case: unknown case 'no_gravity'"),
+        (["--elements", "0"], "--elements: every count must be >= 1"),
+        (["--elements", "1,2"], "--elements: needs 1 or 3 values (got 2)"),
+        (["--modes", "0"], "--modes: must be >= 1 (got 0)"),
+    ],
+)
+def test_point_bad_flags_exit_2_with_the_flag_named(args, needle):
+    r = fkev("point", BW, "--angle", "10", "--speed", "0", *args)
+    assert r.returncode == 2
+    assert needle in r.stderr and "Traceback" not in r.stderr
