@@ -208,11 +208,10 @@ class ArchiveState:
     lam1: np.ndarray  # (angle, speed, case) |eigenvalue of mode 1| of converged points
 
     def todo(self, retry_failed: bool = False) -> np.ndarray:
-        """Mask of the points to solve: pending ones, and failed ones if ``retry_failed``."""
-        mask = self.status == int(Status.PENDING)
-        if retry_failed:
-            mask |= self.status == int(Status.FAILED)
-        return mask
+        """Mask of the points to solve: pending ones, and with ``retry_failed`` the failed and
+        not-converged ones too (e.g. again with other PETSc options)."""
+        again = [Status.PENDING] + ([Status.FAILED, Status.NOT_CONVERGED] if retry_failed else [])
+        return np.isin(self.status, [int(s) for s in again])
 
 
 def modulus(z) -> np.ndarray:

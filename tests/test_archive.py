@@ -167,14 +167,19 @@ def test_finalize_keeps_newest_error_of_points_still_failed(tmp_path):
 def test_read_state_and_todo(tmp_path):
     part = new_archive(tmp_path)
     w = A.Writer(part, MPI.COMM_SELF, parallel=False)
-    w.write_block(block(0, failed_at=[(0, 0)]))
+    b = block(0, failed_at=[(0, 0)])
+    b.status[2, 1] = Status.NOT_CONVERGED
+    b.status[1, 1] = Status.UNSTABLE
+    w.write_block(b)
     w.close()
     state = A.read_state(part)
     assert state.todo().sum() == GRID.n_points - 6
-    assert state.todo(retry_failed=True).sum() == GRID.n_points - 5 and state.todo(True)[0, 0, 0]
+    again = state.todo(retry_failed=True)
+    assert again.sum() == GRID.n_points - 4 and again[0, 0, 0] and again[0, 2, 1] and not again[0, 1, 1]
     _, lam = values(0)
     assert state.lam1[0, 0, 1] == A.modulus(lam[0, 1, 0]) == np.sqrt(lam[0, 1, 0].real ** 2 + lam[0, 1, 0].imag ** 2)
-    assert np.isnan(state.lam1[0, 0, 0]) and np.all(np.isnan(state.lam1[1:]))
+    assert np.isnan(state.lam1[0, 0, 0]) and np.isnan(state.lam1[0, 2, 1]) and np.all(np.isnan(state.lam1[1:]))
+    assert state.lam1[0, 1, 1] > 0  # unstable points converged: their |λ1| is a hint
 
 
 def test_resume_refuses_changed_scene_and_grid(tmp_path):

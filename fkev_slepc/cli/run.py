@@ -46,7 +46,7 @@ def add_parser(sub) -> None:
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
     p.add_argument("--mode-shapes", action="store_true", help="also archive mode shapes (/modes)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run of the same scene")
-    p.add_argument("--retry-failed", action="store_true", help="with --resume: solve failed points again")
+    p.add_argument("--retry-failed", action="store_true", help="with --resume: solve failed and not-converged points again")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=run)
 
