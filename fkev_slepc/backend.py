@@ -1,0 +1,191 @@
+"""PETSc side of the SLEPc engine: operators updated in place, and the options database.
+
+Two jobs, both about *reuse across grid points*:
+
+* :class:`PetscOperators` turns the CSR matrices of a model (``qep.py``: K, C and M share one
+  sparsity pattern) into three PETSc AIJ matrices on ``PETSc.COMM_SELF``, created once, whose
+  values are overwritten in place for every point (``setValuesCSR`` on the same pattern).
+  Solvers built on them keep their objects; only ``setOperators`` is called again.
+* :class:`OptionsManager` applies code defaults and the scene's ``[solver.petsc]`` table under
+  the prefix ``fkev_`` with the precedence command line > scene > code default (DOLFINx
+  ``LinearProblem`` / petsctools ``OptionsManager``): a value is inserted into
+  ``PETSc.Options()`` only when the database does not already hold the key (i.e. the user did
+  not give it on the command line), ``setFromOptions`` runs once per object, and every inserted
+  key is deleted afterwards so the global table does not grow.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from contextlib import contextmanager
+
+import numpy as np
+
+from .petsc_init import command_line_options, init_petsc
+from .qep import QEP
+
+init_petsc()  # no-op when the CLI already initialised PETSc with the command-line options
+from petsc4py import PETSc  # noqa: E402
+
+PREFIX = "fkev_"
+
+
+class PatternMismatch(ValueError):
+    """A QEP whose matrices are not on the sparsity pattern the operators were built for."""
+
+
+class PetscOperators:
+    """K, C and M of one model as PETSc AIJ matrices on ``COMM_SELF`` (built once, updated in place).
+
+    Parameters
+    ----------
+    qep : QEP
+        Any QEP of the model; its mass matrix defines the pattern (shared by K and C).
+
+    Notes
+    -----
+    ``update`` writes values into the existing matrices, so the nonzero structure (and with it
+    the symbolic factorization of a direct solver) never changes between points. After an
+    update the solver must be given the operators again (``setOperators``): SLEPc 3.18 keeps
+    its ``solved`` state otherwise and returns the previous point's eigenvalues.
+    """
+
+    def __init__(self, qep: QEP):
+        A = qep.mass
+        self.n = A.shape[0]
+        self.indptr = np.ascontiguousarray(A.indptr, dtype=PETSc.IntType)
+        self.indices = np.ascontiguousarray(A.indices, dtype=PETSc.IntType)
+        self._zeros = np.zeros(self.indices.size)
+        self.K, self.C, self.M = (self._create() for _ in range(3))
+        self.has_damping = False
+        self.update(qep)
+
+    def _create(self) -> PETSc.Mat:
+        mat = PETSc.Mat().createAIJ(
+            size=(self.n, self.n), csr=(self.indptr, self.indices, self._zeros), comm=PETSc.COMM_SELF
+        )
+        # Any entry outside the pattern is a bug in the caller: fail instead of reallocating.
+        mat.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        mat.assemble()
+        return mat
+
+    def matches(self, qep: QEP) -> bool:
+        """True when every matrix of ``qep`` lies on this pattern (same indptr and indices)."""
+        mats = [m for m in (qep.mass, qep.damping, qep.stiffness) if m is not None]
+        return all(m.shape == (self.n, self.n) and self._same_pattern(m) for m in mats)
+
+    def _same_pattern(self, A) -> bool:
+        if A.indices is self.indices or A.indptr is self.indptr:  # the model's shared arrays
+            return True
+        return (
+            A.indptr.size == self.indptr.size
+            and A.indices.size == self.indices.size
+            and np.array_equal(A.indptr, self.indptr)
+            and np.array_equal(A.indices, self.indices)
+        )
+
+    def update(self, qep: QEP) -> None:
+        """Overwrite the values of K, C, M with those of ``qep`` (same pattern, no re-creation).
+
+        Raises
+        ------
+        PatternMismatch
+            If ``qep`` is not on this pattern.
+        """
+        if not self.matches(qep):
+            raise PatternMismatch(
+                f"QEP matrices (n = {qep.n}) are not on the {self.n}-DOF pattern these operators were built for"
+            )
+        self._set(self.K, qep.stiffness.data)
+        self._set(self.M, qep.mass.data)
+        self.has_damping = qep.damping is not None
+        self._set(self.C, qep.damping.data if self.has_damping else self._zeros)
+
+    def _set(self, mat: PETSc.Mat, data: np.ndarray) -> None:
+        mat.setValuesCSR(self.indptr, self.indices, np.ascontiguousarray(data, dtype=PETSc.ScalarType))
+        mat.assemble()
+
+    def destroy(self) -> None:
+        for mat in (self.K, self.C, self.M):
+            mat.destroy()
+
+
+def _option_key(name: str) -> str:
+    """``-fkev_pep_type`` / ``fkev_pep_type`` / ``pep_type`` -> ``pep_type``."""
+    return name.lstrip("-").removeprefix(PREFIX)
+
+
+def command_line_keys(args: Iterable[str] | None = None) -> set[str]:
+    """Option names (without ``-fkev_``) given on the command line under our prefix."""
+    args = command_line_options() if args is None else args
+    return {_option_key(a) for a in args if a.startswith("-" + PREFIX)}
+
+
+class OptionsManager:
+    """Precedence and hygiene of the PETSc options under the prefix ``fkev_``.
+
+    Parameters
+    ----------
+    defaults : mapping
+        Code defaults, option name (without prefix) -> string value.
+    scene : iterable of (name, value) pairs
+        The scene's ``[solver.petsc]`` table (``Solver.petsc``); names may carry a leading
+        ``-`` or ``fkev_``.
+
+    Examples
+    --------
+    >>> om = OptionsManager({"pep_type": "toar"}, [("pep_tol", "1e-12")])
+    >>> with om.inserted():                # doctest: +SKIP
+    ...     pep.setFromOptions()           # the one call per object
+    >>> om.sources()["pep_tol"]
+    'scene'
+    """
+
+    def __init__(self, defaults: Mapping[str, str] = (), scene: Iterable[tuple[str, str]] = ()):
+        self.defaults = {_option_key(k): str(v) for k, v in dict(defaults).items()}
+        self.scene = {_option_key(k): str(v) for k, v in scene}
+        self.cmdline = command_line_keys()
+        self._inserted_now: frozenset[str] = frozenset()
+
+    def user_keys(self) -> set[str]:
+        """Keys the user chose (command line, anything already in the database, or scene)."""
+        opts = PETSc.Options()
+        in_db = {k for k in (*self.defaults, *self.scene) if opts.hasName(PREFIX + k)}
+        return self.cmdline | in_db | set(self.scene)
+
+    def sources(self) -> dict[str, str]:
+        """Where each key's effective value comes from: ``command_line`` | ``scene`` | ``default``."""
+        opts = PETSc.Options()
+        out = {}
+        for k in sorted({*self.defaults, *self.scene, *self.cmdline}):
+            external = k in self.cmdline or (opts.hasName(PREFIX + k) and k not in self._inserted_now)
+            out[k] = "command_line" if external else ("scene" if k in self.scene else "default")
+        return out
+
+    @contextmanager
+    def inserted(self):
+        """Insert scene and default values the database does not already hold; delete them on exit.
+
+        Wrap exactly one ``setFromOptions()`` per PETSc object in this context.
+        """
+        opts = PETSc.Options()
+        merged = {**self.defaults, **self.scene}
+        mine = [k for k in merged if not opts.hasName(PREFIX + k)]
+        for k in mine:
+            opts[PREFIX + k] = merged[k]
+        self._inserted_now = frozenset(mine)
+        try:
+            yield
+        finally:
+            for k in mine:
+                opts.delValue(PREFIX + k)
+            self._inserted_now = frozenset()
+
+    def effective_values(self) -> dict[str, str]:
+        """Value of every key as ``setFromOptions`` sees it (command line > scene > default)."""
+        opts = PETSc.Options()
+        out = {**self.defaults, **self.scene}
+        for k, src in self.sources().items():
+            if src == "command_line":
+                out[k] = opts.getString(PREFIX + k, "") or ""
+        return dict(sorted(out.items()))

@@ -1,0 +1,394 @@
+"""The SLEPc engine: smallest-|λ| eigenpairs of (λ²M + λC + K)x = 0 by PEP, or by EPS in μ = -λ².
+
+One engine per rank holds one PEP and one EPS on ``PETSc.COMM_SELF`` and one set of PETSc
+matrices (:class:`~fkev_slepc.backend.PetscOperators`), all created once and reused for every
+grid point: values are copied in place and ``setOperators`` is called again (SLEPc 3.18 keeps
+its *solved* state otherwise and returns the previous point's eigenvalues).
+
+Formulation (ARCHITECTURE.md §2.4, FORMULATION.md §10):
+
+* ``gyroscopic`` / ``general`` QEPs: PEP (TOAR), shift-and-invert about the real target 0,
+  ``TARGET_MAGNITUDE``, ``nev = 2·n_modes + 2`` (a conjugate pair per frequency, plus room for a
+  real divergence pair), an even ncv, and a scalar scale factor α ≈ |λ₁| (the caller's hint,
+  else a few steps of inverse iteration with the ST's own factorization of K). SLEPc's default
+  scaling returns wrong eigenvalues flagged as converged on refined models (docs_engine.md).
+* ``linear_symmetric`` / ``linear`` (no C): EPS on K x = μ M x (GHEP / GNHEP), λ = ±sqrt(-μ):
+  μ = ω² > 0 gives ±iω, μ < 0 a real pair (divergence).
+
+Every pair gets :func:`~fkev_slepc.qep.pair_error` (SLEPc's ``computeError`` reports ~1e-15 for
+wrong pairs on these stiff models). Every setting can be overridden under ``-fkev_``.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+
+import numpy as np
+
+from .backend import PREFIX, OptionsManager, PatternMismatch, PETSc, PetscOperators
+from .qep import GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP, EigenSolution, pair_error
+
+from slepc4py import SLEPc  # noqa: E402  (PETSc is initialised by backend)
+
+log = logging.getLogger(__name__)
+
+# Chosen by measurement (scripts/bench_lu in docs_engine.md): MUMPS is the only package that
+# is both right and fast on refined four-bar models; PETSc's own LU and SuperLU lose digits.
+LU_PACKAGE = "mumps"
+
+# Code defaults (lowest precedence), option names without the prefix.
+DEFAULTS = {
+    "pep_type": "toar",
+    "pep_tol": "1e-14",
+    "eps_type": "krylovschur",
+    "eps_tol": "1e-12",
+    "st_type": "sinvert",
+    "st_ksp_type": "preonly",
+    "st_pc_type": "lu",
+    "st_pc_factor_mat_solver_type": LU_PACKAGE,
+}
+
+# A point whose reported pairs have pair_error above this is not converged. Measured (docs_engine.md):
+# right pairs give 1e-14..1e-5 up to a few thousand DOFs; wrong pairs 0.1..1; on over-refined
+# models (>~1e4 DOFs here) every pair reaches ~1, since K's conditioning grows like n_el⁴.
+MAX_PAIR_ERROR = 1e-3
+_SCALE_KEYS = {"pep_scale", "pep_scale_factor"}
+_SEED = 0x5EED
+_MAX_RETRIES = 2  # enlarge nev when real (divergence) eigenvalues crowd out wanted modes
+
+
+class SlepcEngine:
+    """SLEPc PEP/EPS engine (the engine protocol: ``solve``, ``settings``, ``close``, ``name``).
+
+    Parameters
+    ----------
+    petsc_options : iterable of (name, value)
+        The scene's ``[solver.petsc]`` table; the command line overrides it, it overrides the
+        code defaults (:data:`DEFAULTS`).
+
+    Examples
+    --------
+    >>> engine = SlepcEngine([("pep_type", "qarnoldi")])     # doctest: +SKIP
+    >>> sol = engine.solve(qep, n_modes=4, hint=abs(lam1))  # doctest: +SKIP
+    >>> engine.close()                                      # doctest: +SKIP
+    """
+
+    name = "slepc"
+
+    def __init__(self, petsc_options=(), max_pair_error: float = MAX_PAIR_ERROR):
+        self.max_pair_error = float(max_pair_error)
+        self._options = OptionsManager(DEFAULTS, petsc_options)
+        self._user = self._options.user_keys()
+        self._pep, self._eps = self._new_pep(), self._new_eps()
+        self._sources = self._options.sources()
+        self._values = self._options.effective_values()
+        self._ops: PetscOperators | None = None
+        self._ksp: PETSc.KSP | None = None  # K's own factorization, for the scale estimate of non-TOAR types
+        self._last: dict = {}
+
+    def _new_pep(self):
+        pep = SLEPc.PEP().create(PETSc.COMM_SELF)
+        pep.setOptionsPrefix(PREFIX)
+        pep.setTarget(0.0)
+        pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+        with self._options.inserted():  # the single setFromOptions of this object
+            pep.setFromOptions()
+        return pep
+
+    def _new_eps(self):
+        eps = SLEPc.EPS().create(PETSc.COMM_SELF)
+        eps.setOptionsPrefix(PREFIX)
+        eps.setTarget(0.0)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+        with self._options.inserted():
+            eps.setFromOptions()
+        return eps
+
+    # -- the protocol ------------------------------------------------------------------------
+    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint: float | None = None) -> EigenSolution:
+        """Eigenpairs of ``qep`` nearest 0, enough for the ``n_modes`` lowest frequencies.
+
+        Parameters
+        ----------
+        qep : QEP
+        n_modes : int
+            Number of frequencies wanted (each is a conjugate pair of eigenvalues).
+        want_vectors : bool
+            Return eigenvectors (``EigenSolution.vectors``, one column per eigenvalue).
+        hint : float, optional
+            Estimate of |λ| of the lowest wanted mode (the scale factor of the PEP).
+
+        Returns
+        -------
+        EigenSolution
+            ``converged`` is False (with a message) when fewer pairs converged than asked or
+            PETSc/SLEPc raised an error; the engine stays usable for the next point.
+        """
+        if n_modes < 1:
+            raise ValueError(f"n_modes must be >= 1 (got {n_modes})")
+        linear = qep.kind in (LINEAR_SYMMETRIC, LINEAR)
+        if linear and qep.damping is not None:
+            raise ValueError(f"a {qep.kind!r} QEP must have no damping matrix")
+        try:
+            self._load(qep)
+            if linear:
+                lam, X, ok, msg = self._solve_linear(qep, n_modes)
+            else:
+                lam, X, ok, msg = self._solve_quadratic(qep, n_modes, hint)
+        except PETSc.Error as err:
+            msg = f"PETSc/SLEPc error {err.ierr} at a {qep.kind} point ({_describe(err)})"
+            log.warning(msg)
+            # The failed solver may keep a broken state (MUMPS: a PC "set up" around an invalid
+            # factor; Linear: a scale factor it refuses to push again), so every later point would
+            # fail too (measured): replace it by a new one with the same options.
+            if linear:
+                self._eps.destroy()
+                self._eps = self._new_eps()
+            else:
+                self._pep.destroy()
+                self._pep = self._new_pep()
+            self._last = {"failed": msg}
+            return EigenSolution(np.zeros(0, complex), np.zeros(0), None, False, self.name, msg)
+        err = pair_error(qep, lam, X) if lam.size else np.zeros(0)
+        worst = _worst_reported_error(lam, err, n_modes)
+        if ok and worst > self.max_pair_error:
+            # "converged" by SLEPc's own test, yet a pair the point reports does not satisfy the
+            # QEP (measured: qarnoldi at divergent points; any method on over-refined models)
+            ok = False
+            msg = (f"pair error {worst:.1e} > max_pair_error {self.max_pair_error:g}: eigenpairs not trustworthy"
+                   " (with -fkev_pep_type other than toar, try toar; on a very fine mesh, use fewer elements)")
+        self._last["max_pair_error"] = float(worst)
+        return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg)
+
+    def settings(self) -> dict:
+        """Effective settings (archived): solver objects, options and where each came from."""
+        pep, eps = self._pep, self._eps
+        pc = pep.getST().getKSP().getPC()
+        out = {
+            "engine": self.name,
+            "petsc_version": "%d.%d.%d" % PETSc.Sys.getVersion(),
+            "slepc_version": "%d.%d.%d" % SLEPc.Sys.getVersion(),
+            "prefix": PREFIX,
+            "pep_type": pep.getType(),
+            "pep_tol": pep.getTolerances()[0],
+            "pep_max_it": pep.getTolerances()[1],
+            "pep_target": float(np.real(pep.getTarget())),
+            "pep_which": _enum_name(SLEPc.PEP.Which, pep.getWhichEigenpairs()),
+            "eps_type": eps.getType(),
+            "eps_tol": eps.getTolerances()[0],
+            "st_type": pep.getST().getType(),
+            "ksp_type": pep.getST().getKSP().getType(),
+            "pc_type": pc.getType(),
+            "factor_solver_type": self._values.get("st_pc_factor_mat_solver_type", ""),
+            "max_pair_error": self.max_pair_error,
+            "options": self._values,
+            "option_sources": self._sources,
+        }
+        out.update({f"last_{k}": v for k, v in self._last.items()})
+        return out
+
+    def close(self) -> None:
+        """Destroy the PETSc/SLEPc objects (explicitly: collection order is not collective-safe)."""
+        for obj in (self._pep, self._eps, self._ksp, self._ops):
+            if obj is not None:
+                obj.destroy()
+        self._pep = self._eps = self._ksp = self._ops = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- internals ---------------------------------------------------------------------------
+    def _load(self, qep: QEP) -> None:
+        """Copy the values of ``qep`` into the PETSc matrices (built on the first point)."""
+        if self._ops is not None:
+            try:
+                self._ops.update(qep)
+                return
+            except PatternMismatch:
+                # another model on the same engine: rebuild once for it (logged, not silent)
+                log.info("new sparsity pattern (n = %d): rebuilding PETSc operators", qep.n)
+                self._ops.destroy()
+        self._ops = PetscOperators(qep)
+
+    def _solve_quadratic(self, qep: QEP, n_modes: int, hint):
+        pep, ops = self._pep, self._ops
+        # Again at every point: the values changed in place (see module docstring).
+        pep.setOperators([ops.K, ops.C, ops.M])
+        gyro = qep.kind == GYROSCOPIC
+        if gyro and pep.getType() == SLEPc.PEP.Type.LINEAR and not pep.getLinearExplicitMatrix():
+            gyro = False  # 3.18's Linear refuses a structured type without explicit matrices
+        pep.setProblemType(SLEPc.PEP.ProblemType.GYROSCOPIC if gyro else SLEPc.PEP.ProblemType.GENERAL)
+        alpha, source = self._scale(hint)
+        out = self._run(pep, "pep", n_modes, 2 * n_modes + 2, 2 * qep.n, 2, lambda lam, X: (lam, X))
+        self._last.update(method=f"slepc-pep-{pep.getType()}", scale_alpha=alpha, scale_source=source)
+        return out
+
+    def _solve_linear(self, qep: QEP, n_modes: int):
+        eps, ops = self._eps, self._ops
+        eps.setOperators(ops.K, ops.M)
+        sym = qep.kind == LINEAR_SYMMETRIC
+        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP if sym else SLEPc.EPS.ProblemType.GNHEP)
+
+        def to_lambda(mu, Y):  # μ = -λ²: ω² > 0 gives ±iω, μ < 0 a real pair
+            root = np.sqrt(-mu.astype(complex))
+            return np.concatenate([root, -root]), np.hstack([Y, Y])
+
+        out = self._run(eps, "eps", n_modes, n_modes + 1, qep.n, 1, to_lambda)
+        self._last["method"] = f"slepc-eps-{eps.getType()}-{'ghep' if sym else 'gnhep'}"
+        return out
+
+    def _run(self, solver, kind: str, n_modes: int, nev: int, size: int, per_mode: int, to_lambda):
+        """Solve; while real eigenvalues crowd out wanted frequencies, solve again with a larger nev.
+
+        ``per_mode`` is the number of solver eigenvalues per frequency (2 for a PEP, 1 for the
+        EPS in μ). Returns (λ, X, ok, message) and records the details in ``self._last``.
+        """
+        user_nev = f"{kind}_nev" in self._user
+        for attempt in range(_MAX_RETRIES + 1):
+            if not user_nev:
+                solver.setDimensions(nev=min(nev, size), **self._dims(kind, nev, size))
+            # same initial vector at every point, whatever was solved before (reproducible sweeps)
+            solver.getBV().getRandomContext().setSeed(_SEED)
+            solver.solve()
+            values, Y, nconv = _pairs(solver, self._ops)
+            lam, X = to_lambda(values, Y)
+            wanted, reason = solver.getDimensions()[0], solver.getConvergedReason()
+            found = _count_oscillating(lam)
+            if found >= n_modes or nconv < wanted or reason <= 0 or user_nev or nev >= size:
+                break
+            # the converged set had too few oscillating modes: grow nev in proportion
+            nev = max(nev + per_mode * (n_modes - found) + per_mode, -(-nconv * (n_modes + 1) // max(found, 1)))
+        ok = nconv >= wanted and reason > 0 and found >= n_modes
+        why = _enum_name(type(solver).ConvergedReason, reason)
+        self._last = {"nev": wanted, "nconv": nconv, "reason": why, "iterations": solver.getIterationNumber(),
+                      "retries": attempt}  # fmt: skip
+        msg = "" if ok else f"{nconv} of {wanted} eigenvalues converged ({why}); {found} of {n_modes} frequencies found"
+        return lam, X, ok, msg
+
+    def _dims(self, kind: str, nev: int, size: int) -> dict:
+        """ncv and mpd for ``setDimensions`` (which resets what it is not given to PETSC_DEFAULT).
+
+        The user's values if set; otherwise an even ncv = max(nev + 16, 2·nev). SLEPc's default
+        nev + 15 is odd for our even nev, and measured on beam QEPs an odd ncv makes real
+        TOAR stall for tens of restarts (a conjugate pair is split at every restart) while an
+        even one converges in 1-3 (docs_engine.md).
+        """
+        out = {k: int(float(self._values[f"{kind}_{k}"])) for k in ("ncv", "mpd") if f"{kind}_{k}" in self._user}
+        if "ncv" not in out:
+            out["ncv"] = min(max(nev + 16, 2 * nev) + (nev % 2), size)
+        return out
+
+    def _scale(self, hint):
+        """Set the PEP's scalar scale factor α ≈ |λ₁|; returns (α, where it came from)."""
+        if _SCALE_KEYS & self._user:
+            return None, "options"
+        # No memory of earlier points here: a point's result must not depend on which rank
+        # solved it or what it solved before (the sweep passes the previous speed's |λ₁|).
+        if hint is not None and np.isfinite(hint) and hint > 0:
+            alpha, source = hint, "hint"
+        else:
+            alpha, source = self._estimate_lambda1(), "estimate"
+        if alpha is None:
+            self._pep.setScale(SLEPc.PEP.Scale.SCALAR)  # SLEPc's norm-based factor, as a last resort
+            return None, "slepc"
+        self._pep.setScale(SLEPc.PEP.Scale.SCALAR, alpha=float(alpha))
+        return float(alpha), source
+
+    def _estimate_lambda1(self, its: int = 4) -> float | None:
+        """|λ₁| by a few steps of inverse iteration on K⁻¹M (C ignored: an order of magnitude is enough).
+
+        TOAR with shift-and-invert about 0 factorizes P(0) = K in ``setUp`` and its solve reuses
+        that factorization, so the estimate costs a few triangular solves. Other types get a
+        KSP of their own (3.18's Linear refuses a scale factor changed after ``setUp``).
+        """
+        pep, M = self._pep, self._ops.M
+        st = pep.getST()
+        if pep.getType() == SLEPc.PEP.Type.TOAR and st.getType() == SLEPc.ST.Type.SINVERT and pep.getTarget() == 0:
+            pep.setUp()
+            ksp = st.getKSP()
+        else:
+            ksp = self._own_ksp()
+        x = M.createVecRight()
+        x.set(1.0)
+        Mx, y = x.duplicate(), x.duplicate()
+        est = None
+        for _ in range(its):
+            M.mult(x, Mx)
+            ksp.solve(Mx, y)
+            num, den = x.dot(Mx), y.dot(Mx)
+            if den == 0 or not np.isfinite(den):
+                break
+            est = float(np.sqrt(abs(num / den)))
+            y.copy(x)
+            x.scale(1.0 / x.norm())
+        for v in (x, Mx, y):
+            v.destroy()
+        return est
+
+    def _own_ksp(self) -> PETSc.KSP:
+        if self._ksp is None:
+            self._ksp = PETSc.KSP().create(PETSc.COMM_SELF)
+            self._ksp.setType("preonly")
+            pc = self._ksp.getPC()
+            pc.setType("lu")
+            pc.setFactorSolverType(self._values.get("st_pc_factor_mat_solver_type", LU_PACKAGE))
+        self._ksp.setOperators(self._ops.K)  # values changed in place: refactorized on solve
+        return self._ksp
+
+
+def _pairs(solver, ops: PetscOperators):
+    """Every converged (value, vector) of a PEP or EPS.
+
+    SLEPc counts as converged a leading run of the sorted Ritz values, so the set is the
+    nearest to the target without gaps; all of it is returned, not only the first nev.
+    """
+    nconv = solver.getConverged()
+    xr, xi = ops.M.createVecs()
+    values = np.empty(nconv, dtype=complex)
+    X = np.empty((ops.n, nconv), dtype=complex)
+    for i in range(nconv):
+        values[i] = solver.getEigenpair(i, xr, xi)
+        X[:, i] = xr.getArray(readonly=True) + 1j * xi.getArray(readonly=True)
+    xr.destroy()
+    xi.destroy()
+    return values, X, nconv
+
+
+def _worst_reported_error(lam: np.ndarray, err: np.ndarray, n_modes: int, rtol: float = 1e-9) -> float:
+    """Largest pair error among what a point reports: the n_modes lowest frequencies and the
+    real (divergence) eigenvalues (selection as in ``modes.postprocess``)."""
+    if lam.size == 0:
+        return np.inf
+    real = np.abs(lam.imag) <= rtol * np.abs(lam)
+    osc = np.flatnonzero(~real & (lam.imag > 0))
+    osc = osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes]
+    used = np.concatenate([osc, np.flatnonzero(real)])
+    return float(err[used].max()) if used.size else np.inf
+
+
+def _count_oscillating(lam: np.ndarray, rtol: float = 1e-9) -> int:
+    """Number of eigenvalues with Im λ > rtol·|λ| (one per frequency)."""
+    return int(np.count_nonzero(lam.imag > rtol * np.abs(lam)))
+
+
+def _enum_name(enum, value) -> str:
+    names = [k for k, v in vars(enum).items() if v == value and not k.startswith("_")]
+    return names[0] if names else str(value)
+
+
+def _describe(err: PETSc.Error) -> str:
+    """The message lines of a PETSc error (petsc4py's text is the code, a call stack, then them)."""
+    lines = [ln.removeprefix("[0] ").strip() for ln in str(err).splitlines()[1:]]
+    text = "; ".join(ln for ln in lines if ln and not re.search(r"\(\) at \S+:\d+$", ln))
+    return text or _ERROR_TEXT.get(getattr(err, "ierr", None), "no message")
+
+
+_ERROR_TEXT = {55: "out of memory", 56: "operation not supported", 58: "operation done in wrong order",
+               62: "invalid argument", 71: "zero pivot in LU factorization (singular matrix)",
+               72: "floating point exception", 73: "object in wrong state", 76: "error in an external library",
+               77: "inconsistent data in PETSc", 81: "zero pivot in Cholesky factorization",
+               82: "iterative method failed", 91: "solver did not converge"}  # fmt: skip

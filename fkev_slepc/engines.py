@@ -1,0 +1,91 @@
+"""Choosing an eigen-engine (``--solver auto|slepc|dense``) and cross-checking the two.
+
+Both engines follow one protocol: ``solve(qep, n_modes, want_vectors=False, hint=None) ->
+EigenSolution``, ``settings() -> dict``, ``close()``, ``name``. ``auto`` picks by model size:
+below :data:`CROSSOVER_N_FREE` free DOFs LAPACK's dense QZ (all 2n eigenvalues) costs less per
+point than a sparse factorization plus a Krylov solve; above it SLEPc wins, by a margin that
+grows like n³ (measured by ``scripts/bench_crossover.py``; numbers in docs_engine.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .qep import QEP
+
+METHODS = ("auto", "slepc", "dense")
+
+# Measured with scripts/bench_crossover.py (Bahgat-Willmert four-bar, six cases, median of 5):
+# dense faster at 36 free DOFs, SLEPc faster from 45 on (docs_engine.md, "Crossover").
+CROSSOVER_N_FREE = 40
+
+
+def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = CROSSOVER_N_FREE, **slepc_kw):
+    """The engine for ``method`` and a model of ``n_free`` DOFs.
+
+    Parameters
+    ----------
+    method : {"auto", "slepc", "dense"}
+        ``auto``: dense below ``crossover`` free DOFs, SLEPc from there on.
+    n_free : int
+        Free DOFs of the model.
+    petsc_options : iterable of (name, value)
+        The scene's ``[solver.petsc]`` table (used by the SLEPc engine only).
+    crossover : int
+        Model size from which ``auto`` uses SLEPc.
+    **slepc_kw
+        Passed to :class:`~fkev_slepc.eigen.SlepcEngine` (e.g. ``max_pair_error``).
+
+    Returns
+    -------
+    engine
+        A :class:`~fkev_slepc.dense.DenseEngine` or :class:`~fkev_slepc.eigen.SlepcEngine`.
+
+    Examples
+    --------
+    >>> make_engine("auto", 20).name
+    'dense'
+    >>> engine = make_engine("auto", 5000)          # doctest: +SKIP
+    >>> engine.name                                  # doctest: +SKIP
+    'slepc'
+    """
+    if method not in METHODS:
+        raise ValueError(f"solver method must be one of {', '.join(METHODS)} (got {method!r})")
+    if method == "dense" or (method == "auto" and n_free < crossover):
+        from .dense import DenseEngine
+
+        return DenseEngine()
+    from .eigen import SlepcEngine  # imports PETSc: only now, after the CLI initialised it
+
+    return SlepcEngine(petsc_options, **slepc_kw)
+
+
+def frequencies(engine, qep: QEP, n_modes: int) -> np.ndarray:
+    """The ``n_modes`` lowest frequencies (Hz) one engine finds (NaN where it found fewer)."""
+    from .modes import postprocess
+
+    return postprocess(engine.solve(qep, n_modes), n_modes).frequency_hz
+
+
+def cross_check(qep: QEP, n_modes: int, petsc_options=()) -> float:
+    """Largest relative difference of the ``n_modes`` lowest frequencies, SLEPc vs dense QZ.
+
+    Returns ``inf`` when either engine finds fewer than ``n_modes`` frequencies (a mode one of
+    them misses is a disagreement, not a detail to skip).
+
+    Examples
+    --------
+    >>> cross_check(qep, 4)          # doctest: +SKIP
+    3.1e-12
+    """
+    from .dense import DenseEngine
+    from .eigen import SlepcEngine
+
+    slepc = SlepcEngine(petsc_options)
+    try:
+        f_slepc = frequencies(slepc, qep, n_modes)
+    finally:
+        slepc.close()
+    f_dense = frequencies(DenseEngine(), qep, n_modes)
+    diff = np.abs(f_slepc - f_dense) / np.abs(f_dense)
+    return float(np.inf) if not np.all(np.isfinite(diff)) else float(diff.max())
