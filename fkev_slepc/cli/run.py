@@ -217,11 +217,12 @@ def run(args) -> int:
     sweep = Sweep(model, grid, engine, writer, opts, state.lam1)
     sweep.run(todo, comm, progress)
     writer.close()
+    settings = _settings(engine) if rank0 else None
     engine.close()
     if progress is not None:
         progress.close()
     comm.Barrier()
-    code = _finish(part, out, grid, comm.size, t0, args.quiet) if rank0 else None
+    code = _finish(part, out, grid, comm.size, t0, args.quiet, settings) if rank0 else None
     return int(comm.bcast(code, root=0))
 
 
@@ -273,14 +274,15 @@ def _exit_code(status) -> int:
     return 3 if bad.any() else 0
 
 
-def _finish(part, out, grid, n_ranks, t0, quiet) -> int:
+def _finish(part, out, grid, n_ranks, t0, quiet, settings) -> int:
     """Rank 0: track modes, write the run attributes, rename; summary line; exit code."""
     from .. import archive
     from ..sweep import track
 
     freq, status, sig = archive.read_tracking_inputs(part)
     tracked, open_loops = track(freq, status, sig, grid.angles_deg)
-    attrs = {"n_ranks": n_ranks, "last_command_line": " ".join(sys.argv), "tracking_open_loops": open_loops}
+    attrs = {"n_ranks": n_ranks, "last_command_line": " ".join(sys.argv), "tracking_open_loops": open_loops,
+             "last_solver_settings": settings}
     wall = time.monotonic() - t0  # this run, from the checked scene to the finished archive
     archive.finalize(part, out, tracked, attrs, add_wall_time=wall)
     counts = archive.status_counts(status)
