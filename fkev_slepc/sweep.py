@@ -102,7 +102,6 @@ class Sweep:
         self.model, self.grid, self.engine, self.writer, self.opts = model, grid, engine, writer, opts
         self.lam1 = np.array(lam1, dtype=float, copy=True)
         self._errors = recoverable_errors()
-        self.counts = np.zeros(len(Status), dtype=np.int64)  # statuses of this rank's points
 
     def run(self, todo: np.ndarray, comm, progress=None) -> int:
         """Collective over ``comm``. Returns the number of points solved by all ranks."""
@@ -124,7 +123,6 @@ class Sweep:
         grid, model, o = self.grid, self.model, self.opts
         theta = float(np.radians(grid.angles_deg[ia]))
         pieces = model.pieces(theta)
-        ns, nc = todo.shape
         results: dict[tuple[int, int], PointResult] = {}
         cases = list(grid.cases)
         struct_lam1 = np.nan
@@ -163,7 +161,6 @@ class Sweep:
         results[index[1:]] = res
         lam = float(modulus(res.eigenvalue[:1])[0]) if res.eigenvalue.size else np.nan
         self.lam1[index] = lam if int(res.status) in CONVERGED else np.nan
-        self.counts[int(res.status)] += 1
 
     def _block(self, ia, todo, results, node_xy) -> Block:
         """Stack one angle's results into (speed, case, ...) arrays (NaN where not solved)."""
