@@ -39,8 +39,8 @@ def _flatten(groups):
 
 
 def add_parser(subparsers) -> None:
-    from ..plots import KINDS
-
+    # matplotlib is imported only when a figure is drawn (not on every `fkev` start, on every rank);
+    # an unknown --kind is rejected by plots.draw with the list of kinds.
     p = subparsers.add_parser(
         "plot",
         help="draw a figure from sweep archive(s)",
@@ -54,7 +54,7 @@ def add_parser(subparsers) -> None:
         ),
     )
     p.add_argument("archive", type=Path, nargs="+", help="HDF5 archive(s) written by `fkev run`")
-    p.add_argument("--kind", required=True, choices=KINDS, help="which figure")
+    p.add_argument("--kind", required=True, metavar="KIND", help="which figure (kinds listed above)")
     p.add_argument("--case", dest="cases", type=_words, action="append", metavar="NAME[,NAME]",
                    help="case name(s) or Table 3.1 numbers (repeatable; default depends on the kind)")
     p.add_argument("--speed", dest="speeds", type=_floats, action="append", metavar="RAD_S[,...]",
