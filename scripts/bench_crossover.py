@@ -10,6 +10,7 @@ The crossover is the smallest model size from which SLEPc is faster at every lar
 
     .venv/bin/python scripts/bench_crossover.py
     .venv/bin/python scripts/bench_crossover.py --elements 1,2,4,8 --repeats 3
+    .venv/bin/python scripts/bench_crossover.py -- -fkev_st_pc_factor_mat_solver_type mumps
 """
 
 from __future__ import annotations
@@ -23,13 +24,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fkev_slepc.cases import CASE_NAMES  # noqa: E402
-from fkev_slepc.dense import DenseEngine  # noqa: E402
-from fkev_slepc.eigen import SlepcEngine  # noqa: E402
-from fkev_slepc.modes import postprocess  # noqa: E402
-from fkev_slepc.operators import Model  # noqa: E402
-from fkev_slepc.scene import load_scene, with_elements  # noqa: E402
-
 
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -39,7 +33,13 @@ def parse_args(argv=None):
     ap.add_argument("--speed", type=float, default=500.0, help="crank speed, rad/s")
     ap.add_argument("--modes", type=int, default=4)
     ap.add_argument("--repeats", type=int, default=5)
-    return ap.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    petsc = argv[argv.index("--") + 1 :] if "--" in argv else []
+    args = ap.parse_args(argv[: argv.index("--")] if "--" in argv else argv)
+    from fkev_slepc.petsc_init import init_petsc
+
+    init_petsc(petsc)  # before anything imports PETSc
+    return args
 
 
 def time_points(engine, qeps, n_modes, hints) -> float:
@@ -52,10 +52,21 @@ def time_points(engine, qeps, n_modes, hints) -> float:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    from fkev_slepc.cases import CASE_NAMES
+    from fkev_slepc.dense import DenseEngine
+    from fkev_slepc.eigen import SlepcEngine
+    from fkev_slepc.modes import postprocess
+    from fkev_slepc.operators import Model
+    from fkev_slepc.scene import load_scene, with_elements
+
     base = load_scene(args.scene)
     print("command:", " ".join([Path(sys.executable).name, *sys.argv]))
     print(f"scene {args.scene}: θ = {args.angle:g}°, Ω = {args.speed:g} rad/s, six cases, {args.modes} modes, "
           f"median of {args.repeats} repeats (ms per point)")
+    with SlepcEngine() as e:
+        st = e.settings()
+    print(f"SLEPc engine: pep_type {st['pep_type']}, st {st['st_type']}, LU {st['factor_solver_type']}, "
+          f"pep_tol {st['pep_tol']:g}")
     print(f"{'el/link':>7} {'n_free':>7} {'dense':>10} {'slepc':>10} {'dense/slepc':>12} {'max rel diff':>13}")
     rows = []
     for n in (int(v) for v in args.elements.split(",")):
