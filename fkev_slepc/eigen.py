@@ -60,6 +60,10 @@ _SEED = 0x5EED
 _MAX_RETRIES = 2  # enlarge nev when real (divergence) eigenvalues crowd out wanted modes
 
 
+class OptionsError(ValueError):
+    """The PETSc options (scene ``[solver.petsc]`` or ``-fkev_`` on the command line) are invalid."""
+
+
 class SlepcEngine:
     """SLEPc PEP/EPS engine (the engine protocol: ``solve``, ``settings``, ``close``, ``name``).
 
@@ -68,6 +72,11 @@ class SlepcEngine:
     petsc_options : iterable of (name, value)
         The scene's ``[solver.petsc]`` table; the command line overrides it, it overrides the
         code defaults (:data:`DEFAULTS`).
+    max_pair_error : float, optional
+        Code default of the option ``-fkev_max_pair_error`` (an fkev option, not PETSc's; the
+        command line and the scene's ``[solver.petsc]`` override it). A solution whose reported pairs (the ``n_modes`` lowest frequencies and the real
+        eigenvalues) have a larger :func:`~fkev_slepc.qep.pair_error` is returned with
+        ``converged=False`` and a message, even when SLEPc counted it converged.
 
     Examples
     --------
@@ -78,13 +87,21 @@ class SlepcEngine:
 
     name = "slepc"
 
-    def __init__(self, petsc_options=(), max_pair_error: float = MAX_PAIR_ERROR):
-        self.max_pair_error = float(max_pair_error)
-        self._options = OptionsManager(DEFAULTS, petsc_options)
+    def __init__(self, petsc_options=(), max_pair_error: float | None = None):
+        code = MAX_PAIR_ERROR if max_pair_error is None else max_pair_error
+        self._options = OptionsManager({**DEFAULTS, "max_pair_error": repr(float(code))}, petsc_options)
         self._user = self._options.user_keys()
-        self._pep, self._eps = self._new_pep(), self._new_eps()
         self._sources = self._options.sources()
         self._values = self._options.effective_values()
+        self.max_pair_error = _positive(self._values["max_pair_error"], "max_pair_error")
+        self._pep = self._eps = None
+        try:
+            self._pep, self._eps = self._new_pep(), self._new_eps()
+        except PETSc.Error as err:  # e.g. a misspelt type in [solver.petsc] or on the command line
+            self.close()
+            chosen = ", ".join(f"{k} = {v!r}" for k, v in self._values.items() if k in self._user)
+            raise OptionsError(f"PETSc/SLEPc rejected the {PREFIX} options ({chosen or 'defaults'}): "
+                               f"{_describe(err)}") from None
         self._ops: PetscOperators | None = None
         self._ksp: PETSc.KSP | None = None  # K's own factorization, for the scale estimate of non-TOAR types
         self._last: dict = {}
@@ -192,7 +209,7 @@ class SlepcEngine:
 
     def close(self) -> None:
         """Destroy the PETSc/SLEPc objects (explicitly: collection order is not collective-safe)."""
-        for obj in (self._pep, self._eps, self._ksp, self._ops):
+        for obj in (self._pep, self._eps, getattr(self, "_ksp", None), getattr(self, "_ops", None)):
             if obj is not None:
                 obj.destroy()
         self._pep = self._eps = self._ksp = self._ops = None
@@ -375,6 +392,16 @@ def _worst_reported_error(lam: np.ndarray, err: np.ndarray, n_modes: int, rtol: 
 def _count_oscillating(lam: np.ndarray, rtol: float = 1e-9) -> int:
     """Number of eigenvalues with Im λ > rtol·|λ| (one per frequency)."""
     return int(np.count_nonzero(lam.imag > rtol * np.abs(lam)))
+
+
+def _positive(text: str, name: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0:
+        raise OptionsError(f"{PREFIX}{name}: must be a number > 0 (got {text!r})")
+    return value
 
 
 def _enum_name(enum, value) -> str:

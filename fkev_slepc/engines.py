@@ -16,8 +16,8 @@ from .qep import QEP
 METHODS = ("auto", "slepc", "dense")
 
 # Measured with scripts/bench_crossover.py (Bahgat-Willmert four-bar, six cases, median of 5):
-# dense faster at 36 free DOFs, SLEPc faster from 45 on (docs_engine.md, "Crossover").
-CROSSOVER_N_FREE = 40
+# dense faster at 18 free DOFs, SLEPc faster from 27 on (UMFPACK; docs_engine.md, "Crossover").
+CROSSOVER_N_FREE = 24
 
 
 def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = CROSSOVER_N_FREE, **slepc_kw):
@@ -41,6 +41,11 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
     engine
         A :class:`~fkev_slepc.dense.DenseEngine` or :class:`~fkev_slepc.eigen.SlepcEngine`.
 
+    Raises
+    ------
+    SceneError
+        When PETSc/SLEPc reject the options (scene ``[solver.petsc]`` or ``-fkev_...``).
+
     Examples
     --------
     >>> make_engine("auto", 20).name
@@ -55,9 +60,13 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
         from .dense import DenseEngine
 
         return DenseEngine()
-    from .eigen import SlepcEngine  # imports PETSc: only now, after the CLI initialised it
+    from .eigen import OptionsError, SlepcEngine  # imports PETSc: only now, after the CLI initialised it
+    from .scene import Problem, SceneError
 
-    return SlepcEngine(petsc_options, **slepc_kw)
+    try:
+        return SlepcEngine(petsc_options, **slepc_kw)
+    except OptionsError as err:  # reported like any bad scene value (exit code 2), not a traceback
+        raise SceneError("PETSc options", [Problem("solver.petsc", str(err))]) from None
 
 
 def frequencies(engine, qep: QEP, n_modes: int) -> np.ndarray:
@@ -87,5 +96,6 @@ def cross_check(qep: QEP, n_modes: int, petsc_options=()) -> float:
     finally:
         slepc.close()
     f_dense = frequencies(DenseEngine(), qep, n_modes)
-    diff = np.abs(f_slepc - f_dense) / np.abs(f_dense)
+    with np.errstate(invalid="ignore"):  # NaN where a mode is missing: handled just below
+        diff = np.abs(f_slepc - f_dense) / np.abs(f_dense)
     return float(np.inf) if not np.all(np.isfinite(diff)) else float(diff.max())

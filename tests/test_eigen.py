@@ -16,10 +16,11 @@ from fkev_slepc.backend import PREFIX, PETSc, PetscOperators
 from fkev_slepc.cases import CASE_NAMES
 from fkev_slepc.dense import DenseEngine
 from fkev_slepc.eigen import SLEPc, SlepcEngine
+from fkev_slepc.engines import CROSSOVER_N_FREE, cross_check, make_engine
 from fkev_slepc.modes import Status, postprocess
 from fkev_slepc.operators import Model
 from fkev_slepc.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP, pair_error
-from fkev_slepc.scene import load_scene, with_elements
+from fkev_slepc.scene import SceneError, load_scene, with_elements
 
 ALU = dict(E=7.1e10, rho=2710.0, A=1e-4, I=1e-9, L=1.0)
 BETA_L = np.array([1.8751040687, 4.6940911330, 7.8547574382])  # clamped-free beam, β_n L
@@ -214,6 +215,41 @@ def test_scene_options_reach_the_solver_and_leave_no_trace():
     assert rel(freqs(sol, 4).frequency_hz, freqs(DenseEngine().solve(q, 4), 4).frequency_hz) < 1e-9
     left = [k for k in PETSc.Options().getAll() if k.startswith(PREFIX)]
     assert left == []
+
+
+def test_make_engine_by_size_and_bad_options():
+    assert make_engine("auto", CROSSOVER_N_FREE - 1).name == "dense"
+    assert make_engine("dense", 10_000).name == "dense"
+    for method, n in (("auto", CROSSOVER_N_FREE), ("slepc", 5)):
+        e = make_engine(method, n, [("pep_tol", "1e-9")])
+        assert e.name == "slepc" and e.settings()["pep_tol"] == 1e-9
+        e.close()
+    with pytest.raises(ValueError, match="auto, slepc, dense"):
+        make_engine("qz", 10)
+    with pytest.raises(SceneError, match=r"solver.petsc: .*pep_type = 'toarr'.*Unknown PEP type given: toarr"):
+        make_engine("slepc", 100, [("pep_type", "toarr")])
+    with pytest.raises(SceneError, match="fkev_max_pair_error: must be a number > 0"):
+        make_engine("slepc", 100, [("max_pair_error", "-1")])
+    assert not [k for k in PETSc.Options().getAll() if k.startswith(PREFIX)]
+
+
+def test_cross_check_measures_the_engines_disagreement():
+    q = beam_qep(20, 20.0, 150.0)
+    assert cross_check(q, 6) < 1e-9
+    assert cross_check(q, 6, [("pep_type", "linear")]) < 1e-9
+    assert cross_check(q, 200) == np.inf  # 60 DOFs cannot have 200 frequencies: reported, not skipped
+
+
+def test_max_pair_error_option_decides_what_counts_as_converged():
+    """At 9000 DOFs roundoff limits every pair to η ~ 1e-2 (f₁ still within 1e-4): flagged by
+    default, accepted when the user raises the threshold in [solver.petsc]."""
+    model = Model(with_elements(load_scene("runs/bahgat-willmert-1976.toml"), 1000), cases=("full",))
+    q = model.qep(model.pieces(np.radians(10)), 500.0, "full")
+    with SlepcEngine() as strict, SlepcEngine([("max_pair_error", "0.5")]) as lax:
+        a, b = strict.solve(q, 2, hint=2000.0), lax.solve(q, 2, hint=2000.0)
+        assert lax.settings()["option_sources"]["max_pair_error"] == "scene"
+    assert not a.converged and "pair error" in a.message
+    assert b.converged and np.array_equal(a.eigenvalues, b.eigenvalues)
 
 
 def test_bad_requests_are_rejected(engine):
