@@ -58,3 +58,19 @@ def frequencies(model, theta_deg, omega, case, n=4, accel=None):
 
     q = model.qep(model.pieces(np.radians(theta_deg)), omega, case, accel)
     return postprocess(DenseEngine().solve(q, n), n)
+
+
+def six_bar(elements=2, **kw) -> Scene:
+    """Bahgat–Willmert four-bar with a second loop: a dyad (links 'arm', 'rocker2') hung from the
+    compound joint B (coupler, follower, arm) and a third ground pivot O3 (a Watt-type chain)."""
+    base = bahgat_willmert(elements=(elements,) * 3, **kw)
+    links = base.links + tuple(Link(n, L, elements=elements, **STEEL) for n, L in (("arm", 0.2), ("rocker2", 0.22)))
+    joints = list(base.joints)
+    joints[2] = Joint("B", "revolute", (LinkEnd("coupler", "tip"), LinkEnd("follower", "tip"), LinkEnd("arm", "root")))
+    joints += [
+        Joint("C", "revolute", (LinkEnd("arm", "tip"), LinkEnd("rocker2", "tip"))),
+        Joint("O3", "revolute", (LinkEnd("rocker2", "root"),), (0.25, 0.45)),
+    ]
+    from dataclasses import replace
+
+    return replace(base, links=links, joints=tuple(joints), masses=(LumpedMass("C", "arm", 0.05),))
