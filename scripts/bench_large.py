@@ -14,7 +14,8 @@ shift-and-invert (same tolerance, nev, ncv and scale factor as the engine). Medi
 
     .venv/bin/python scripts/bench_large.py
     .venv/bin/python scripts/bench_large.py --elements 5600 --repeats 3 -- -fkev_st_pc_factor_mat_solver_type mumps
-    .venv/bin/python scripts/bench_large.py --lu mumps,superlu,umfpack,klu,petsc   # the LU packages side by side
+    .venv/bin/python scripts/bench_large.py --elements 300 --compare st_pc_factor_mat_solver_type=mumps,superlu,umfpack,klu,petsc
+    .venv/bin/python scripts/bench_large.py --elements 300 --compare pep_scale=none,scalar
 """
 
 from __future__ import annotations
@@ -39,9 +40,13 @@ def parse_args(argv=None):
     ap.add_argument("--case", default="full")
     ap.add_argument("--modes", type=int, default=6)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--lu", help="comma-separated LU packages: time the point with each instead")
+    ap.add_argument("--compare", metavar="OPTION=v1,v2,...",
+                    help="instead: the point with each value of one fkev_ option, e.g. "
+                         "st_pc_factor_mat_solver_type=mumps,superlu,umfpack,klu,petsc")
+    ap.add_argument("--perturb", action="store_true",
+                    help="instead: how far f1 moves when each entry of K changes by one unit in the last place")
     ap.add_argument("--ref-elements", type=int, default=60,
-                    help="with --lu: elements per link of the reference solved by dense QZ")
+                    help="with --compare: elements per link of the reference solved by dense QZ")
     ours, petsc = (argv or sys.argv[1:]), []
     if "--" in ours:
         i = ours.index("--")
@@ -121,10 +126,10 @@ def beam_qep_petsc(n_free: int, scene, omega: float):
     return mats, lam1
 
 
-def bare_solve(mats, lam1, n_modes) -> tuple[float, int]:
-    """Fresh PEP (TOAR, sinvert, the engine's LU package), solve, return (seconds, converged pairs)."""
+def bare_solve(mats, lam1, n_modes, package) -> tuple[float, int]:
+    """Fresh PEP (TOAR, sinvert, LU by ``package``), solve, return (seconds, converged pairs)."""
     from fkev_slepc.backend import PETSc
-    from fkev_slepc.eigen import LU_PACKAGE, SLEPc
+    from fkev_slepc.eigen import SLEPc
 
     t = time.perf_counter()
     pep = SLEPc.PEP().create(PETSc.COMM_SELF)
@@ -135,7 +140,7 @@ def bare_solve(mats, lam1, n_modes) -> tuple[float, int]:
     st.setType(SLEPc.ST.Type.SINVERT)
     st.getKSP().setType("preonly")
     st.getKSP().getPC().setType("lu")
-    st.getKSP().getPC().setFactorSolverType(LU_PACKAGE)
+    st.getKSP().getPC().setFactorSolverType(package)
     pep.setTarget(0.0)
     pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
     nev = 2 * n_modes + 2
@@ -169,15 +174,19 @@ def main(argv=None) -> int:
     t_model = time.perf_counter() - t
     print(f"{args.scene}, {args.elements} elements per link: {model.n_free} free DOFs, θ from {args.angle:g}°, "
           f"Ω = {args.speed:g} rad/s, case {args.case}, {args.modes} modes; model set-up (once per run) {t_model:.2f} s")
-    if args.lu:
-        return lu_table(args, model, PETSc, SlepcEngine, postprocess)
+    if args.compare:
+        return compare_table(args, model, PETSc, SlepcEngine, postprocess)
+    if args.perturb:
+        return perturbation(args, model, SlepcEngine, postprocess)
 
     engine = SlepcEngine()
+    package = engine.settings()["factor_solver_type"]
+    print(f"LU package {package} (engine and bare solve)")
     mats, lam1 = beam_qep_petsc(model.n_free, scene, args.speed)
     rows, bare = [], []
     for r in range(args.repeats + 1):  # point 0 creates the PETSc matrices; 1.. reuse them
         if r:
-            bare.append(bare_solve(mats, lam1, args.modes)[0])
+            bare.append(bare_solve(mats, lam1, args.modes, package)[0])
         timers.total.clear()
         f0, s0 = factor_time(PETSc), event_time(PETSc, "PEPSetUp", "PEPSolve")
         t0 = time.perf_counter()
@@ -214,32 +223,60 @@ def main(argv=None) -> int:
     return 0
 
 
-def lu_table(args, model, PETSc, SlepcEngine, postprocess) -> int:
-    """The same point with each LU package: time (median) and the frequencies it gives."""
+def perturbation(args, model, SlepcEngine, postprocess) -> int:
+    """Conditioning of the assembled model: f1 of K·(1 + ε·r), r ~ N(0, 1) entrywise, ε = 2.2e-16.
+
+    What no solver can beat: if one rounding of K's entries moves f1 by δ, the double-precision
+    model determines f1 only to about δ.
+    """
+    from fkev_slepc.qep import QEP
+
+    q = model.qep(model.pieces(np.radians(args.angle)), args.speed, args.case)
+    rng = np.random.default_rng(1)
+    with SlepcEngine([("max_pair_error", "1e300")]) as engine:
+        f0 = postprocess(engine.solve(q, args.modes), args.modes).frequency_hz[0]
+        moves = []
+        for _ in range(args.repeats):
+            K = q.stiffness.copy()
+            K.data = K.data * (1.0 + np.finfo(float).eps * rng.standard_normal(K.nnz))
+            f = postprocess(engine.solve(QEP(q.mass, q.damping, K, q.kind), args.modes), args.modes).frequency_hz[0]
+            moves.append(abs(f / f0 - 1))
+    print(f"f1 = {f0:.6f} Hz; relative change of f1 under one-ulp perturbations of K ({args.repeats} samples): "
+          + ", ".join(f"{m:.1e}" for m in moves))
+    return 0
+
+
+def compare_table(args, model, PETSc, SlepcEngine, postprocess) -> int:
+    """The same point with each value of one option (first row: the engine's defaults):
+    median time, factorization time, TOAR restarts, frequencies, error vs a dense reference."""
     from fkev_slepc.dense import DenseEngine
     from fkev_slepc.scene import with_elements
 
+    name, _, values = args.compare.partition("=")
     q = model.qep(model.pieces(np.radians(args.angle)), args.speed, args.case)
     coarse = type(model)(with_elements(model.scene, args.ref_elements), cases=(args.case,))
     ref = postprocess(DenseEngine().solve(coarse.qep(coarse.pieces(np.radians(args.angle)), args.speed, args.case),
                                           args.modes), args.modes).frequency_hz  # fmt: skip
     print(f"reference: dense QZ at {args.ref_elements} elements per link ({coarse.n_free} DOFs): f1 = {ref[0]:.6f} Hz")
-    print(f"{'package':<10} {'time [s]':>9} {'factor [s]':>10}  status          f1 [Hz]        f{args.modes} [Hz]"
-          "  f1 rel err  max η")
-    for pkg in args.lu.split(","):
+    print(f"{name:<12} {'time [s]':>9} {'factor [s]':>10} {'its':>4}  status          f1 [Hz]        "
+          f"f{args.modes} [Hz]  f1 rel err  max η")
+    for value in [None, *values.split(",")]:
         times, facs = [], []
-        with SlepcEngine([("st_pc_factor_mat_solver_type", pkg)]) as engine:
+        opts = [("max_pair_error", "1e300")]  # report every pair, flagged or not
+        with SlepcEngine(opts if value is None else [*opts, (name, value)]) as engine:
             for _ in range(args.repeats):
                 f0 = factor_time(PETSc)
                 t = time.perf_counter()
                 sol = engine.solve(q, args.modes)
                 times.append(time.perf_counter() - t)
                 facs.append(factor_time(PETSc) - f0)
+            its = engine.settings().get("last_iterations", -1)
         res = postprocess(sol, args.modes)
         err = abs(res.frequency_hz[0] / ref[0] - 1)
-        print(f"{pkg:<10} {np.median(times):9.3f} {np.median(facs):10.3f}  {res.status.name.lower():<14}"
-              f"{res.frequency_hz[0]:11.6f} {res.frequency_hz[-1]:13.6f}  {err:10.1e}  {np.nanmax(res.residual):.1e}",
-              flush=True)
+        label = "(default)" if value is None else value
+        print(f"{label:<12} {np.median(times):9.3f} {np.median(facs):10.3f} {its:>4}  {res.status.name.lower():<14}"
+              f"{res.frequency_hz[0]:11.6f} {res.frequency_hz[-1]:13.6f}  {err:10.1e}  {np.nanmax(res.residual):.1e}"
+              f"{'' if sol.converged else '  ' + sol.message[:50]}", flush=True)
     return 0
 
 

@@ -43,6 +43,13 @@ def parse_args(argv=None):
     return args
 
 
+def symbolic_count() -> int:
+    """Symbolic LU factorizations so far (PETSc log: MUMPS/UMFPACK log MatLUFactorSym, others MatLUFactor)."""
+    from fkev_slepc.backend import PETSc
+
+    return sum(PETSc.Log.Event(n).getPerfInfo()["count"] for n in ("MatLUFactorSym", "MatLUFactor"))
+
+
 def run(qeps, hints, n_modes, reuse: bool):
     """Solve every QEP; returns (seconds, frequencies of the last point)."""
     from fkev_slepc.eigen import SlepcEngine
@@ -67,6 +74,9 @@ def main(argv=None) -> int:
     from fkev_slepc.operators import Model
     from fkev_slepc.scene import load_scene, with_elements
 
+    from fkev_slepc.backend import PETSc
+
+    PETSc.Log.begin()
     base = load_scene(args.scene)
     print("command:", " ".join([Path(sys.executable).name, *sys.argv]))
     print(f"{args.scene}: {args.angles} consecutive crank angles, Ω = {args.speed:g} rad/s, case {args.case}, "
@@ -75,7 +85,8 @@ def main(argv=None) -> int:
         st = e.settings()
     print(f"SLEPc engine: pep_type {st['pep_type']}, st {st['st_type']}, LU {st['factor_solver_type']}, "
           f"pep_tol {st['pep_tol']:g}")
-    print(f"{'el/link':>7} {'n_free':>7} {'re-create [s]':>14} {'reuse [s]':>10} {'ms/pt reuse':>12} {'speed-up':>9}")
+    print(f"{'el/link':>7} {'n_free':>7} {'re-create [s]':>14} {'reuse [s]':>10} {'ms/pt reuse':>12} {'speed-up':>9}"
+          f" {'symbolic LU (re-create/reuse)':>30}")
     for n in (int(v) for v in args.elements.split(",")):
         model = Model(with_elements(base, n), cases=(args.case,))
         qeps = [model.qep(model.pieces(np.radians(10.0 + k)), args.speed, args.case) for k in range(args.angles)]
@@ -84,13 +95,17 @@ def main(argv=None) -> int:
         hints = [None, *lam1[:-1]]
         t_new, t_reuse = [], []
         for _ in range(args.repeats):
+            s0 = symbolic_count()
             a, fa = run(qeps, hints, args.modes, reuse=False)
+            s1 = symbolic_count()
             b, fb = run(qeps, hints, args.modes, reuse=True)
+            sym = (s1 - s0, symbolic_count() - s1)
             assert np.allclose(fa, fb, rtol=1e-9), (fa, fb)  # same answers both ways
             t_new.append(a)
             t_reuse.append(b)
         a, b = np.median(t_new), np.median(t_reuse)
-        print(f"{n:>7} {model.n_free:>7} {a:>14.3f} {b:>10.3f} {1e3 * b / args.angles:>12.2f} {a / b:>9.2f}", flush=True)
+        print(f"{n:>7} {model.n_free:>7} {a:>14.3f} {b:>10.3f} {1e3 * b / args.angles:>12.2f} {a / b:>9.2f}"
+              f" {f'{sym[0]} / {sym[1]}':>30}", flush=True)
     return 0
 
 

@@ -275,13 +275,15 @@ def scene_qeps(path, elements=None):
                 yield (th, om, case), model.qep(pieces, om, case)
 
 
-@pytest.mark.parametrize("pep_type", ["toar", "linear"])
+@pytest.mark.parametrize("pep_type,lu", [("toar", "umfpack"), ("linear", "umfpack"), ("toar", "mumps"),
+                                         ("toar", "superlu"), ("toar", "klu"), ("toar", "petsc")])  # fmt: skip
 @pytest.mark.parametrize("path", SCENES)
-def test_acceptance_slepc_matches_dense(path, pep_type):
+def test_acceptance_slepc_matches_dense(path, pep_type, lu):
     """Issue 3: the first 10 frequencies agree to 1e-9 and the stability flags agree, at every
-    (θ, Ω, case) of the grid. The thesis meshes (15 and 27 free DOFs) have 10 modes."""
+    (θ, Ω, case) of the grid, with TOAR and Linear and with every LU package installed.
+    The thesis meshes (15 and 27 free DOFs) have 10 modes."""
     dense = DenseEngine()
-    with SlepcEngine([("pep_type", pep_type)]) as engine:
+    with SlepcEngine([("pep_type", pep_type), ("st_pc_factor_mat_solver_type", lu)]) as engine:
         for where, q in scene_qeps(path):
             sol = engine.solve(q, 10)
             got, ref = postprocess(sol, 10), postprocess(dense.solve(q, 10), 10)
