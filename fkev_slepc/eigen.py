@@ -191,7 +191,7 @@ class SlepcEngine:
             "prefix": PREFIX,
             "pep_type": pep.getType(),
             "pep_tol": pep.getTolerances()[0],
-            "pep_max_it": pep.getTolerances()[1],
+            "pep_max_it": pep.getTolerances()[1] if pep.getTolerances()[1] > 0 else "default (set at setUp)",
             "pep_target": float(np.real(pep.getTarget())),
             "pep_which": _enum_name(SLEPc.PEP.Which, pep.getWhichEigenpairs()),
             "eps_type": eps.getType(),
