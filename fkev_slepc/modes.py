@@ -44,9 +44,12 @@ class PointResult:
     solver: str = ""
 
 
+CNAN = complex(np.nan, np.nan)  # a missing eigenvalue: NaN in both parts (NaN + 0j has Im = 0)
+
+
 def failed(n_modes: int, message: str, solver: str = "") -> PointResult:
     nan = np.full(n_modes, np.nan)
-    return PointResult(nan + 0j, nan, nan, np.nan, np.zeros(0), Status.FAILED, message, None, solver)
+    return PointResult(np.full(n_modes, CNAN), nan, nan, np.nan, np.zeros(0), Status.FAILED, message, None, solver)
 
 
 def postprocess(
@@ -65,14 +68,14 @@ def postprocess(
     osc = osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes]
     k = osc.size
 
-    eig = np.full(n_modes, np.nan + 0j)
+    eig = np.full(n_modes, CNAN)
     res = np.full(n_modes, np.nan)
     eig[:k] = lam[osc]
     res[:k] = err[osc]
     freq = eig.imag / (2 * np.pi)
     shapes = None
     if want_shapes and sol.vectors is not None:
-        shapes = np.full((sol.vectors.shape[0], n_modes), np.nan + 0j)
+        shapes = np.full((sol.vectors.shape[0], n_modes), CNAN)
         shapes[:, :k] = normalize_shapes(sol.vectors[:, osc])
 
     real_pos = np.sort(lam.real[is_real & (lam.real > 0)])

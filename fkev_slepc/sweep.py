@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .archive import CONVERGED, Block, Grid, Writer, modulus
-from .modes import PointResult, Status, failed, postprocess
+from .modes import CNAN, PointResult, Status, failed, postprocess
 
 log = logging.getLogger(__name__)
 TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
@@ -166,14 +166,14 @@ class Sweep:
         """Stack one angle's results into (speed, case, ...) arrays (NaN where not solved)."""
         o, (ns, nc), nm = self.opts, todo.shape, self.opts.n_modes
         data = {"frequency_hz": np.full((ns, nc, nm), np.nan),
-                "eigenvalue": np.full((ns, nc, nm), np.nan + 0j),
+                "eigenvalue": np.full((ns, nc, nm), CNAN),
                 "residual": np.full((ns, nc, nm), np.nan),
                 "max_real": np.full((ns, nc), np.nan)}
         status = np.zeros((ns, nc), dtype=np.uint8)
         if o.tracking_dofs is not None:
-            data["tracking/signature"] = np.full((ns, nc, len(o.tracking_dofs), nm), np.nan + 0j)
+            data["tracking/signature"] = np.full((ns, nc, len(o.tracking_dofs), nm), CNAN)
         if o.mode_shapes:
-            data["modes/shape"] = np.full((ns, nc, self.model.n_free, nm), np.nan + 0j)
+            data["modes/shape"] = np.full((ns, nc, self.model.n_free, nm), CNAN)
         errors = []
         for (js, jc), r in results.items():
             data["frequency_hz"][js, jc] = r.frequency_hz

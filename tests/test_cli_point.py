@@ -50,3 +50,22 @@ def test_point_bad_flags_exit_2_with_the_flag_named(args, needle):
     r = fkev("point", BW, "--angle", "10", "--speed", "0", *args)
     assert r.returncode == 2
     assert needle in r.stderr and "Traceback" not in r.stderr
+
+
+def test_missing_modes_are_nan_not_zero():
+    """A point that finds fewer modes than asked reports them as missing (null), never as 0 Hz."""
+    from fkev_slepc.modes import Status, postprocess
+    from fkev_slepc.qep import EigenSolution
+
+    sol = EigenSolution(np.array([-3.0 + 100j, -3.0 - 100j]), np.array([1e-12, 1e-12]), None, True, "test")
+    r = postprocess(sol, 3)
+    assert r.status == Status.NOT_CONVERGED
+    assert r.frequency_hz[0] == pytest.approx(100 / (2 * np.pi))
+    assert np.isnan(r.frequency_hz[1:]).all() and np.isnan(r.eigenvalue[1:].imag).all()
+
+
+def test_bad_petsc_option_is_a_scene_error_not_a_traceback():
+    r = fkev("point", BW, "--angle", "10", "--speed", "1000", "--case", "full", "--solver", "slepc",
+             "-fkev_pep_type", "toarr")
+    assert r.returncode == 2
+    assert "pep_type" in r.stderr and "toarr" in r.stderr and "Traceback" not in r.stderr

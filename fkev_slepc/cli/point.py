@@ -60,7 +60,10 @@ def run(args) -> int:
         return report_scene_error(SceneError(args.scene, [Problem("--angle", f"{err} (got {angle:g})")]))
     qep = model.qep(pieces, speed, case)
     method = args.solver or scene.solver.method
-    engine = make_engine(method, model.n_free, scene.solver.petsc)
+    try:
+        engine = make_engine(method, model.n_free, scene.solver.petsc)
+    except SceneError as err:  # e.g. a PETSc option the solver rejects
+        return report_scene_error(err)
     sol = engine.solve(qep, n_modes)
     res = postprocess(sol, n_modes, scene.analysis.imag_tol, scene.analysis.stability_tol)
     out = {
@@ -99,6 +102,7 @@ def _print_table(o: dict) -> None:
         fmt = lambda v, w: f"{v:{w}.6g}" if v is not None else f"{'—':>{w}}"  # noqa: E731
         print(f"{i:>4} {fmt(f, 14)} {fmt(re, 14)} {fmt(im, 14)} {fmt(r, 10) if r is None else f'{r:10.1e}'}")
     print(f"max Re λ = {o['max_real']!r} 1/s; status: {o['status']}"
-          + (f"; divergent (real) eigenvalues: {o['divergent']}" if o["divergent"] else ""))
+          + (f"; divergent (real) eigenvalues: {o['divergent']}" if o["divergent"] else "")
+          + (f" ({o['message']})" if o["message"] else ""))
     if "cross_check_max_rel_diff" in o:
         print(f"cross-check SLEPc vs dense: max relative frequency difference {o['cross_check_max_rel_diff']:.2e}")
