@@ -27,7 +27,8 @@ import re
 import numpy as np
 
 from .backend import PREFIX, OptionsManager, PatternMismatch, PETSc, PetscOperators
-from .qep import GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP, EigenSolution, pair_error
+from .modes import untrustworthy, worst_reported_error
+from .qep import GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
 from slepc4py import SLEPc  # noqa: E402  (PETSc is initialised by backend)
 
@@ -51,10 +52,6 @@ DEFAULTS = {
     "st_pc_factor_mat_solver_type": LU_PACKAGE,
 }
 
-# A point whose reported pairs have pair_error above this is not converged. Measured (docs_engine.md):
-# right pairs give 1e-14..1e-5 up to a few thousand DOFs; wrong pairs 0.1..1; on over-refined
-# models (>~1e4 DOFs here) every pair reaches ~1, since K's conditioning grows like n_el⁴.
-MAX_PAIR_ERROR = 1e-3
 _SCALE_KEYS = {"pep_scale", "pep_scale_factor"}
 _SEED = 0x5EED
 _MAX_RETRIES = 2  # enlarge nev when real (divergence) eigenvalues crowd out wanted modes
@@ -170,13 +167,12 @@ class SlepcEngine:
             self._last = {"failed": msg}
             return EigenSolution(np.zeros(0, complex), np.zeros(0), None, False, self.name, msg)
         err = pair_error(qep, lam, X) if lam.size else np.zeros(0)
-        worst = _worst_reported_error(lam, err, n_modes)
-        if ok and worst > self.max_pair_error:
+        worst = worst_reported_error(lam, err, n_modes)
+        bad = untrustworthy(worst, self.max_pair_error)
+        if ok and bad:
             # "converged" by SLEPc's own test, yet a pair the point reports does not satisfy the
             # QEP (measured: qarnoldi at divergent points; any method on over-refined models)
-            ok = False
-            msg = (f"pair error {worst:.1e} > max_pair_error {self.max_pair_error:g}: eigenpairs not trustworthy"
-                   " (with -fkev_pep_type other than toar, try toar; on a very fine mesh, use fewer elements)")
+            ok, msg = False, bad
         self._last["max_pair_error"] = float(worst)
         return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg)
 
@@ -375,18 +371,6 @@ def _pairs(solver, ops: PetscOperators):
     xr.destroy()
     xi.destroy()
     return values, X, nconv
-
-
-def _worst_reported_error(lam: np.ndarray, err: np.ndarray, n_modes: int, rtol: float = 1e-9) -> float:
-    """Largest pair error among what a point reports: the n_modes lowest frequencies and the
-    real (divergence) eigenvalues (selection as in ``modes.postprocess``)."""
-    if lam.size == 0:
-        return np.inf
-    real = np.abs(lam.imag) <= rtol * np.abs(lam)
-    osc = np.flatnonzero(~real & (lam.imag > 0))
-    osc = osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes]
-    used = np.concatenate([osc, np.flatnonzero(real)])
-    return float(err[used].max()) if used.size else np.inf
 
 
 def _count_oscillating(lam: np.ndarray, rtol: float = 1e-9) -> int:

@@ -59,7 +59,7 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
     if method == "dense" or (method == "auto" and n_free < crossover):
         from .dense import DenseEngine
 
-        return DenseEngine()
+        return DenseEngine(_max_pair_error(petsc_options, slepc_kw.get("max_pair_error")))
     from .eigen import OptionsError, SlepcEngine  # imports PETSc: only now, after the CLI initialised it
     from .scene import Problem, SceneError
 
@@ -67,6 +67,30 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
         return SlepcEngine(petsc_options, **slepc_kw)
     except OptionsError as err:  # reported like any bad scene value (exit code 2), not a traceback
         raise SceneError("PETSc options", [Problem("solver.petsc", str(err))]) from None
+
+
+def _max_pair_error(petsc_options, explicit) -> float:
+    """``max_pair_error`` for the dense engine, with the SLEPc engine's precedence:
+    command line (-fkev_max_pair_error) > scene [solver.petsc] > code default."""
+    from .petsc_init import command_line_options
+    from .qep import MAX_PAIR_ERROR
+    from .scene import Problem, SceneError
+
+    value, source = (MAX_PAIR_ERROR, "default") if explicit is None else (explicit, "code")
+    scene = {k.removeprefix("-").removeprefix("fkev_"): v for k, v in dict(petsc_options).items()}
+    if "max_pair_error" in scene:
+        value, source = scene["max_pair_error"], "solver.petsc.max_pair_error"
+    argv = command_line_options()
+    for i, tok in enumerate(argv[:-1]):
+        if tok in ("-fkev_max_pair_error", "--fkev_max_pair_error"):
+            value, source = argv[i + 1], "-fkev_max_pair_error"
+    try:
+        out = float(value)
+    except ValueError:
+        out = float("nan")
+    if not out > 0:
+        raise SceneError("PETSc options", [Problem(source, f"must be a number > 0 (got {value!r})")])
+    return out
 
 
 def frequencies(engine, qep: QEP, n_modes: int) -> np.ndarray:

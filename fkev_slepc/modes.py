@@ -63,9 +63,7 @@ def postprocess(
     lam = np.asarray(sol.eigenvalues, dtype=complex)
     err = np.asarray(sol.errors, dtype=float)
     mag = np.abs(lam)
-    is_real = np.abs(lam.imag) <= imag_tol * np.maximum(mag, np.finfo(float).tiny)
-    osc = np.flatnonzero(~is_real & (lam.imag > 0))
-    osc = osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes]
+    osc, is_real = reported(lam, n_modes, imag_tol)
     k = osc.size
 
     eig = np.full(n_modes, CNAN)
@@ -92,6 +90,30 @@ def postprocess(
     else:
         status, msg = Status.OK, sol.message
     return PointResult(eig, freq, res, max_real, real_pos, status, msg, shapes, sol.solver)
+
+
+def reported(lam: np.ndarray, n_modes: int, imag_tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """What a point reports: indices of the ``n_modes`` lowest oscillatory eigenvalues
+    (Im λ > 0, sorted by Im λ) and the mask of real (divergence) eigenvalues."""
+    lam = np.asarray(lam, dtype=complex)
+    is_real = np.abs(lam.imag) <= imag_tol * np.maximum(np.abs(lam), np.finfo(float).tiny)
+    osc = np.flatnonzero(~is_real & (lam.imag > 0))
+    return osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes], is_real
+
+
+def worst_reported_error(lam: np.ndarray, err: np.ndarray, n_modes: int, imag_tol: float = 1e-9) -> float:
+    """Largest pair error among the pairs a point reports (inf if it reports none)."""
+    osc, is_real = reported(lam, n_modes, imag_tol)
+    used = np.concatenate([osc, np.flatnonzero(is_real)])
+    return float(np.asarray(err)[used].max()) if used.size else np.inf
+
+
+def untrustworthy(worst: float, max_pair_error: float) -> str:
+    """Message for a solve whose reported pairs fail the pair-error check ('' if they pass)."""
+    if worst <= max_pair_error:
+        return ""
+    return (f"pair error {worst:.1e} > max_pair_error {max_pair_error:g}: eigenpairs not trustworthy"
+            " (with -fkev_pep_type other than toar, try toar; on a very fine mesh, use fewer elements)")
 
 
 def normalize_shapes(X: np.ndarray) -> np.ndarray:

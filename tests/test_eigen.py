@@ -393,3 +393,18 @@ def test_real_eigenvalues_crowding_out_modes_enlarge_nev(engine):
     assert got.status == ref.status == Status.DIVERGENT
     assert rel(got.frequency_hz, ref.frequency_hz) < 1e-9
     assert got.divergent.size == ref.divergent.size == 13
+
+
+def test_dense_engine_applies_the_same_pair_error_check():
+    """LAPACK always 'converges'; the dense engine still refuses pairs that fail the QEP."""
+    from builders import bahgat_willmert
+
+    from fkev_slepc.dense import DenseEngine
+    from fkev_slepc.operators import Model
+
+    m = Model(bahgat_willmert(elements=(2, 3, 3)))
+    q = m.qep(m.pieces(np.radians(10.0)), 500.0, "full")
+    good = DenseEngine().solve(q, 4)
+    assert good.converged and good.message == ""
+    strict = DenseEngine(max_pair_error=1e-20).solve(q, 4)  # nothing passes a zero tolerance
+    assert not strict.converged and "max_pair_error" in strict.message

@@ -124,6 +124,7 @@ class RecordingEngine(DenseEngine):
     (fault injection for the failure path) or a KeyError (a bug)."""
 
     def __init__(self, fail_kind=None, bug=False):
+        super().__init__()
         self.calls, self.fail_kind, self.bug = [], fail_kind, bug
 
     def solve(self, qep, n_modes=0, want_vectors=False, hint=None):
