@@ -22,24 +22,18 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import benchlib
+
+
+MODES, REPEATS = 4, 5
 
 
 def parse_args(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scene", default="runs/bahgat-willmert-1976.toml")
+    ap = benchlib.parser(__doc__, modes=MODES, repeats=REPEATS)
     ap.add_argument("--elements", default="1,2,3,4,5,6,8,12,16,24", help="elements per link, comma-separated")
     ap.add_argument("--angle", type=float, default=100.0, help="crank angle, deg")
     ap.add_argument("--speed", type=float, default=500.0, help="crank speed, rad/s")
-    ap.add_argument("--modes", type=int, default=4)
-    ap.add_argument("--repeats", type=int, default=5)
-    argv = list(sys.argv[1:] if argv is None else argv)
-    petsc = argv[argv.index("--") + 1 :] if "--" in argv else []
-    args = ap.parse_args(argv[: argv.index("--")] if "--" in argv else argv)
-    from fkev_slepc.petsc_init import init_petsc
-
-    init_petsc(petsc)  # before anything imports PETSc
-    return args
+    return benchlib.parse(ap, argv)[0]
 
 
 def time_points(engine, qeps, n_modes, hints) -> float:

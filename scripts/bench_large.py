@@ -28,18 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import benchlib
 
 
 def parse_args(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scene", default="runs/bahgat-willmert-1976.toml")
+    ap = benchlib.parser(__doc__, modes=6, repeats=3)
     ap.add_argument("--elements", type=int, default=5600, help="elements on every link")
     ap.add_argument("--angle", type=float, default=10.0, help="first crank angle, deg")
     ap.add_argument("--speed", type=float, default=500.0, help="crank speed, rad/s")
     ap.add_argument("--case", default="full")
-    ap.add_argument("--modes", type=int, default=6)
-    ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--compare", metavar="OPTION=v1,v2,...",
                     help="instead: the point with each value of one fkev_ option, e.g. "
                          "st_pc_factor_mat_solver_type=mumps,superlu,umfpack,klu,petsc")
@@ -47,11 +44,7 @@ def parse_args(argv=None):
                     help="instead: how far f1 moves when each entry of K changes by one unit in the last place")
     ap.add_argument("--ref-elements", type=int, default=60,
                     help="with --compare: elements per link of the reference solved by dense QZ")
-    ours, petsc = (argv or sys.argv[1:]), []
-    if "--" in ours:
-        i = ours.index("--")
-        ours, petsc = ours[:i], ours[i + 1 :]
-    return ap.parse_args(ours), petsc
+    return benchlib.parse(ap, argv)
 
 
 class Timers:
@@ -155,9 +148,6 @@ def bare_solve(mats, lam1, n_modes, package) -> tuple[float, int]:
 
 def main(argv=None) -> int:
     args, petsc = parse_args(argv)
-    from fkev_slepc.petsc_init import init_petsc
-
-    init_petsc(petsc)
     from fkev_slepc.backend import PETSc
     from fkev_slepc.eigen import SlepcEngine
     from fkev_slepc.modes import postprocess

@@ -22,25 +22,19 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import benchlib
+
+
+MODES, REPEATS = 4, 3
 
 
 def parse_args(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scene", default="runs/bahgat-willmert-1976.toml")
+    ap = benchlib.parser(__doc__, modes=MODES, repeats=REPEATS)
     ap.add_argument("--elements", default="5,50,500", help="elements per link, comma-separated")
     ap.add_argument("--angles", type=int, default=100, help="number of consecutive crank angles (1° apart)")
     ap.add_argument("--speed", type=float, default=500.0)
     ap.add_argument("--case", default="full")
-    ap.add_argument("--modes", type=int, default=4)
-    ap.add_argument("--repeats", type=int, default=3)
-    argv = list(sys.argv[1:] if argv is None else argv)
-    petsc = argv[argv.index("--") + 1 :] if "--" in argv else []
-    args = ap.parse_args(argv[: argv.index("--")] if "--" in argv else argv)
-    from fkev_slepc.petsc_init import init_petsc
-
-    init_petsc(petsc)  # before anything imports PETSc
-    return args
+    return benchlib.parse(ap, argv)[0]
 
 
 def symbolic_count() -> int:
