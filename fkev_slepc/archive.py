@@ -12,7 +12,7 @@ Life cycle of a run:
    :func:`partial_path`. Rank 0 does this alone because parallel HDF5 1.10 cannot write
    variable-length strings (the ``case`` scale, ``/mesh/link_names``); the other ranks wait
    at a barrier, so the file exists at full size before any solve.
-2. :class:`Writer` (every rank) opens it again: with the ``mpio`` driver when h5py has MPI and
+2. :class:`archive_writer.Writer` (every rank) opens it again: with the ``mpio`` driver when h5py has MPI and
    there is more than one rank (each rank writes its own points with independent hyperslab
    writes; ``flush`` and the resizing of ``/errors`` are collective), otherwise only rank 0
    opens it and the others send it their results at each sync. The results of an angle are
@@ -38,11 +38,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from .archive_writer import MESSAGE_BYTES
 from .modes import Status
 
 FORMAT, FORMAT_VERSION = "fkev-archive", 1
 STATUS_DTYPE = h5py.enum_dtype({s.name.lower(): int(s) for s in Status}, basetype="u1")
-MESSAGE_BYTES = 1024  # /errors/message: fixed-length UTF-8 (parallel HDF5 1.10 cannot write VL data)
 CONVERGED = (int(Status.OK), int(Status.UNSTABLE), int(Status.DIVERGENT))
 _STR = h5py.string_dtype("utf-8")
 _GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, case, mode)
@@ -290,156 +290,6 @@ def reopen_finished(path) -> Path:
     part = partial_path(path)
     os.replace(path, part)
     return part
-
-
-# ----------------------------------------------------------------------------------- writing
-def use_mpio(comm) -> bool:
-    """Parallel HDF5 when h5py has MPI, there is more than one rank and the environment
-    does not say ``FKEV_HDF5_MPIO=0`` (for file systems without working MPI-IO locking)."""
-    return bool(h5py.get_config().mpi and comm.size > 1 and os.environ.get("FKEV_HDF5_MPIO", "1") != "0")
-
-
-@dataclass
-class Block:
-    """Results of the points of one crank angle ``ia`` marked in ``mask`` (speed, case).
-
-    ``data`` maps dataset paths to arrays shaped (speed, case, ...) (``frequency_hz``,
-    ``eigenvalue``, ``residual``, ``max_real``, ``tracking/signature``, ``modes/shape``);
-    ``errors`` lists ((angle, speed, case), status, message) of failed/not-converged points.
-    """
-
-    ia: int
-    mask: np.ndarray
-    data: dict
-    status: np.ndarray
-    errors: list
-    node_xy: np.ndarray | None = None
-
-
-class Writer:
-    """Per-rank writer of :class:`Block` s; see the module docstring for the two modes.
-
-    :meth:`sync` is collective: all ranks call it at the same rounds (it tells them when the
-    next one is due: about every ``interval`` seconds of rank 0's work), and :meth:`close`
-    once at the end.
-    """
-
-    def __init__(self, path, comm, parallel: bool | None = None, interval: float = 2.0):
-        self.comm = comm
-        self.parallel = use_mpio(comm) if parallel is None else parallel
-        self.root = comm.rank == 0
-        self.interval = interval
-        self._clock = time.monotonic
-        self._t_sync, self._rounds = self._clock(), 0
-        self.next_gap = 1  # rounds until the next sync (the first one measures the round time)
-        if self.parallel:
-            self.f = h5py.File(path, "r+", driver="mpio", comm=comm)
-        else:
-            self.f = h5py.File(path, "r+") if self.root else None
-        self._ds = {} if self.f is None else {k: self.f[k] for k in _DATA if k in self.f}
-        self._blocks: list[Block] = []  # serial mode: not yet sent to rank 0
-        self._count = 0  # points this rank completed since the last sync
-        self._new_errors: list = []  # this rank's error rows since the last sync
-        self._done: list = []  # (ia, mask, status) to write at the next flush
-        self._errors: list = []  # every rank's error rows, appended at the next flush
-
-    def write_block(self, block: Block) -> None:
-        """Store one angle's results (their status becomes visible at the next sync)."""
-        self._count += int(block.mask.sum())
-        if not self.parallel:
-            self._blocks.append(block)
-            return
-        self._write(block)
-        self._new_errors.extend(block.errors)
-
-    def end_round(self) -> bool:
-        """Count a round; True when every rank must now call :meth:`sync`."""
-        self._rounds += 1
-        return self._rounds >= self.next_gap
-
-    def _write(self, b: Block) -> None:
-        whole = bool(b.mask.all())
-        for name, arr in b.data.items():
-            ds = self._ds.get(name)
-            if ds is None:
-                continue
-            arr = np.asarray(arr, dtype=ds.dtype)
-            if whole:  # one hyperslab for the whole angle
-                ds[b.ia] = arr
-            else:
-                for js, jc in np.argwhere(b.mask):
-                    ds[b.ia, js, jc] = arr[js, jc]
-        if b.node_xy is not None and "modes/node_xy" in self._ds:
-            self._ds["modes/node_xy"][b.ia] = b.node_xy
-        self._done.append((b.ia, b.mask, b.status))
-
-    def sync(self) -> int:
-        """Collective: send results to rank 0 (serial mode), exchange error rows, flush, and
-        agree on the next sync. Returns the number of points completed since the last sync."""
-        n = self._count
-        if not self.parallel:
-            blocks = self.comm.gather(self._blocks, root=0)
-            self._blocks = []
-            for b in (x for rank_blocks in blocks or () for x in rank_blocks):
-                self._write(b)
-                self._errors.extend(b.errors)
-        now = self._clock()
-        gap = self.next_gap
-        if self.root and self._rounds:
-            per_round = (now - self._t_sync) / self._rounds
-            gap = int(np.clip(np.ceil(self.interval / max(per_round, 1e-6)), 1, 10_000))
-        ctrl = self.comm.allgather((n, gap, self._new_errors))
-        self._count, self._new_errors, self._rounds = 0, [], 0
-        self.next_gap = ctrl[0][1]
-        for _, _, errors in ctrl:  # parallel mode: every rank now holds the same rows
-            self._errors.extend(errors)
-        self._flush()
-        self._t_sync = self._clock()
-        return int(sum(c[0] for c in ctrl))
-
-    def _flush(self) -> None:
-        """Collective: append error rows, put the data on disk, then mark the points done."""
-        f = self.f
-        if f is None:
-            return
-        if self._errors:
-            n0, k = f["errors/index"].shape[0], len(self._errors)
-            for name in ("index", "status", "message"):
-                f["errors/" + name].resize(n0 + k, axis=0)  # collective in mpio mode
-            if self.root:
-                f["errors/index"][n0:] = np.array([e[0] for e in self._errors], dtype="i4")
-                f["errors/status"][n0:] = np.array([e[1] for e in self._errors], dtype="u1")
-                f["errors/message"][n0:] = [_clip(e[2]) for e in self._errors]
-            self._errors = []
-        f.flush()  # data first ...
-        status = self._ds["status"]
-        for ia, mask, st in self._done:
-            if mask.all():
-                status[ia] = st
-            else:
-                for js, jc in np.argwhere(mask):
-                    status[ia, js, jc] = st[js, jc]
-        self._done = []
-        f.flush()  # ... then the statuses that say the points are done
-
-    def close(self) -> None:
-        """Final collective sync, then close."""
-        self.sync()
-        if self.f is not None:
-            self.f.close()
-            self.f = None
-
-
-_DATA = ("frequency_hz", "eigenvalue", "residual", "max_real", "status", "tracking/signature",
-         "modes/shape", "modes/node_xy")
-
-
-def _clip(msg: str) -> bytes:
-    """UTF-8 bytes of ``msg`` cut to MESSAGE_BYTES at a character boundary."""
-    raw = str(msg).encode("utf-8")
-    if len(raw) <= MESSAGE_BYTES:
-        return raw
-    return raw[: MESSAGE_BYTES - 3].decode("utf-8", "ignore").encode("utf-8") + b"..."
 
 
 # ------------------------------------------------------------------------------ completion

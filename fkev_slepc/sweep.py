@@ -3,7 +3,7 @@
 **Unit of work: one crank angle.** Points are numbered in C order over (angle, speed, case)
 (:meth:`archive.Grid.index`, ``np.unravel_index``), and the angles that still hold points to
 solve are dealt cyclically to the ranks (mpi4py's mandelbrot demo), one angle per rank per
-round, in equal rounds so that the collective flushes of :class:`archive.Writer` line up.
+round, in equal rounds so that the collective flushes of :class:`archive_writer.Writer` line up.
 Every angle carries the same mix of cases, so rounds cost the same on every rank although
 cases differ in cost (a cyclic split of single points would give one rank every expensive
 case). Inside an angle the operator pieces are assembled once, the ``structure`` case (which
@@ -35,7 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .archive import CONVERGED, Block, Grid, Writer, modulus
+from .archive import CONVERGED, Grid, modulus
+from .archive_writer import Block, Writer
 from .modes import CNAN, PointResult, Status, failed, postprocess
 
 log = logging.getLogger(__name__)
@@ -93,7 +94,7 @@ class Sweep:
     model : operators.Model of the scene (built with the grid's cases).
     grid : archive.Grid.
     engine : an engine (``solve(qep, n_modes, want_vectors, hint)``, ``name``).
-    writer : archive.Writer of this rank.
+    writer : archive_writer.Writer of this rank.
     opts : SweepOptions.
     lam1 : (angle, speed, case) |λ1| of the points already in the archive (NaN elsewhere).
     """

@@ -11,6 +11,7 @@ import pytest
 from mpi4py import MPI
 
 from fkev_slepc import archive as A
+from fkev_slepc import archive_writer as W
 from fkev_slepc.modes import Status
 
 GRID = A.Grid(np.array([0.0, 90.0, 180.0, 270.0, 360.0]), np.array([0.0, 500.0, 1000.0]),
@@ -44,7 +45,7 @@ def block(ia, mask=None, status=Status.OK, failed_at=()):
             "max_real": -0.01 * f[..., 0], "tracking/signature": sig,
             "modes/shape": sig + 1j}
     xy = np.full((len(MESH["node_link"]), 2), float(ia))
-    return A.Block(ia, mask, data, st, errors, xy)
+    return W.Block(ia, mask, data, st, errors, xy)
 
 
 def new_archive(tmp_path, mode_shapes=True):
@@ -56,7 +57,7 @@ def new_archive(tmp_path, mode_shapes=True):
 
 
 def write_all(part, comm=MPI.COMM_SELF):
-    w = A.Writer(part, comm, parallel=False)
+    w = W.Writer(part, comm, parallel=False)
     for ia in range(GRID.shape[0]):
         w.write_block(block(ia, failed_at=[(1, 1)] if ia == 2 else ()))
         if w.end_round():
@@ -101,7 +102,7 @@ def test_serial_writer_round_trip_and_errors(tmp_path):
 def test_status_is_written_only_at_sync(tmp_path):
     """A point counts as done once a sync has put its data and then its status on disk."""
     part = new_archive(tmp_path)
-    w = A.Writer(part, MPI.COMM_SELF, parallel=False)
+    w = W.Writer(part, MPI.COMM_SELF, parallel=False)
     w.write_block(block(0))
     with h5py.File(part, "r") as f:
         assert np.all(f["status"][0] == Status.PENDING)
@@ -115,7 +116,7 @@ def test_partial_block_writes_only_its_points(tmp_path):
     part = new_archive(tmp_path)
     mask = np.zeros(GRID.shape[1:], bool)
     mask[1, 0] = mask[2, 1] = True
-    w = A.Writer(part, MPI.COMM_SELF, parallel=False)
+    w = W.Writer(part, MPI.COMM_SELF, parallel=False)
     w.write_block(block(3, mask))
     w.close()
     f, _ = values(3)
@@ -144,7 +145,7 @@ def test_xarray_opens_with_labels(tmp_path):
 def test_finalize_keeps_newest_error_of_points_still_failed(tmp_path):
     part = new_archive(tmp_path)
     write_all(part)  # (2, 1, 1) failed
-    w = A.Writer(part, MPI.COMM_SELF, parallel=False)  # a retry: (2,1,1) now ok, (4,0,1) fails twice
+    w = W.Writer(part, MPI.COMM_SELF, parallel=False)  # a retry: (2,1,1) now ok, (4,0,1) fails twice
     mask = np.zeros(GRID.shape[1:], bool)
     mask[1, 1] = True
     w.write_block(block(2, mask))
@@ -166,7 +167,7 @@ def test_finalize_keeps_newest_error_of_points_still_failed(tmp_path):
 
 def test_read_state_and_todo(tmp_path):
     part = new_archive(tmp_path)
-    w = A.Writer(part, MPI.COMM_SELF, parallel=False)
+    w = W.Writer(part, MPI.COMM_SELF, parallel=False)
     b = block(0, failed_at=[(0, 0)])
     b.status[2, 1] = Status.NOT_CONVERGED
     b.status[1, 1] = Status.UNSTABLE
@@ -210,10 +211,10 @@ def test_finished_archive_moves_back_to_partial_for_more_points(tmp_path):
 
 def test_clip_cuts_utf8_at_a_character_boundary():
     msg = "é" * 2000
-    raw = A._clip(msg)
+    raw = W._clip(msg)
     assert len(raw) <= A.MESSAGE_BYTES and raw.endswith(b"...")
     assert raw[:-3].decode("utf-8") == "é" * ((A.MESSAGE_BYTES - 3) // 2)
-    assert A._clip("short") == b"short"
+    assert W._clip("short") == b"short"
 
 
 def test_status_counts():

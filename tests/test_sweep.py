@@ -13,6 +13,7 @@ from mpi4py import MPI
 
 from builders import bahgat_willmert
 from fkev_slepc import archive as A
+from fkev_slepc import archive_writer as W
 from fkev_slepc.cli import main
 from fkev_slepc.cli.run import Progress, default_output
 from fkev_slepc.dense import DenseEngine
@@ -147,7 +148,7 @@ def _run(tmp_path, engine, angles=(0.0, 40.0, 80.0), speeds=(0.0, 500.0, 1000.0)
     mesh = {"node_link": m.node_link, "node_s": m.node_s, "node_dofs": m.node_dofs,
             "elem_nodes": m.elem_nodes, "link_names": list(m.link_names)}
     A.create(part, grid, {"scene_toml": "x"}, mesh, model.n_free, mode_shapes, dofs)
-    w = A.Writer(part, MPI.COMM_SELF, parallel=False)
+    w = W.Writer(part, MPI.COMM_SELF, parallel=False)
     sweep = Sweep(model, grid, engine, w, SweepOptions(4, mode_shapes=mode_shapes, tracking_dofs=dofs),
                   np.full(grid.shape, np.nan))
     done = sweep.run(np.ones(grid.shape, bool), MPI.COMM_SELF)

@@ -169,7 +169,7 @@ def make_engine(method: str, n_free: int, petsc_options):
 
 # ----------------------------------------------------------------------------------- run
 def run(args) -> int:
-    from .. import archive
+    from .. import archive, archive_writer
     from ..parallel import install_abort_hook, world
 
     comm = world()
@@ -213,7 +213,7 @@ def run(args) -> int:
               file=sys.stderr, flush=True)
     progress = None if args.quiet or not rank0 else Progress(int(todo.sum()))
     opts = SweepOptions(grid.n_modes, an.imag_tol, an.stability_tol, an.mode_shapes, track_dofs)
-    writer = archive.Writer(part, comm, parallel=archive.use_mpio(comm))
+    writer = archive_writer.Writer(part, comm, parallel=archive_writer.use_mpio(comm))
     sweep = Sweep(model, grid, engine, writer, opts, state.lam1)
     sweep.run(todo, comm, progress)
     writer.close()
