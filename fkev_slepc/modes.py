@@ -126,30 +126,32 @@ def normalize_shapes(X: np.ndarray) -> np.ndarray:
 
 
 def mac(U: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """Modal assurance criterion matrix |uᴴv|² / (uᴴu · vᴴv) between columns of U and V."""
+    """Modal assurance criterion |uᴴv|² / (uᴴu · vᴴv) between the columns of U and V,
+    batched over leading axes: (..., n, a) and (..., n, b) give (..., a, b)."""
     U = np.asarray(U, dtype=complex)
     V = np.asarray(V, dtype=complex)
-    num = np.abs(U.conj().T @ V) ** 2
-    den = np.outer(np.sum(np.abs(U) ** 2, axis=0), np.sum(np.abs(V) ** 2, axis=0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(den > 0, num / den, 0.0)
+    num = np.abs(np.einsum("...ki,...kj->...ij", U.conj(), V)) ** 2
+    den = np.einsum("...ki,...ki->...i", U.conj(), U).real[..., :, None] * np.einsum(
+        "...kj,...kj->...j", V.conj(), V
+    ).real[..., None, :]
+    return np.divide(num, den, out=np.zeros_like(num), where=den > 0)
 
 
 def match_modes(prev: np.ndarray, cur: np.ndarray) -> np.ndarray:
-    """Permutation ``p`` such that ``cur[:, p[i]]`` continues ``prev[:, i]`` (greedy on MAC)."""
-    m = mac(np.nan_to_num(prev), np.nan_to_num(cur))
-    n = m.shape[0]
-    perm = -np.ones(n, dtype=int)
-    used_r, used_c = set(), set()
-    for flat in np.argsort(-m, axis=None):
-        r, c = divmod(int(flat), m.shape[1])
-        if r in used_r or c in used_c:
-            continue
-        perm[r] = c
-        used_r.add(r)
-        used_c.add(c)
-        if len(used_r) == n:
-            break
+    """Mode continuation by greedy MAC (largest first), batched over lines.
+
+    ``prev`` and ``cur`` are (n_lines, n, n_modes); returns ``perm`` (n_lines, n_modes) with
+    ``cur[l][:, perm[l, i]]`` the continuation of ``prev[l][:, i]``.
+    """
+    m = mac(prev, cur)
+    n_lines, nm = m.shape[0], m.shape[-1]
+    perm = np.zeros((n_lines, nm), dtype=int)
+    rows = np.arange(n_lines)
+    for _ in range(nm):  # n_modes rounds, each vectorised over all lines
+        r, c = np.divmod(np.argmax(m.reshape(n_lines, -1), axis=1), nm)
+        perm[rows, r] = c
+        m[rows, r, :] = -1.0
+        m[rows, :, c] = -1.0
     return perm
 
 

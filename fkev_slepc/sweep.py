@@ -37,7 +37,7 @@ import numpy as np
 
 from .archive import CONVERGED, Grid, modulus
 from .archive_writer import Block, Writer
-from .modes import CNAN, PointResult, Status, failed, postprocess
+from .modes import CNAN, PointResult, Status, failed, match_modes, postprocess
 
 log = logging.getLogger(__name__)
 TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
@@ -253,7 +253,7 @@ def track(freq: np.ndarray, status: np.ndarray, sig: np.ndarray | None, angles_d
     seen = np.zeros(n_lines, bool)
     for ia in order:
         now = ok[ia]
-        perm = np.where(seen[:, None], _greedy_mac(prev, v[ia]), np.arange(nm))
+        perm = np.where(seen[:, None], match_modes(prev, v[ia]), np.arange(nm))
         pick = perm[now]
         out[ia, now] = np.take_along_axis(f[ia, now], pick, axis=1)
         cur = np.take_along_axis(v[ia], perm[:, None, :], axis=2)
@@ -262,24 +262,6 @@ def track(freq: np.ndarray, status: np.ndarray, sig: np.ndarray | None, angles_d
         seen |= now
     if not closed:
         return tracked, 0
-    back = _greedy_mac(prev, first)
+    back = match_modes(prev, first)
     open_loops = int(np.count_nonzero(seen & np.any(back != np.arange(nm), axis=1)))
     return tracked, open_loops
-
-
-def _greedy_mac(prev: np.ndarray, cur: np.ndarray) -> np.ndarray:
-    """Per line l, ``perm[l, i]``: the column of ``cur[l]`` that continues column i of
-    ``prev[l]``; greedy on the MAC matrix (largest first), vectorised over lines."""
-    n_lines, _, nm = prev.shape
-    num = np.abs(np.einsum("lki,lkj->lij", prev.conj(), cur)) ** 2
-    den = np.einsum("lki,lki->li", prev.conj(), prev).real[:, :, None] * \
-        np.einsum("lkj,lkj->lj", cur.conj(), cur).real[:, None, :]
-    m = np.divide(num, den, out=np.zeros_like(num), where=den > 0)
-    perm = np.zeros((n_lines, nm), dtype=int)
-    rows = np.arange(n_lines)
-    for _ in range(nm):
-        r, c = np.divmod(np.argmax(m.reshape(n_lines, -1), axis=1), nm)
-        perm[rows, r] = c
-        m[rows, r, :] = -1.0
-        m[rows, :, c] = -1.0
-    return perm

@@ -10,7 +10,6 @@ options, 3 some points failed or did not converge.
 
 from __future__ import annotations
 
-import logging
 import os
 import sys
 import time
@@ -19,11 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engines import make_engine
 from ..cases import CASE_NAMES, case_name
 from ..scene import Problem, Scene, SceneError, with_elements
 from .common import add_elements_argument
 
-log = logging.getLogger(__name__)
 MAX_POINTS_PER_AXIS = 1_000_000
 
 
@@ -148,23 +147,6 @@ def default_output(scene_path) -> Path:
     """``<scene dir>/out/<scene stem>.h5``."""
     p = Path(scene_path)
     return p.parent / "out" / (p.stem + ".h5")
-
-
-def make_engine(method: str, n_free: int, petsc_options):
-    """The solver engine of this rank (``engines.make_engine``; the dense engine if that
-    module is not present in this checkout and SLEPc was not asked for explicitly)."""
-    try:
-        from ..engines import make_engine as factory
-    except ModuleNotFoundError as exc:
-        if exc.name != "fkev_slepc.engines":
-            raise
-        if method == "slepc":
-            raise SceneError("--solver", [Problem("--solver", "the SLEPc engine is not available")]) from None
-        from ..dense import DenseEngine
-
-        log.warning("fkev_slepc.engines is not available: using the dense engine")
-        return DenseEngine()
-    return factory(method, n_free, petsc_options)
 
 
 # ----------------------------------------------------------------------------------- run
