@@ -7,7 +7,7 @@ VENV=${1:-.venv}
 PY=/usr/bin/python3   # Debian's interpreter: the only one that can load Debian's petsc4py
 
 DEB_PACKAGES=(
-  python3-venv python3-pip python3-numpy python3-scipy
+  python3-venv python3-pip python3-setuptools python3-numpy python3-scipy
   python3-petsc4py python3-slepc4py petsc-dev slepc-dev
   python3-mpi4py python3-h5py-mpi openmpi-bin
   python3-matplotlib python3-xarray python3-h5netcdf python3-tqdm python3-pytest
