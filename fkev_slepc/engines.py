@@ -100,11 +100,16 @@ def frequencies(engine, qep: QEP, n_modes: int) -> np.ndarray:
     return postprocess(engine.solve(qep, n_modes), n_modes).frequency_hz
 
 
+def relative_difference(f_a: np.ndarray, f_b: np.ndarray) -> float:
+    """Largest relative difference of two frequency lists; ``inf`` when either misses a mode
+    (a mode one engine misses is a disagreement, not a detail to skip)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        diff = np.abs(np.asarray(f_a) - np.asarray(f_b)) / np.abs(np.asarray(f_b))
+    return float(np.inf) if not np.all(np.isfinite(diff)) else float(diff.max())
+
+
 def cross_check(qep: QEP, n_modes: int, petsc_options=()) -> float:
     """Largest relative difference of the ``n_modes`` lowest frequencies, SLEPc vs dense QZ.
-
-    Returns ``inf`` when either engine finds fewer than ``n_modes`` frequencies (a mode one of
-    them misses is a disagreement, not a detail to skip).
 
     Examples
     --------
@@ -119,7 +124,49 @@ def cross_check(qep: QEP, n_modes: int, petsc_options=()) -> float:
         f_slepc = frequencies(slepc, qep, n_modes)
     finally:
         slepc.close()
-    f_dense = frequencies(DenseEngine(), qep, n_modes)
-    with np.errstate(invalid="ignore"):  # NaN where a mode is missing: handled just below
-        diff = np.abs(f_slepc - f_dense) / np.abs(f_dense)
-    return float(np.inf) if not np.all(np.isfinite(diff)) else float(diff.max())
+    return relative_difference(f_slepc, frequencies(DenseEngine(), qep, n_modes))
+
+
+class CrossCheckEngine:
+    """An engine that also solves every point with the other engine (dense QZ <-> SLEPc).
+
+    The results returned (and archived) are the primary engine's; ``max_rel_diff`` is the
+    largest relative frequency difference seen so far (over points where both converged),
+    ``n_points`` how many points were compared and ``n_skipped`` how many were not (one side
+    did not converge: that point's status already says so).
+    """
+
+    def __init__(self, primary, other):
+        self.primary, self.other = primary, other
+        self.name = primary.name
+        self.max_rel_diff, self.n_points, self.n_skipped = 0.0, 0, 0
+
+    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint=None):
+        from .modes import postprocess
+
+        sol = self.primary.solve(qep, n_modes, want_vectors=want_vectors, hint=hint)
+        ref = self.other.solve(qep, n_modes, hint=hint)
+        if sol.converged and ref.converged:
+            d = relative_difference(postprocess(sol, n_modes).frequency_hz, postprocess(ref, n_modes).frequency_hz)
+            self.max_rel_diff = max(self.max_rel_diff, d)
+            self.n_points += 1
+        else:
+            self.n_skipped += 1
+        return sol
+
+    def settings(self) -> dict:
+        out = dict(self.primary.settings())
+        out["cross_check"] = {"other_engine": self.other.name, "max_rel_diff": self.max_rel_diff,
+                              "points": self.n_points, "skipped": self.n_skipped}
+        return out
+
+    def close(self) -> None:
+        self.primary.close()
+        self.other.close()
+
+
+def make_cross_check_engine(method: str, n_free: int, petsc_options=()) -> CrossCheckEngine:
+    """``make_engine(method, ...)`` paired with the other kind of engine."""
+    primary = make_engine(method, n_free, petsc_options)
+    other_method = "slepc" if primary.name == "dense" else "dense"
+    return CrossCheckEngine(primary, make_engine(other_method, n_free, petsc_options))

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines import make_engine
+from ..engines import make_cross_check_engine, make_engine
 from ..cases import CASE_NAMES, case_name
 from ..scene import Problem, Scene, SceneError, with_elements
 from .common import add_elements_argument
@@ -44,6 +44,9 @@ def add_parser(sub) -> None:
     add_elements_argument(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
     p.add_argument("--mode-shapes", action="store_true", help="also archive mode shapes (/modes)")
+    p.add_argument("--cross-check", action="store_true",
+                   help="also solve every point with the other engine (dense <-> SLEPc) and report the "
+                        "largest relative frequency difference (archived in the solver settings)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run of the same scene")
     p.add_argument("--retry-failed", action="store_true", help="with --resume: solve failed and not-converged points again")
     p.add_argument("--quiet", action="store_true", help="no progress output")
@@ -172,7 +175,8 @@ def run(args) -> int:
                         tuple(an.cases), int(an.modes))
     model = Model(scene, cases=grid.cases)
     try:
-        engine = make_engine(args.solver or scene.solver.method, model.n_free, scene.solver.petsc)
+        factory = make_cross_check_engine if args.cross_check else make_engine
+        engine = factory(args.solver or scene.solver.method, model.n_free, scene.solver.petsc)
     except SceneError as err:
         if rank0:
             print(str(err), file=sys.stderr, flush=True)
@@ -200,6 +204,16 @@ def run(args) -> int:
     sweep.run(todo, comm, progress)
     writer.close()
     settings = _settings(engine) if rank0 else None
+    if args.cross_check:
+        from mpi4py import MPI
+
+        worst = comm.allreduce(engine.max_rel_diff, op=MPI.MAX)
+        counts = comm.allreduce(np.array([engine.n_points, engine.n_skipped]), op=MPI.SUM)
+        if rank0:
+            settings["cross_check"].update(max_rel_diff=worst, points=int(counts[0]), skipped=int(counts[1]))
+            print(f"fkev run: cross-check {engine.name} vs {engine.other.name}: max relative frequency "
+                  f"difference {worst:.2e} over {counts[0]} points ({counts[1]} not compared: not converged)",
+                  file=sys.stderr, flush=True)
     engine.close()
     if progress is not None:
         progress.close()
