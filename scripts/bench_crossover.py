@@ -15,7 +15,6 @@ The crossover is the smallest model size from which SLEPc is faster at every lar
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path

@@ -20,7 +20,6 @@ shift-and-invert (same tolerance, nev, ncv and scale factor as the engine). Medi
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from collections import defaultdict

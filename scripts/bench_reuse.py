@@ -15,7 +15,6 @@ alternate within every repeat and the table gives medians over repeats of the to
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
