@@ -43,6 +43,14 @@ def _unit(angle: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
 
 
+def _solve2(c1: np.ndarray, c2: np.ndarray, det: np.ndarray, rhs: np.ndarray):
+    """Solve [c1 c2] [x; y] = rhs by Cramer's rule, vectorised over angles (NaN where det = 0)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = (rhs[:, 0] * c2[:, 1] - rhs[:, 1] * c2[:, 0]) / det
+        y = (c1[:, 0] * rhs[:, 1] - c1[:, 1] * rhs[:, 0]) / det
+    return x, y
+
+
 def solve_kinematics(mech: Mechanism, theta) -> Kinematics:
     """Positions, d/dθ and d²/dθ² of every joint and link angle at crank angles ``theta`` (rad)."""
     theta = np.atleast_1d(np.asarray(theta, dtype=float))
@@ -87,15 +95,9 @@ def solve_kinematics(mech: Mechanism, theta) -> Kinematics:
         det = c1[:, 0] * c2[:, 1] - c1[:, 1] * c2[:, 0]
         good &= np.abs(det) > 1e-12 * La * Lb  # toggle (dead-centre) positions are singular
 
-        def solve2(rhs):
-            with np.errstate(invalid="ignore", divide="ignore"):
-                x = (rhs[:, 0] * c2[:, 1] - rhs[:, 1] * c2[:, 0]) / det
-                y = (c1[:, 0] * rhs[:, 1] - c1[:, 1] * rhs[:, 0]) / det
-            return x, y
-
-        da, db = solve2(dQ - dP)
+        da, db = _solve2(c1, c2, det, dQ - dP)
         rhs2 = ddQ - ddP + La * da[:, None] ** 2 * ua - Lb * db[:, None] ** 2 * ub
-        dda, ddb = solve2(rhs2)
+        dda, ddb = _solve2(c1, c2, det, rhs2)
         pos[:, st.joint] = J
         dpos[:, st.joint] = dP + La * (da[:, None] * _perp(ua))
         ddpos[:, st.joint] = ddP + La * (dda[:, None] * _perp(ua) - da[:, None] ** 2 * ua)
