@@ -263,7 +263,7 @@ class SlepcEngine:
         EPS in μ). Returns (λ, X, ok, message) and records the details in ``self._last``.
         """
         user_nev = f"{kind}_nev" in self._user
-        for _attempt in range(_MAX_RETRIES + 1):
+        for attempt in range(_MAX_RETRIES + 1):
             if not user_nev:
                 solver.setDimensions(nev=min(nev, size), **self._dims(kind, nev, size))
             # same initial vector at every point, whatever was solved before (reproducible sweeps)
