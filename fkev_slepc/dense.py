@@ -33,7 +33,7 @@ class DenseEngine:
     def solve(self, qep: QEP, n_modes: int = 0, want_vectors: bool = False, hint=None) -> EigenSolution:
         M = qep.mass.toarray()
         K = qep.stiffness.toarray()
-        if qep.kind in (LINEAR_SYMMETRIC,) or (qep.damping is None and np.allclose(K, K.T, rtol=0, atol=0)):
+        if qep.kind == LINEAR_SYMMETRIC:  # operators.classify decides; no second symmetry test here
             mu, V = la.eigh(K, M)
             lam, X, method = _lambda_from_mu(mu), np.hstack([V, V]), "dense-eigh"
         elif qep.damping is None:

@@ -71,10 +71,6 @@ class Mechanism:
         return len(self.link_names)
 
     @property
-    def n_elem_total(self) -> int:
-        return self.elem_link.size
-
-    @property
     def link_mass(self) -> np.ndarray:
         return self.rho_a * self.length
 

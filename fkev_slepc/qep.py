@@ -39,11 +39,6 @@ class QEP:
     def n(self) -> int:
         return self.mass.shape[0]
 
-    def matrices(self) -> list[sp.csr_matrix]:
-        """[K, C, M], lowest degree first (C as explicit zeros on the shared pattern if None)."""
-        C = self.damping if self.damping is not None else self.mass * 0.0
-        return [self.stiffness, C, self.mass]
-
 
 @dataclass(frozen=True)
 class EigenSolution:

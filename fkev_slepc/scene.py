@@ -111,9 +111,6 @@ class Scene:
     source_text: str = ""  # the TOML text, verbatim (archived)
     source: str = "<scene>"  # file name, for messages
 
-    def link_index(self, name: str) -> int:
-        return [lk.name for lk in self.links].index(name)
-
 
 def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
     """Return ``scene`` with its links re-meshed (``--elements N`` or ``n1,n2,...``)."""

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..cases import case_name
 from ..scene import Problem, SceneError
+from . import EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_elements_argument, load_checked, report_scene_error
 
 
@@ -82,7 +83,7 @@ def run(args) -> int:
         print()
     else:
         _print_table(out)
-    return 0 if res.status.name in ("OK", "UNSTABLE", "DIVERGENT") else 3
+    return EXIT_OK if res.status.name in ("OK", "UNSTABLE", "DIVERGENT") else EXIT_NOT_CONVERGED
 
 
 def _f(v):
