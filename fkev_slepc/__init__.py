@@ -1,6 +1,6 @@
 """fkev_slepc: free kineto-elastovibration of flexible planar linkages.
 
-Finite-element model of linkages with elastic links (FORMULATION.md), quadratic
+Finite-element model of linkages with elastic links (docs/theory.md), quadratic
 eigenproblems solved by SLEPc (dense QZ as a cross-check), MPI sweeps, HDF5 archives.
 """
 

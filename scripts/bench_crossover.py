@@ -45,11 +45,11 @@ def time_points(engine, qeps, n_modes, hints) -> float:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    from fkev_slepc.cases import CASE_NAMES
-    from fkev_slepc.dense import DenseEngine
-    from fkev_slepc.eigen import SlepcEngine
-    from fkev_slepc.modes import postprocess
-    from fkev_slepc.operators import Model
+    from fkev_slepc.scene.cases import CASE_NAMES
+    from fkev_slepc.solve.dense import DenseEngine
+    from fkev_slepc.solve.slepc import SlepcEngine
+    from fkev_slepc.solve.modes import postprocess
+    from fkev_slepc.model.operators import Model
     from fkev_slepc.scene import load_scene, with_elements
 
     base = load_scene(args.scene)

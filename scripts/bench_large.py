@@ -72,8 +72,9 @@ class Timers:
 
 def instrument(timers: Timers) -> None:
     """Attribute the model's per-point work to categories by wrapping the functions it calls."""
-    from fkev_slepc import assembly, elements, operators
-
+    from fkev_slepc.model import assembly
+    from fkev_slepc.model import elements
+    from fkev_slepc.model import operators
     timers.wrap(operators, "solve_kinematics", "kinematics")
     timers.wrap(operators, "solve_loads", "kinematics")  # rigid-body kinetostatics
     timers.wrap(operators, "axial_polynomials", "kinematics")
@@ -96,9 +97,9 @@ def factor_time(PETSc) -> float:
 def beam_qep_petsc(n_free: int, scene, omega: float):
     """A straight clamped beam with ``n_free`` DOFs (link properties of the scene's first link,
     total length of its links) as PETSc K, C, M, and |λ₁| of the cantilever (for the scale)."""
-    from fkev_slepc import elements as el
-    from fkev_slepc.assembly import Pattern
-    from fkev_slepc.backend import PETSc
+    from fkev_slepc.model import elements as el
+    from fkev_slepc.model.assembly import Pattern
+    from fkev_slepc.solve.petsc_backend import PETSc
 
     lk = scene.links[0]
     n_el = n_free // 3
@@ -120,8 +121,8 @@ def beam_qep_petsc(n_free: int, scene, omega: float):
 
 def bare_solve(mats, lam1, n_modes, package) -> tuple[float, int]:
     """Fresh PEP (TOAR, sinvert, LU by ``package``), solve, return (seconds, converged pairs)."""
-    from fkev_slepc.backend import PETSc
-    from fkev_slepc.eigen import SLEPc
+    from fkev_slepc.solve.petsc_backend import PETSc
+    from fkev_slepc.solve.slepc import SLEPc
 
     t = time.perf_counter()
     pep = SLEPc.PEP().create(PETSc.COMM_SELF)
@@ -147,10 +148,10 @@ def bare_solve(mats, lam1, n_modes, package) -> tuple[float, int]:
 
 def main(argv=None) -> int:
     args, petsc = parse_args(argv)
-    from fkev_slepc.backend import PETSc
-    from fkev_slepc.eigen import SlepcEngine
-    from fkev_slepc.modes import postprocess
-    from fkev_slepc.operators import Model
+    from fkev_slepc.solve.petsc_backend import PETSc
+    from fkev_slepc.solve.slepc import SlepcEngine
+    from fkev_slepc.solve.modes import postprocess
+    from fkev_slepc.model.operators import Model
     from fkev_slepc.scene import load_scene, with_elements
 
     PETSc.Log.begin()
@@ -218,7 +219,7 @@ def perturbation(args, model, SlepcEngine, postprocess) -> int:
     What no solver can beat: if one rounding of K's entries moves f1 by δ, the double-precision
     model determines f1 only to about δ.
     """
-    from fkev_slepc.qep import QEP
+    from fkev_slepc.model.qep import QEP
 
     q = model.qep(model.pieces(np.radians(args.angle)), args.speed, args.case)
     rng = np.random.default_rng(1)
@@ -238,7 +239,7 @@ def perturbation(args, model, SlepcEngine, postprocess) -> int:
 def compare_table(args, model, PETSc, SlepcEngine, postprocess) -> int:
     """The same point with each value of one option (first row: the engine's defaults):
     median time, factorization time, TOAR restarts, frequencies, error vs a dense reference."""
-    from fkev_slepc.dense import DenseEngine
+    from fkev_slepc.solve.dense import DenseEngine
     from fkev_slepc.scene import with_elements
 
     name, _, values = args.compare.partition("=")

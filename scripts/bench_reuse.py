@@ -38,15 +38,15 @@ def parse_args(argv=None):
 
 def symbolic_count() -> int:
     """Symbolic LU factorizations so far (PETSc log: MUMPS/UMFPACK log MatLUFactorSym, others MatLUFactor)."""
-    from fkev_slepc.backend import PETSc
+    from fkev_slepc.solve.petsc_backend import PETSc
 
     return sum(PETSc.Log.Event(n).getPerfInfo()["count"] for n in ("MatLUFactorSym", "MatLUFactor"))
 
 
 def run(qeps, hints, n_modes, reuse: bool):
     """Solve every QEP; returns (seconds, frequencies of the last point)."""
-    from fkev_slepc.eigen import SlepcEngine
-    from fkev_slepc.modes import postprocess
+    from fkev_slepc.solve.slepc import SlepcEngine
+    from fkev_slepc.solve.modes import postprocess
 
     t = time.perf_counter()
     engine = SlepcEngine() if reuse else None
@@ -62,12 +62,12 @@ def run(qeps, hints, n_modes, reuse: bool):
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    from fkev_slepc.eigen import SlepcEngine
-    from fkev_slepc.modes import postprocess
-    from fkev_slepc.operators import Model
+    from fkev_slepc.solve.slepc import SlepcEngine
+    from fkev_slepc.solve.modes import postprocess
+    from fkev_slepc.model.operators import Model
     from fkev_slepc.scene import load_scene, with_elements
 
-    from fkev_slepc.backend import PETSc
+    from fkev_slepc.solve.petsc_backend import PETSc
 
     PETSc.Log.begin()
     base = load_scene(args.scene)

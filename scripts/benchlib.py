@@ -25,7 +25,7 @@ def parse(ap: argparse.ArgumentParser, argv=None) -> tuple[argparse.Namespace, l
     argv = list(sys.argv[1:] if argv is None else argv)
     cut = argv.index("--") if "--" in argv else len(argv)
     args, petsc = ap.parse_args(argv[:cut]), argv[cut + 1 :]
-    from fkev_slepc.petsc_init import init_petsc
+    from fkev_slepc.solve.petsc_init import init_petsc
 
     init_petsc(petsc)
     return args, petsc

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `make figures`: regenerate the committed figures (runs/figures/*.png) from archives this script
 # produces with `fkev run` on the scenes in runs/, then print the numbers of the Chapter-3
-# claims table of runs/README.md (FORMULATION.md §16, C1-C12) from the same archives.
+# claims table of runs/README.md (docs/theory.md §16, C1-C12) from the same archives.
 #
 #   usage: scripts/figures.sh [VENV] [NP]      (defaults: .venv, 1 rank; NP=2 runs under mpiexec)
 #
@@ -77,8 +77,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fkev_slepc.modes import mac
-from fkev_slepc.results import load
+from fkev_slepc.solve.modes import mac
+from fkev_slepc.archive.reader import load
 
 out = Path(sys.argv[1])
 bw, ref, spd = load(out / "bw.h5"), load(out / "bw-refined.h5"), load(out / "bw-speed.h5")

@@ -19,10 +19,10 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
-from fkev_slepc.cases import CASE_NAMES  # noqa: E402
-from fkev_slepc.dense import DenseEngine  # noqa: E402
-from fkev_slepc.modes import percent_error, postprocess  # noqa: E402
-from fkev_slepc.operators import Model  # noqa: E402
+from fkev_slepc.scene.cases import CASE_NAMES  # noqa: E402
+from fkev_slepc.solve.dense import DenseEngine  # noqa: E402
+from fkev_slepc.solve.modes import percent_error, postprocess  # noqa: E402
+from fkev_slepc.model.operators import Model  # noqa: E402
 from fkev_slepc.scene import load_scene, with_elements  # noqa: E402
 
 

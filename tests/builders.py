@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fkev_slepc.cases import CASE_NAMES
+from fkev_slepc.scene.cases import CASE_NAMES
 from fkev_slepc.scene import Analysis, Driver, Joint, Link, LinkEnd, LumpedMass, Scene
 
 STEEL = dict(youngs_modulus=2.07e11, density=7760.0, area=1.61e-4, second_moment=8.66e-9)
@@ -53,8 +53,8 @@ def rect_strip(width, thickness, E=2.07e11, rho=7760.0):
 
 
 def frequencies(model, theta_deg, omega, case, n=4, accel=None):
-    from fkev_slepc.dense import DenseEngine
-    from fkev_slepc.modes import postprocess
+    from fkev_slepc.solve.dense import DenseEngine
+    from fkev_slepc.solve.modes import postprocess
 
     q = model.qep(model.pieces(np.radians(theta_deg)), omega, case, accel)
     return postprocess(DenseEngine().solve(q, n), n)

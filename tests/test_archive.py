@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from fkev_slepc import archive as A
-from fkev_slepc import archive_writer as W
-from fkev_slepc.modes import Status
+from fkev_slepc.archive import store as A
+from fkev_slepc.archive import writer as W
+from fkev_slepc.status import Status
 
 GRID = A.Grid(np.array([0.0, 90.0, 180.0, 270.0, 360.0]), np.array([0.0, 500.0, 1000.0]),
               ("structure", "full"), 3)

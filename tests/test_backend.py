@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fkev_slepc.backend import PREFIX, OptionsManager, PatternMismatch, PETSc, PetscOperators, command_line_keys
-from fkev_slepc.qep import GYROSCOPIC, LINEAR_SYMMETRIC, QEP
+from fkev_slepc.solve.petsc_backend import PREFIX, OptionsManager, PatternMismatch, PETSc, PetscOperators, command_line_keys
+from fkev_slepc.model.qep import GYROSCOPIC, LINEAR_SYMMETRIC, QEP
 
 
 def random_qep(n=12, seed=0, damping=True) -> QEP:

@@ -12,14 +12,15 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fkev_slepc.backend import PREFIX, PETSc, PetscOperators
-from fkev_slepc.cases import CASE_NAMES
-from fkev_slepc.dense import DenseEngine
-from fkev_slepc.eigen import SLEPc, SlepcEngine
-from fkev_slepc.engines import CROSSOVER_N_FREE, cross_check, make_engine
-from fkev_slepc.modes import Status, postprocess
-from fkev_slepc.operators import Model
-from fkev_slepc.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP, pair_error
+from fkev_slepc.solve.petsc_backend import PREFIX, PETSc, PetscOperators
+from fkev_slepc.scene.cases import CASE_NAMES
+from fkev_slepc.solve.dense import DenseEngine
+from fkev_slepc.solve.slepc import SLEPc, SlepcEngine
+from fkev_slepc.solve.engines import CROSSOVER_N_FREE, cross_check, make_engine
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.status import Status
+from fkev_slepc.model.operators import Model
+from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP, pair_error
 from fkev_slepc.scene import SceneError, load_scene, with_elements
 
 ALU = dict(E=7.1e10, rho=2710.0, A=1e-4, I=1e-9, L=1.0)
@@ -380,7 +381,7 @@ def test_wrong_pairs_are_never_reported_as_converged():
             else:
                 flagged += 1
                 assert "pair error" in sol.message
-    assert flagged >= 1  # the measured failure happens here; if SLEPc fixes it, update docs_engine.md
+    assert flagged >= 1  # the measured failure happens here; if SLEPc fixes it, update docs/engine.md
 
 
 def test_real_eigenvalues_crowding_out_modes_enlarge_nev(engine):
@@ -399,8 +400,8 @@ def test_dense_engine_applies_the_same_pair_error_check():
     """LAPACK always 'converges'; the dense engine still refuses pairs that fail the QEP."""
     from builders import bahgat_willmert
 
-    from fkev_slepc.dense import DenseEngine
-    from fkev_slepc.operators import Model
+    from fkev_slepc.solve.dense import DenseEngine
+    from fkev_slepc.model.operators import Model
 
     m = Model(bahgat_willmert(elements=(2, 3, 3)))
     q = m.qep(m.pieces(np.radians(10.0)), 500.0, "full")

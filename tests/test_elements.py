@@ -1,12 +1,12 @@
-"""Element matrices and assembly against closed-form beam theory (FORMULATION.md §5, §9)."""
+"""Element matrices and assembly against closed-form beam theory (docs/theory.md §5, §9)."""
 
 import numpy as np
 import pytest
 import scipy.linalg as la
 from numpy.polynomial.legendre import leggauss
 
-from fkev_slepc import elements as el
-from fkev_slepc.assembly import Pattern
+from fkev_slepc.model import elements as el
+from fkev_slepc.model.assembly import Pattern
 
 E, RHO, A, I, L = 2.07e11, 7760.0, 1.61e-4, 8.66e-9, 0.5
 OMEGA_REF = np.sqrt(E * I / (RHO * A * L**4))  # ω = (βL)²·OMEGA_REF

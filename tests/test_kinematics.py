@@ -1,12 +1,12 @@
-"""Rigid-body kinematics and kinetostatics (FORMULATION.md §3, §7) against first principles."""
+"""Rigid-body kinematics and kinetostatics (docs/theory.md §3, §7) against first principles."""
 
 import numpy as np
 import pytest
 from builders import bahgat_willmert, six_bar, turcic_midha
 
-from fkev_slepc.kinematics import point_on_link, solve_kinematics
-from fkev_slepc.kinetostatics import solve_loads
-from fkev_slepc.mechanism import build_mechanism
+from fkev_slepc.model.kinematics import point_on_link, solve_kinematics
+from fkev_slepc.model.kinetostatics import solve_loads
+from fkev_slepc.model.mechanism import build_mechanism
 
 THETA = np.radians(np.arange(0.0, 360.0, 7.5))
 
@@ -117,7 +117,7 @@ def test_driving_power_equals_rate_of_kinetic_energy(mech):
 
 def test_axial_force_balances_at_both_ends(mech):
     """N(0) from integrating the tip load along the link equals the root pin force along the link."""
-    from fkev_slepc.kinetostatics import axial_polynomials
+    from fkev_slepc.model.kinetostatics import axial_polynomials
 
     kin = solve_kinematics(mech, THETA[:5])
     loads = solve_loads(mech, kin)

@@ -1,9 +1,11 @@
-"""Selection, classification and tracking of modes (FORMULATION.md §10.3-10.4)."""
+"""Selection, classification and tracking of modes (docs/theory.md §10.3-10.4)."""
 
 import numpy as np
 
-from fkev_slepc.modes import Status, mac, match_modes, postprocess
-from fkev_slepc.qep import EigenSolution
+from fkev_slepc.solve.modes import mac, match_modes, postprocess
+
+from fkev_slepc.status import Status
+from fkev_slepc.model.qep import EigenSolution
 
 
 def _sol(lam, converged=True):

@@ -1,16 +1,16 @@
-"""Global operators: structure of M, C, K; cases; the per-angle split (FORMULATION.md §6, §9-11)."""
+"""Global operators: structure of M, C, K; cases; the per-angle split (docs/theory.md §6, §9-11)."""
 
 import numpy as np
 import pytest
 import scipy.linalg as la
 from builders import bahgat_willmert, frequencies, turcic_midha
 
-from fkev_slepc import elements as el
-from fkev_slepc.cases import CASE_NAMES, CASES, case_name
-from fkev_slepc.kinematics import solve_kinematics
-from fkev_slepc.kinetostatics import axial_polynomials, solve_loads
-from fkev_slepc.operators import Model
-from fkev_slepc.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC
+from fkev_slepc.model import elements as el
+from fkev_slepc.scene.cases import CASE_NAMES, CASES, case_name
+from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.model.kinetostatics import axial_polynomials, solve_loads
+from fkev_slepc.model.operators import Model
+from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +87,7 @@ def test_reversing_crank_direction_keeps_frequencies(bw, case):
 
 def test_real_parts_sum_to_zero_with_coriolis_and_tangential(bw):
     """trace(M⁻¹C) = 0, so Re λ of all 2n eigenvalues sum to zero (§10.3)."""
-    from fkev_slepc.dense import DenseEngine
+    from fkev_slepc.solve.dense import DenseEngine
 
     q = bw.qep(bw.pieces(np.radians(10.0)), 1000.0, "full")
     lam = DenseEngine().solve(q).eigenvalues
@@ -103,7 +103,7 @@ def test_bahgat_willmert_fundamental_at_10_degrees():
 
 def test_turcic_midha_divergence_is_flagged_not_reported_as_frequency():
     """The light Turcic–Midha linkage buckles a link at high speed: real pairs, status DIVERGENT."""
-    from fkev_slepc.modes import Status
+    from fkev_slepc.status import Status
 
     m = Model(turcic_midha(3))
     found = False
@@ -122,7 +122,7 @@ def test_two_loop_linkage_solves_like_any_other():
     converges the fundamental."""
     from builders import six_bar
 
-    from fkev_slepc.dense import DenseEngine
+    from fkev_slepc.solve.dense import DenseEngine
 
     f = [frequencies(Model(six_bar(n)), 40.0, 400.0, "full", 3).frequency_hz for n in (2, 4, 8)]
     assert abs(f[2][0] / f[1][0] - 1) < 0.1 * abs(f[1][0] / f[0][0] - 1) + 1e-6

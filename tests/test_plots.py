@@ -2,7 +2,7 @@
 
 The archives are produced once per session by the real sweep (`fkev run`, in a subprocess,
 dense engine on small thesis models). Expected values are read straight from the HDF5 file
-with h5py, independently of :mod:`fkev_slepc.results`, and compared with what the returned
+with h5py, independently of :mod:`fkev_slepc.archive.reader`, and compared with what the returned
 ``Figure`` holds (line data, labels, units), never with pixels. A few assertions are physical
 (FORMULATION §16): the structure's frequency parameter is 1, the pseudo-normal-free fundamental
 falls while the full one rises, neglecting the tangential term is the smallest error.
@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from matplotlib.collections import PathCollection, QuadMesh
 
-from fkev_slepc import plots
-from fkev_slepc.plots_shapes import element_displacement, mode_shape
-from fkev_slepc.results import ArchiveError, load
+from fkev_slepc.plots import draw as plots
+from fkev_slepc.plots.shapes import element_displacement, mode_shape
+from fkev_slepc.archive.reader import ArchiveError, load
 
 ROOT = Path(__file__).resolve().parents[1]
 # 0, 10 (the thesis's study angle), 30, 60, ..., 330
@@ -214,7 +214,7 @@ def _hermite_mid(mesh_dofs, elem_nodes, xy, q):
 def element_rows(r, pts):
     """Rows of the drawn polyline belonging to each mesh element: links are separated by a
     NaN row, and within a link the elements follow from its root, N_SUB samples each."""
-    from fkev_slepc.plots_shapes import N_SUB
+    from fkev_slepc.plots.shapes import N_SUB
 
     n1 = r["elem_nodes"][:, 0]
     order = np.lexsort((r["node_s"][n1], r["node_link"][n1]))

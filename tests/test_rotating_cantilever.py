@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from builders import cantilever, rect_strip
 
-from fkev_slepc.dense import DenseEngine
-from fkev_slepc.modes import postprocess
-from fkev_slepc.operators import Model
+from fkev_slepc.solve.dense import DenseEngine
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.model.operators import Model
 
 FLAP = {0.0: np.array([3.5160, 22.0345, 61.6972]), 12.0: np.array([13.1702, 37.6031, 79.6145])}
 

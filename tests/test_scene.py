@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from fkev_slepc.cases import CASE_NAMES
+from fkev_slepc.scene.cases import CASE_NAMES
 from fkev_slepc.cli import main
 from fkev_slepc.scene import SceneError, load_scene, parse_scene, with_elements
 

@@ -12,14 +12,15 @@ import pytest
 from mpi4py import MPI
 
 from builders import bahgat_willmert
-from fkev_slepc import archive as A
-from fkev_slepc import archive_writer as W
+from fkev_slepc.archive import store as A
+from fkev_slepc.archive import writer as W
 from fkev_slepc.cli import main
 from fkev_slepc.cli.run import Progress, default_output
-from fkev_slepc.dense import DenseEngine
-from fkev_slepc.modes import Status, postprocess
-from fkev_slepc.operators import Model
-from fkev_slepc.sweep import Sweep, SweepOptions, assign, chain_order, track, tracking_dofs
+from fkev_slepc.solve.dense import DenseEngine
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.status import Status
+from fkev_slepc.model.operators import Model
+from fkev_slepc.sweep.runner import Sweep, SweepOptions, assign, chain_order, track, tracking_dofs
 
 SCENE_TOML = "runs/bahgat-willmert-1976.toml"
 

@@ -12,7 +12,7 @@ import argparse
 import logging
 import sys
 
-EXIT_OK, EXIT_BAD_SCENE, EXIT_NOT_CONVERGED = 0, 2, 3
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
 SUBCOMMANDS = ("run", "point", "check", "info", "plot")
 
 
@@ -74,12 +74,12 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     ours, petsc = split_petsc_options(argv)
-    from ..petsc_init import init_petsc
+    from fkev_slepc.solve.petsc_init import init_petsc
 
     init_petsc(petsc)
     args = build_parser().parse_args(ours)
     level = logging.WARNING - 10 * min(args.verbose, 2)
-    from ..parallel import configure_logging
+    from fkev_slepc.sweep.parallel import configure_logging
 
     configure_logging(level)
     return int(args.func(args) or 0)

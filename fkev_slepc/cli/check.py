@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..scene import Scene, SceneError, load_scene
+from fkev_slepc.scene import Scene, SceneError, load_scene
 
 
 def add_parser(subparsers) -> None:
@@ -27,7 +27,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check every scene in ``args.scenes``; 0 if all are valid, else 2."""
-    from . import EXIT_BAD_SCENE, EXIT_OK
+    from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
 
     status = EXIT_OK
     for path in args.scenes:
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"{path}: ok ({summary(check_scene(path))})", flush=True)
         except SceneError as err:
             print(err, file=sys.stderr, flush=True)
-            status = EXIT_BAD_SCENE
+            status = EXIT_BAD_INPUT
     return status
 
 
@@ -49,7 +49,7 @@ def check_scene(path: str | Path) -> Scene:
     """
     scene = load_scene(path)
     # Imported here: kinematics needs numpy and the mechanism, which a schema check does not.
-    from ..kinematics import assembly_problems
+    from fkev_slepc.model.kinematics import assembly_problems
 
     problems = assembly_problems(scene)
     if problems:
@@ -59,7 +59,7 @@ def check_scene(path: str | Path) -> Scene:
 
 def summary(scene: Scene) -> str:
     """One-line description: counts of links, joints, elements, free DOFs and sweep points."""
-    from ..mechanism import build_mechanism
+    from fkev_slepc.model.mechanism import build_mechanism
 
     n_free = build_mechanism(scene).n_free
     a = scene.analysis

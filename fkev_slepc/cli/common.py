@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..scene import Problem, Scene, SceneError, with_elements
+from fkev_slepc.scene import Problem, Scene, SceneError, with_elements
 
 
 def parse_elements(text: str) -> int | tuple[int, ...]:
@@ -28,8 +28,8 @@ def load_checked(path, elements=None) -> Scene:
     """Load a scene, apply ``--elements``, and check that it assembles at its crank angles.
 
     Raises SceneError listing every problem."""
-    from ..kinematics import assembly_problems
-    from ..scene import load_scene
+    from fkev_slepc.model.kinematics import assembly_problems
+    from fkev_slepc.scene import load_scene
 
     scene = load_scene(path)
     if elements is not None:

@@ -24,8 +24,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..parallel import world
-    from ..results import ArchiveError, load
+    from fkev_slepc.sweep.parallel import world
+    from fkev_slepc.archive.reader import ArchiveError, load
 
     if world().rank != 0:  # under mpiexec: one report
         return 0
@@ -61,9 +61,9 @@ def intervals(angles, mask) -> str:
 
 def report(res, n_errors: int = 5) -> list[str]:
     """The lines printed by ``fkev info``."""
-    from ..archive import status_counts
-    from ..modes import Status
-    from ..results import solver_settings
+    from fkev_slepc.archive.store import status_counts
+    from fkev_slepc.status import Status
+    from fkev_slepc.archive.reader import solver_settings
 
     at = res.attrs
     na, ns, nc = res.status.shape

@@ -1,6 +1,6 @@
 """``fkev plot ARCHIVE [ARCHIVE ...] --kind KIND [options] [-o FILE]``: figures from archives.
 
-Wiring only: load the archive(s), call :func:`fkev_slepc.plots.draw`, save. Without ``-o``
+Wiring only: load the archive(s), call :func:`fkev_slepc.plots.draw.draw`, save. Without ``-o``
 the figure goes next to the (first) archive as ``<archive stem>_<kind>.png``. A bad request
 (unknown case, angle or speed not on the grid, no mode shapes in the archive, not an
 archive) is reported in one line on stderr with exit code 2.
@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-EXIT_BAD_INPUT = 2
+from fkev_slepc.status import EXIT_BAD_INPUT
 FORMATS = (".png", ".pdf", ".svg")
 
 
@@ -78,8 +78,8 @@ def default_output(archive: Path, kind: str) -> Path:
 
 
 def run(args) -> int:
-    from ..plots import draw
-    from ..results import ArchiveError, load
+    from fkev_slepc.plots.draw import draw
+    from fkev_slepc.archive.reader import ArchiveError, load
 
     out = args.output or default_output(args.archive[0], args.kind)
     if out.suffix.lower() not in FORMATS:

@@ -7,9 +7,9 @@ import sys
 
 import numpy as np
 
-from ..cases import case_name
-from ..scene import Problem, SceneError
-from . import EXIT_NOT_CONVERGED, EXIT_OK
+from fkev_slepc.scene.cases import case_name
+from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_elements_argument, load_checked, report_scene_error
 
 
@@ -29,9 +29,9 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..engines import cross_check, make_engine
-    from ..modes import postprocess
-    from ..operators import Model
+    from fkev_slepc.solve.engines import cross_check, make_engine
+    from fkev_slepc.solve.modes import postprocess
+    from fkev_slepc.model.operators import Model
 
     try:
         scene = load_checked(args.scene, args.elements)
@@ -83,7 +83,7 @@ def run(args) -> int:
         print()
     else:
         _print_table(out)
-    return EXIT_OK if res.status.name in ("OK", "UNSTABLE", "DIVERGENT") else EXIT_NOT_CONVERGED
+    return EXIT_OK if res.status in CONVERGED else EXIT_NOT_CONVERGED
 
 
 def _f(v):

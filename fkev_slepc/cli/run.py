@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines import make_cross_check_engine, make_engine
-from ..cases import CASE_NAMES, case_name
-from ..scene import Problem, Scene, SceneError, with_elements
+from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
+from fkev_slepc.scene.cases import CASE_NAMES, case_name
+from fkev_slepc.scene import Problem, Scene, SceneError, with_elements
 from .common import add_elements_argument
 
 MAX_POINTS_PER_AXIS = 1_000_000
@@ -109,8 +109,8 @@ def _list(text: str) -> tuple[float, ...]:
 
 def prepare(args) -> Scene:
     """The scene with the command-line overrides applied and checked; SceneError otherwise."""
-    from ..kinematics import assembly_problems
-    from ..scene import load_scene
+    from fkev_slepc.model.kinematics import assembly_problems
+    from fkev_slepc.scene import load_scene
 
     scene = load_scene(args.scene)
     if args.elements is not None:
@@ -154,8 +154,9 @@ def default_output(scene_path) -> Path:
 
 # ----------------------------------------------------------------------------------- run
 def run(args) -> int:
-    from .. import archive, archive_writer
-    from ..parallel import install_abort_hook, world
+    from fkev_slepc.archive import store as archive
+    from fkev_slepc.archive import writer as archive_writer
+    from fkev_slepc.sweep.parallel import install_abort_hook, world
 
     comm = world()
     install_abort_hook()
@@ -166,8 +167,8 @@ def run(args) -> int:
         if rank0:
             print(str(err), file=sys.stderr, flush=True)
         return 2
-    from ..operators import Model
-    from ..sweep import Sweep, SweepOptions, tracking_dofs
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.sweep.runner import Sweep, SweepOptions, tracking_dofs
 
     t0 = time.monotonic()
     an = scene.analysis
@@ -224,8 +225,8 @@ def run(args) -> int:
 
 def _open_or_create(args, out, part, grid, expect, model, engine, scene, n_ranks, track_dofs):
     """Rank 0: a state and todo mask, or 'code:message' when refusing (message printed)."""
-    from .. import archive
-    from ..parallel import software_versions
+    from fkev_slepc.archive import store as archive
+    from fkev_slepc.sweep.parallel import software_versions
 
     if args.resume:
         try:
@@ -264,16 +265,16 @@ def _settings(engine) -> dict:
 
 
 def _exit_code(status) -> int:
-    from ..modes import Status
+    from fkev_slepc.status import RETRYABLE, Status
 
-    bad = np.isin(status, [int(Status.PENDING), int(Status.FAILED), int(Status.NOT_CONVERGED)])
+    bad = np.isin(status, [int(s) for s in (Status.PENDING, *RETRYABLE)])
     return 3 if bad.any() else 0
 
 
 def _finish(part, out, grid, n_ranks, t0, quiet, settings) -> int:
     """Rank 0: track modes, write the run attributes, rename; summary line; exit code."""
-    from .. import archive
-    from ..sweep import track
+    from fkev_slepc.archive import store as archive
+    from fkev_slepc.sweep.runner import track
 
     freq, status, sig = archive.read_tracking_inputs(part)
     tracked, open_loops = track(freq, status, sig, grid.angles_deg)

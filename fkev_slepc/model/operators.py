@@ -1,6 +1,6 @@
 """Operators of the instantaneous structure: per-angle pieces, combined per speed and case.
 
-At a fixed crank angle, with crank speed Ω and crank acceleration α (FORMULATION.md §6-7):
+At a fixed crank angle, with crank speed Ω and crank acceleration α (docs/theory.md §6-7):
 
     M                       (angle only)
     C = Ω · G,              G  = Σ 2φ'_j m_a                     (Coriolis)
@@ -19,14 +19,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import elements as el
-from .assembly import Pattern
-from .cases import CASE_NAMES, CASES, terms_used
-from .kinematics import solve_kinematics
-from .kinetostatics import axial_polynomials, solve_loads
-from .mechanism import build_mechanism
-from .qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
-from .scene import Scene
+from fkev_slepc.model import elements as el
+from fkev_slepc.model.assembly import Pattern
+from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
+from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.model.kinetostatics import axial_polynomials, solve_loads
+from fkev_slepc.model.mechanism import build_mechanism
+from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
+from fkev_slepc.scene import Scene
 
 
 class AssemblyError(ValueError):

@@ -1,6 +1,6 @@
 """Table 3.1 of the thesis as data: which motion-induced terms each case keeps.
 
-Cases are named by the term they drop (FORMULATION.md §11). Integers 0-5 are accepted as
+Cases are named by the term they drop (docs/theory.md §11). Integers 0-5 are accepted as
 aliases in Table 3.1's row order (not the Fortran INDEX order, which swaps 3 and 4).
 """
 

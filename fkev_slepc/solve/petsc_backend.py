@@ -16,13 +16,14 @@ Two jobs, both about *reuse across grid points*:
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Mapping
 from contextlib import contextmanager
 
 import numpy as np
 
-from .petsc_init import command_line_options, init_petsc
-from .qep import QEP
+from fkev_slepc.solve.petsc_init import command_line_options, init_petsc
+from fkev_slepc.model.qep import QEP
 
 init_petsc()  # no-op when the CLI already initialised PETSc with the command-line options
 from petsc4py import PETSc  # noqa: E402
@@ -189,3 +190,37 @@ class OptionsManager:
             if src == "command_line":
                 out[k] = opts.getString(PREFIX + k, "") or ""
         return dict(sorted(out.items()))
+
+
+class OptionsError(ValueError):
+    """The PETSc options (scene ``[solver.petsc]`` or ``-fkev_`` on the command line) are invalid."""
+
+
+# ----------------------------------------------------------------- option and error text
+def positive_option(text: str, name: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0:
+        raise OptionsError(f"{PREFIX}{name}: must be a number > 0 (got {text!r})")
+    return value
+
+
+def enum_name(enum, value) -> str:
+    names = [k for k, v in vars(enum).items() if v == value and not k.startswith("_")]
+    return names[0] if names else str(value)
+
+
+def describe_error(err: PETSc.Error) -> str:
+    """The message lines of a PETSc error (petsc4py's text is the code, a call stack, then them)."""
+    lines = [ln.removeprefix("[0] ").strip() for ln in str(err).splitlines()[1:]]
+    text = "; ".join(ln for ln in lines if ln and not re.search(r"\(\) at \S+:\d+$", ln))
+    return text or ERROR_TEXT.get(getattr(err, "ierr", None), "no message")
+
+
+ERROR_TEXT = {55: "out of memory", 56: "operation not supported", 58: "operation done in wrong order",
+               62: "invalid argument", 71: "zero pivot in LU factorization (singular matrix)",
+               72: "floating point exception", 73: "object in wrong state", 76: "error in an external library",
+               77: "inconsistent data in PETSc", 81: "zero pivot in Cholesky factorization",
+               82: "iterative method failed", 91: "solver did not converge"}  # fmt: skip

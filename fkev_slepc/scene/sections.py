@@ -1,6 +1,6 @@
 """Readers for the sections of a scene file (links, joints, driver, masses, analysis, solver).
 
-Each reader validates one section with a :class:`~fkev_slepc.scene_schema.Reader`, which
+Each reader validates one section with a :class:`~fkev_slepc.scene.schema.Reader`, which
 records problems instead of raising, and returns the section's dataclasses (``None`` for a bad
 item). Cross-references (joint ends, driver, masses) and the topology are checked here too.
 The key names carry the units; this is the only place where values are converted.
@@ -12,9 +12,9 @@ import difflib
 import math
 import re
 
-from .cases import CASE_NAMES, case_name
-from .scene import END_NAMES, Analysis, Driver, Joint, Link, LinkEnd, LumpedMass, Solver
-from .scene_schema import REQUIRED, Reader, is_number, join, show
+from fkev_slepc.scene.cases import CASE_NAMES, case_name
+from fkev_slepc.scene.model import END_NAMES, Analysis, Driver, Joint, Link, LinkEnd, LumpedMass, Solver
+from fkev_slepc.scene.schema import REQUIRED, Reader, is_number, join, show
 
 # --------------------------------------------------------------------------------------------
 # Schema: the keys of every section. Units live in the key names and are converted once, here.

@@ -35,9 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .archive import CONVERGED, Grid, modulus
-from .archive_writer import Block, Writer
-from .modes import CNAN, PointResult, Status, failed, match_modes, postprocess
+from fkev_slepc.archive.store import Grid, modulus
+from fkev_slepc.archive.writer import Block, Writer
+from fkev_slepc.solve.modes import CNAN, PointResult, failed, match_modes, postprocess
+from fkev_slepc.status import CONVERGED, RETRYABLE, Status, converged_codes
 
 log = logging.getLogger(__name__)
 TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
@@ -161,7 +162,7 @@ class Sweep:
     def _keep(self, results, index, res: PointResult) -> None:
         results[index[1:]] = res
         lam = float(modulus(res.eigenvalue[:1])[0]) if res.eigenvalue.size else np.nan
-        self.lam1[index] = lam if int(res.status) in CONVERGED else np.nan
+        self.lam1[index] = lam if res.status in CONVERGED else np.nan
 
     def _block(self, ia, todo, results, node_xy) -> Block:
         """Stack one angle's results into (speed, case, ...) arrays (NaN where not solved)."""
@@ -187,7 +188,7 @@ class Sweep:
                     data["tracking/signature"][js, jc] = r.shapes[o.tracking_dofs]
                 if o.mode_shapes:
                     data["modes/shape"][js, jc] = r.shapes
-            if r.status in (Status.FAILED, Status.NOT_CONVERGED):
+            if r.status in RETRYABLE:
                 errors.append(((ia, js, jc), int(r.status), r.message))
         return Block(ia, np.asarray(todo, bool), data, status, errors, node_xy)
 
@@ -237,7 +238,7 @@ def track(freq: np.ndarray, status: np.ndarray, sig: np.ndarray | None, angles_d
     open_loops : number of (speed, case) lines that cover a whole revolution and whose modes
         come back permuted (MAC across 360° → 0°: a veering pair exchanged identities).
     """
-    conv = np.isin(status, CONVERGED)
+    conv = np.isin(status, converged_codes())
     tracked = np.where(conv[..., None], freq, np.nan)
     if sig is None or freq.shape[0] < 2:
         return tracked, 0

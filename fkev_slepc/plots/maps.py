@@ -9,8 +9,8 @@ import numpy as np
 from matplotlib.colors import SymLogNorm
 from matplotlib.figure import Figure
 
-from .modes import Status
-from .plots_common import (
+from fkev_slepc.status import Status
+from fkev_slepc.plots.common import (
     ANGLE_LABEL,
     FREQ_LABEL,
     SPEED_LABEL,
@@ -21,7 +21,7 @@ from .plots_common import (
     pick_modes,
     set_title,
 )
-from .results import SweepResults
+from fkev_slepc.archive.reader import SweepResults
 
 MAX_DEFAULT_ORDERS = 8
 STATUS_MARKS = (  # status, marker, colour, legend text

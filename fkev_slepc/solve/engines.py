@@ -4,19 +4,19 @@ Both engines follow one protocol: ``solve(qep, n_modes, want_vectors=False, hint
 EigenSolution``, ``settings() -> dict``, ``close()``, ``name``. ``auto`` picks by model size:
 below :data:`CROSSOVER_N_FREE` free DOFs LAPACK's dense QZ (all 2n eigenvalues) costs less per
 point than a sparse factorization plus a Krylov solve; above it SLEPc wins, by a margin that
-grows like n³ (measured by ``scripts/bench_crossover.py``; numbers in docs_engine.md).
+grows like n³ (measured by ``scripts/bench_crossover.py``; numbers in docs/engine.md).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .qep import QEP
+from fkev_slepc.model.qep import QEP
 
 METHODS = ("auto", "slepc", "dense")
 
 # Measured with scripts/bench_crossover.py (Bahgat-Willmert four-bar, six cases, median of 5):
-# dense faster at 18 free DOFs, SLEPc faster from 27 on (UMFPACK; docs_engine.md, "Crossover").
+# dense faster at 18 free DOFs, SLEPc faster from 27 on (UMFPACK; docs/engine.md, "Crossover").
 CROSSOVER_N_FREE = 24
 
 
@@ -34,12 +34,12 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
     crossover : int
         Model size from which ``auto`` uses SLEPc.
     **slepc_kw
-        Passed to :class:`~fkev_slepc.eigen.SlepcEngine` (e.g. ``max_pair_error``).
+        Passed to :class:`~fkev_slepc.solve.slepc.SlepcEngine` (e.g. ``max_pair_error``).
 
     Returns
     -------
     engine
-        A :class:`~fkev_slepc.dense.DenseEngine` or :class:`~fkev_slepc.eigen.SlepcEngine`.
+        A :class:`~fkev_slepc.solve.dense.DenseEngine` or :class:`~fkev_slepc.solve.slepc.SlepcEngine`.
 
     Raises
     ------
@@ -57,11 +57,11 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
     if method not in METHODS:
         raise ValueError(f"solver method must be one of {', '.join(METHODS)} (got {method!r})")
     if method == "dense" or (method == "auto" and n_free < crossover):
-        from .dense import DenseEngine
+        from fkev_slepc.solve.dense import DenseEngine
 
         return DenseEngine(_max_pair_error(petsc_options, slepc_kw.get("max_pair_error")))
-    from .eigen import OptionsError, SlepcEngine  # imports PETSc: only now, after the CLI initialised it
-    from .scene import Problem, SceneError
+    from fkev_slepc.solve.slepc import OptionsError, SlepcEngine  # imports PETSc: only now, after the CLI initialised it
+    from fkev_slepc.scene import Problem, SceneError
 
     try:
         return SlepcEngine(petsc_options, **slepc_kw)
@@ -72,9 +72,9 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
 def _max_pair_error(petsc_options, explicit) -> float:
     """``max_pair_error`` for the dense engine, with the SLEPc engine's precedence:
     command line (-fkev_max_pair_error) > scene [solver.petsc] > code default."""
-    from .petsc_init import command_line_options
-    from .qep import MAX_PAIR_ERROR
-    from .scene import Problem, SceneError
+    from fkev_slepc.solve.petsc_init import command_line_options
+    from fkev_slepc.model.qep import MAX_PAIR_ERROR
+    from fkev_slepc.scene import Problem, SceneError
 
     value, source = (MAX_PAIR_ERROR, "default") if explicit is None else (explicit, "code")
     scene = {k.removeprefix("-").removeprefix("fkev_"): v for k, v in dict(petsc_options).items()}
@@ -95,7 +95,7 @@ def _max_pair_error(petsc_options, explicit) -> float:
 
 def frequencies(engine, qep: QEP, n_modes: int) -> np.ndarray:
     """The ``n_modes`` lowest frequencies (Hz) one engine finds (NaN where it found fewer)."""
-    from .modes import postprocess
+    from fkev_slepc.solve.modes import postprocess
 
     return postprocess(engine.solve(qep, n_modes), n_modes).frequency_hz
 
@@ -116,8 +116,8 @@ def cross_check(qep: QEP, n_modes: int, petsc_options=()) -> float:
     >>> cross_check(qep, 4)          # doctest: +SKIP
     3.1e-12
     """
-    from .dense import DenseEngine
-    from .eigen import SlepcEngine
+    from fkev_slepc.solve.dense import DenseEngine
+    from fkev_slepc.solve.slepc import SlepcEngine
 
     slepc = SlepcEngine(petsc_options)
     try:
@@ -142,7 +142,7 @@ class CrossCheckEngine:
         self.max_rel_diff, self.n_points, self.n_skipped = 0.0, 0, 0
 
     def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint=None):
-        from .modes import postprocess
+        from fkev_slepc.solve.modes import postprocess
 
         sol = self.primary.solve(qep, n_modes, want_vectors=want_vectors, hint=hint)
         ref = self.other.solve(qep, n_modes, hint=hint)

@@ -1,6 +1,6 @@
 """The HDF5 sweep archive (writer side of the archive contract; the reader is ``results.py``).
 
-Layout (see ``docs_archive.md``): the grid scales ``crank_angle_deg``, ``speed_rad_s``,
+Layout (see ``docs/archive.md``): the grid scales ``crank_angle_deg``, ``speed_rad_s``,
 ``case``, ``mode`` and every gridded dataset live in the root group, which is what xarray's
 h5netcdf engine needs to open the file as one labelled Dataset. ``/errors``, ``/mesh``,
 ``/tracking`` and the optional ``/modes`` group hold what is not on that grid.
@@ -37,12 +37,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .archive_writer import MESSAGE_BYTES
-from .modes import Status
+from fkev_slepc.archive.writer import MESSAGE_BYTES
+from fkev_slepc.status import RETRYABLE, Status, converged_codes
 
 FORMAT, FORMAT_VERSION = "fkev-archive", 1
 STATUS_DTYPE = h5py.enum_dtype({s.name.lower(): int(s) for s in Status}, basetype="u1")
-CONVERGED = (int(Status.OK), int(Status.UNSTABLE), int(Status.DIVERGENT))
 _STR = h5py.string_dtype("utf-8")
 _GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, case, mode)
     "frequency_hz": ("f8", np.nan, "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency"),
@@ -209,7 +208,7 @@ class ArchiveState:
     def todo(self, retry_failed: bool = False) -> np.ndarray:
         """Mask of the points to solve: pending ones, and with ``retry_failed`` the failed and
         not-converged ones too (e.g. again with other PETSc options)."""
-        again = [Status.PENDING] + ([Status.FAILED, Status.NOT_CONVERGED] if retry_failed else [])
+        again = [Status.PENDING] + (list(RETRYABLE) if retry_failed else [])
         return np.isin(self.status, [int(s) for s in again])
 
 
@@ -227,7 +226,7 @@ def read_state(path) -> ArchiveState:
     with h5py.File(path, "r") as f:
         status = np.asarray(f["status"][()], dtype=np.uint8)
         lam1 = modulus(f["eigenvalue"][..., 0])
-    lam1[~np.isin(status, CONVERGED)] = np.nan
+    lam1[~np.isin(status, converged_codes())] = np.nan
     return ArchiveState(status, lam1)
 
 
@@ -321,7 +320,7 @@ def _compact_errors(f) -> None:
     if index.shape[0] == 0:
         return
     status = f["status"][()]
-    bad = (int(Status.FAILED), int(Status.NOT_CONVERGED))
+    bad = tuple(int(s) for s in RETRYABLE)
     # newest row of each point: reverse, take the first occurrence
     flat = np.ravel_multi_index(index.T, status.shape)
     _, first = np.unique(flat[::-1], return_index=True)

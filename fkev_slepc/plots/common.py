@@ -2,7 +2,7 @@
 
 Option resolution turns what a user asked for (labels: degrees, rad/s, case names, 1-based
 modes) into archive indices, with the defaults of each kind, and raises
-:class:`~fkev_slepc.results.ArchiveError` with the CLI option name when a label is not there.
+:class:`~fkev_slepc.archive.reader.ArchiveError` with the CLI option name when a label is not there.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from typing import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .cases import CASE_NAMES
-from .results import ArchiveError, SweepResults, declared_elements
+from fkev_slepc.scene.cases import CASE_NAMES
+from fkev_slepc.archive.reader import ArchiveError, SweepResults, declared_elements
 
 SIMPLIFIED = ("no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal")
 PREFERRED_ANGLE_DEG = 10.0  # the thesis's detailed-study position (Figs 3.10-3.13, 3.22-3.25)

@@ -2,7 +2,7 @@
 
 Independent of crank angle and speed. Every link is a straight beam from its root to its tip,
 meshed into equal frame elements; every node has (U, V, Φ) in the global frame
-(FORMULATION.md §4). Revolute joints share the translations of the link ends they connect and
+(docs/theory.md §4). Revolute joints share the translations of the link ends they connect and
 leave their rotations independent (§9.2); ground joints fix the translations; the driven link
 is clamped at its ground pivot (§9.3). The kinematic solution order (a driver, then RRR dyads)
 is planned here once, so that any single-DOF linkage of binary links that decomposes into
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import Problem, Scene, SceneError
+from fkev_slepc.scene import Problem, Scene, SceneError
 
 
 @dataclass(frozen=True)
@@ -76,7 +76,7 @@ class Mechanism:
 
 
 def build_mechanism(scene: Scene) -> Mechanism:
-    """Mesh the links, number the DOFs and plan the kinematic solution (FORMULATION.md §4, §9).
+    """Mesh the links, number the DOFs and plan the kinematic solution (docs/theory.md §4, §9).
 
     Raises
     ------

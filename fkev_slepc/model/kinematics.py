@@ -1,4 +1,4 @@
-"""Rigid-body kinematics (FORMULATION.md §3), vectorised over crank angles.
+"""Rigid-body kinematics (docs/theory.md §3), vectorised over crank angles.
 
 Everything is returned per unit crank speed: with crank angle θ, speed Ω = θ̇ and acceleration
 α = θ̈, a link angle obeys φ̇ = φ'Ω and φ̈ = φ''Ω² + φ'α, and a point p obeys ṗ = p'Ω,
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .mechanism import Mechanism
-from .scene import Problem, Scene, SceneError
+from fkev_slepc.model.mechanism import Mechanism
+from fkev_slepc.scene import Problem, Scene, SceneError
 
 
 @dataclass(frozen=True)
@@ -131,7 +131,7 @@ def point_on_link(kin: Kinematics, mech: Mechanism, link: np.ndarray, s: np.ndar
 
 def assembly_problems(scene: Scene) -> list[Problem]:
     """One problem per requested crank angle at which the linkage cannot be assembled."""
-    from .mechanism import build_mechanism
+    from fkev_slepc.model.mechanism import build_mechanism
 
     try:
         mech = build_mechanism(scene)

@@ -1,4 +1,4 @@
-"""Rigid-body kinetostatics (FORMULATION.md §7): joint forces, driving torque, axial forces.
+"""Rigid-body kinetostatics (docs/theory.md §7): joint forces, driving torque, axial forces.
 
 The D'Alembert equations of all moving links (3 per link) are solved for the pin forces and
 the driving torque. Without gravity every load is linear in the accelerations, so each result
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kinematics import Kinematics, _unit, point_on_link
-from .mechanism import Mechanism
+from fkev_slepc.model.kinematics import Kinematics, _unit, point_on_link
+from fkev_slepc.model.mechanism import Mechanism
 
 
 @dataclass(frozen=True)
@@ -116,7 +116,7 @@ def solve_loads(mech: Mechanism, kin: Kinematics) -> Loads:
 
 def axial_polynomials(mech: Mechanism, kin: Kinematics, loads: Loads, ang: int):
     """Coefficients (c₀, c₁, c₂) of F(ξ) = c₀ + c₁ξ + c₂ξ² for every element at angle index ``ang``
-    (FORMULATION.md §5.4, §7.3), as (per-Ω² part, per-α part), each (n_el, 3)."""
+    (docs/theory.md §5.4, §7.3), as (per-Ω² part, per-α part), each (n_el, 3)."""
     lk = mech.elem_link
     rho_a, l, s0, L = mech.rho_a[lk], mech.elem_length, mech.elem_s0, mech.length[lk]
     out = []

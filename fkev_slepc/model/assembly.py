@@ -1,4 +1,4 @@
-"""Scatter element stacks into CSR matrices on one cached sparsity pattern (FORMULATION.md §9).
+"""Scatter element stacks into CSR matrices on one cached sparsity pattern (docs/theory.md §9).
 
 The pattern (the union of all element blocks, restricted to free DOFs) is built once per
 mechanism; afterwards each assembly is one ``np.bincount`` into the CSR data array, so every

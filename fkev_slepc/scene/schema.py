@@ -14,7 +14,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from .scene import Problem
+from fkev_slepc.scene.model import Problem
 
 # Marks "no default: the key is required". ``None`` as a default means "absent is fine, and a
 # value that was already reported elsewhere (e.g. a bad [link_defaults] entry) stays silent".

@@ -1,34 +1,17 @@
 """From raw eigenpairs to what users read: frequencies, stability, status; MAC tracking.
 
-FORMULATION.md §10.3-10.4: modes are the eigenvalues with Im λ > 0 sorted by Im λ;
+docs/theory.md §10.3-10.4: modes are the eigenvalues with Im λ > 0 sorted by Im λ;
 real eigenvalues are divergence and never frequencies; max Re λ is the stability indicator.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import IntEnum
 
 import numpy as np
 
-from .qep import EigenSolution
-
-
-class Status(IntEnum):
-    """Per-point outcome (archived as an HDF5 enum).
-
-    Convergence takes precedence: a point is ``not_converged`` or ``failed`` whatever its
-    eigenvalues say. A converged point is ``divergent`` if it has a real eigenvalue pair,
-    else ``unstable`` if some Re λ > 0 beyond the stability threshold, else ``ok``.
-    The stability numbers themselves (max Re λ) are archived alongside, for every point.
-    """
-
-    PENDING = 0
-    OK = 1
-    NOT_CONVERGED = 2
-    UNSTABLE = 3
-    DIVERGENT = 4
-    FAILED = 5
+from fkev_slepc.model.qep import EigenSolution
+from fkev_slepc.status import Status
 
 
 @dataclass(frozen=True)
@@ -59,7 +42,7 @@ def postprocess(
     stability_tol: float = 1e-9,
     want_shapes: bool = False,
 ) -> PointResult:
-    """Select, sort and classify the eigenpairs of one point (FORMULATION.md §10.4)."""
+    """Select, sort and classify the eigenpairs of one point (docs/theory.md §10.4)."""
     lam = np.asarray(sol.eigenvalues, dtype=complex)
     err = np.asarray(sol.errors, dtype=float)
     mag = np.abs(lam)
@@ -156,5 +139,5 @@ def match_modes(prev: np.ndarray, cur: np.ndarray) -> np.ndarray:
 
 
 def percent_error(freq_case: np.ndarray, freq_full: np.ndarray) -> np.ndarray:
-    """Signed % error of a simplified case against the full solution (FORMULATION.md §12)."""
+    """Signed % error of a simplified case against the full solution (docs/theory.md §12)."""
     return (np.asarray(freq_case) - np.asarray(freq_full)) / np.asarray(freq_full) * 100.0

@@ -1,12 +1,12 @@
 """Sweep archives as named arrays: :class:`SweepResults`, read with h5py (no matplotlib here).
 
-The reader side of the archive contract (issue 4; the writer is :mod:`fkev_slepc.archive`).
+The reader side of the archive contract (issue 4; the writer is :mod:`fkev_slepc.archive.store`).
 Gridded data live in the root group, shaped (angle, speed, case, mode) or (angle, speed, case);
 ``/mesh`` holds the node/DOF map and the optional ``/modes`` group the mode shapes with the
 undeformed node positions. Mode shapes can be large (n_free × every grid point), so they are
 read lazily, one (angle, speed, case) at a time, by :meth:`SweepResults.mode_shape`.
 
-Derived quantities follow FORMULATION.md §12:
+Derived quantities follow docs/theory.md §12:
 
 - frequency parameter ω_i(case) / ω_i(structure) at one crank angle,
 - speed parameter α = Ω / ω_1(structure) at one crank angle (ω in rad/s),
@@ -23,14 +23,14 @@ from typing import Iterable
 
 import numpy as np
 
-from .cases import case_name
-from .modes import Status, percent_error
+from fkev_slepc.scene.cases import case_name
+from fkev_slepc.solve.modes import percent_error
+from fkev_slepc.status import Status, converged_codes
 
 ARCHIVE_FORMAT = "fkev-archive"
 SUPPORTED_VERSIONS = (1,)
 # Points whose eigenvalues are trustworthy. Unstable and divergent points converged; their
 # oscillatory frequencies are real results. Pending/failed/not-converged points are masked.
-CONVERGED = (Status.OK, Status.UNSTABLE, Status.DIVERGENT)
 ORDERS = ("sorted", "tracked")
 
 
@@ -134,7 +134,7 @@ class SweepResults:
     @property
     def converged(self) -> np.ndarray:
         """(angle, speed, case) bool: the point's eigenvalues converged (ok/unstable/divergent)."""
-        return np.isin(self.status, [int(s) for s in CONVERGED])
+        return np.isin(self.status, converged_codes())
 
     def frequency(self, order: str = "sorted") -> np.ndarray:
         """Frequencies (Hz), (angle, speed, case, mode), NaN where the point did not converge.

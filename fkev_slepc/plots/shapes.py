@@ -2,7 +2,7 @@
 
 The archive holds nodal DOFs (U, V, Φ) in the global frame and the undeformed node positions.
 Between nodes the displacement is interpolated with the element's own shape functions
-(FORMULATION.md §4) in its link frame: linear for the axial displacement u, cubic Hermite
+(docs/theory.md §4) in its link frame: linear for the axial displacement u, cubic Hermite
 for the transverse displacement v (which uses the nodal rotations Φ). Drawing straight
 segments between displaced nodes would hide the bending that distinguishes the modes.
 """
@@ -14,7 +14,7 @@ from typing import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .plots_common import (
+from fkev_slepc.plots.common import (
     case_label,
     case_style,
     mode_grid,
@@ -25,7 +25,7 @@ from .plots_common import (
     scene_heading,
     speed_label,
 )
-from .results import ArchiveError, Mesh, SweepResults
+from fkev_slepc.archive.reader import ArchiveError, Mesh, SweepResults
 
 N_SUB = 17  # samples per element: enough for a smooth cubic at figure resolution
 AMPLITUDE = 0.12  # drawn peak displacement as a fraction of the linkage's extent

@@ -1,4 +1,4 @@
-"""Element matrices of the planar Euler-Bernoulli frame element (FORMULATION.md §5, §8).
+"""Element matrices of the planar Euler-Bernoulli frame element (docs/theory.md §5, §8).
 
 Pure numpy, vectorised over elements: every function takes (n_el,) arrays and returns an
 (n_el, 6, 6) stack in the local DOF order (u₁, v₁, φ₁, u₂, v₂, φ₂).

@@ -1,7 +1,7 @@
 """Dense reference solver: every eigenvalue of (λ²M + λC + K)x = 0 by LAPACK (scipy).
 
 The QEP is scaled first (λ = s·ν with s ≈ |λ₁|, then divided by s²‖M‖) and linearized in the
-reversed variable μ = 1/ν (FORMULATION.md §10.2): in SI units ‖K‖/‖M‖ ~ 1e9-1e11 and a plain
+reversed variable μ = 1/ν (docs/theory.md §10.2): in SI units ‖K‖/‖M‖ ~ 1e9-1e11 and a plain
 companion form of the unscaled problem loses digits on the lowest modes. Problems without a
 Coriolis term are solved as a generalized eigenproblem in μ = -λ² instead (symmetric-definite
 when K is symmetric), which is exact and cheaper.
@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as la
 
-from .modes import untrustworthy, worst_reported_error
-from .qep import LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
+from fkev_slepc.solve.modes import untrustworthy, worst_reported_error
+from fkev_slepc.model.qep import LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
 
 def _lambda_from_mu(mu: np.ndarray) -> np.ndarray:

@@ -1,40 +1,42 @@
 """The SLEPc engine: smallest-|λ| eigenpairs of (λ²M + λC + K)x = 0 by PEP, or by EPS in μ = -λ².
 
 One engine per rank holds one PEP and one EPS on ``PETSc.COMM_SELF`` and one set of PETSc
-matrices (:class:`~fkev_slepc.backend.PetscOperators`), all created once and reused for every
+matrices (:class:`~fkev_slepc.solve.petsc_backend.PetscOperators`), all created once and reused for every
 grid point: values are copied in place and ``setOperators`` is called again (SLEPc 3.18 keeps
 its *solved* state otherwise and returns the previous point's eigenvalues).
 
-Formulation (ARCHITECTURE.md §2.4, FORMULATION.md §10):
+Formulation (docs/theory.md §10):
 
 * ``gyroscopic`` / ``general`` QEPs: PEP (TOAR), shift-and-invert about the real target 0,
   ``TARGET_MAGNITUDE``, ``nev = 2·n_modes + 2`` (a conjugate pair per frequency, plus room for a
   real divergence pair), an even ncv, and a scalar scale factor α ≈ |λ₁| (the caller's hint,
   else a few steps of inverse iteration with the ST's own factorization of K). SLEPc's default
-  scaling returns wrong eigenvalues flagged as converged on refined models (docs_engine.md).
+  scaling returns wrong eigenvalues flagged as converged on refined models (docs/engine.md).
 * ``linear_symmetric`` / ``linear`` (no C): EPS on K x = μ M x (GHEP / GNHEP), λ = ±sqrt(-μ):
   μ = ω² > 0 gives ±iω, μ < 0 a real pair (divergence).
 
-Every pair gets :func:`~fkev_slepc.qep.pair_error` (SLEPc's ``computeError`` reports ~1e-15 for
+Every pair gets :func:`~fkev_slepc.model.qep.pair_error` (SLEPc's ``computeError`` reports ~1e-15 for
 wrong pairs on these stiff models). Every setting can be overridden under ``-fkev_``.
 """
 
 from __future__ import annotations
 
 import logging
-import re
 
 import numpy as np
 
-from .backend import PREFIX, OptionsManager, PatternMismatch, PETSc, PetscOperators
-from .modes import untrustworthy, worst_reported_error
-from .qep import GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
+from fkev_slepc.solve.petsc_backend import (
+    PREFIX, OptionsError, OptionsManager, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name,
+    positive_option,
+)
+from fkev_slepc.solve.modes import untrustworthy, worst_reported_error
+from fkev_slepc.model.qep import GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
 from slepc4py import SLEPc  # noqa: E402  (PETSc is initialised by backend)
 
 log = logging.getLogger(__name__)
 
-# Chosen by measurement (scripts/bench_large.py --lu, numbers in docs_engine.md): on refined
+# Chosen by measurement (scripts/bench_large.py --lu, numbers in docs/engine.md): on refined
 # four-bar and cantilever models UMFPACK is as accurate as MUMPS (both best of five packages)
 # and about twice as fast per point; SuperLU loses digits on higher modes, KLU on the first,
 # PETSc's own LU does not pivot. All five agree to 1e-9 on the thesis meshes.
@@ -57,10 +59,6 @@ _SEED = 0x5EED
 _MAX_RETRIES = 2  # enlarge nev when real (divergence) eigenvalues crowd out wanted modes
 
 
-class OptionsError(ValueError):
-    """The PETSc options (scene ``[solver.petsc]`` or ``-fkev_`` on the command line) are invalid."""
-
-
 class SlepcEngine:
     """SLEPc PEP/EPS engine (the engine protocol: ``solve``, ``settings``, ``close``, ``name``).
 
@@ -72,7 +70,7 @@ class SlepcEngine:
     max_pair_error : float, optional
         Code default of the option ``-fkev_max_pair_error`` (an fkev option, not PETSc's; the
         command line and the scene's ``[solver.petsc]`` override it). A solution whose reported pairs (the ``n_modes`` lowest frequencies and the real
-        eigenvalues) have a larger :func:`~fkev_slepc.qep.pair_error` is returned with
+        eigenvalues) have a larger :func:`~fkev_slepc.model.qep.pair_error` is returned with
         ``converged=False`` and a message, even when SLEPc counted it converged.
 
     Examples
@@ -90,7 +88,7 @@ class SlepcEngine:
         self._user = self._options.user_keys()
         self._sources = self._options.sources()
         self._values = self._options.effective_values()
-        self.max_pair_error = _positive(self._values["max_pair_error"], "max_pair_error")
+        self.max_pair_error = positive_option(self._values["max_pair_error"], "max_pair_error")
         self._pep = self._eps = None
         try:
             self._pep, self._eps = self._new_pep(), self._new_eps()
@@ -98,7 +96,7 @@ class SlepcEngine:
             self.close()
             chosen = ", ".join(f"{k} = {v!r}" for k, v in self._values.items() if k in self._user)
             raise OptionsError(f"PETSc/SLEPc rejected the {PREFIX} options ({chosen or 'defaults'}): "
-                               f"{_describe(err)}") from None
+                               f"{describe_error(err)}") from None
         self._ops: PetscOperators | None = None
         self._ksp: PETSc.KSP | None = None  # K's own factorization, for the scale estimate of non-TOAR types
         self._last: dict = {}
@@ -153,7 +151,7 @@ class SlepcEngine:
             else:
                 lam, X, ok, msg = self._solve_quadratic(qep, n_modes, hint)
         except PETSc.Error as err:
-            msg = f"PETSc/SLEPc error {err.ierr} at a {qep.kind} point ({_describe(err)})"
+            msg = f"PETSc/SLEPc error {err.ierr} at a {qep.kind} point ({describe_error(err)})"
             log.warning(msg)
             # The failed solver may keep a broken state (MUMPS: a PC "set up" around an invalid
             # factor; Linear: a scale factor it refuses to push again), so every later point would
@@ -189,7 +187,7 @@ class SlepcEngine:
             "pep_tol": pep.getTolerances()[0],
             "pep_max_it": pep.getTolerances()[1] if pep.getTolerances()[1] > 0 else "default (set at setUp)",
             "pep_target": float(np.real(pep.getTarget())),
-            "pep_which": _enum_name(SLEPc.PEP.Which, pep.getWhichEigenpairs()),
+            "pep_which": enum_name(SLEPc.PEP.Which, pep.getWhichEigenpairs()),
             "eps_type": eps.getType(),
             "eps_tol": eps.getTolerances()[0],
             "st_type": pep.getST().getType(),
@@ -278,7 +276,7 @@ class SlepcEngine:
             # the converged set had too few oscillating modes: grow nev in proportion
             nev = max(nev + per_mode * (n_modes - found) + per_mode, -(-nconv * (n_modes + 1) // max(found, 1)))
         ok = nconv >= wanted and reason > 0 and found >= n_modes
-        why = _enum_name(type(solver).ConvergedReason, reason)
+        why = enum_name(type(solver).ConvergedReason, reason)
         self._last = {"nev": wanted, "nconv": nconv, "reason": why, "iterations": solver.getIterationNumber(),
                       "retries": attempt}  # fmt: skip
         msg = "" if ok else f"{nconv} of {wanted} eigenvalues converged ({why}); {found} of {n_modes} frequencies found"
@@ -290,7 +288,7 @@ class SlepcEngine:
         The user's values if set; otherwise an even ncv = max(nev + 16, 2·nev). SLEPc's default
         nev + 15 is odd for our even nev, and measured on beam QEPs an odd ncv makes real
         TOAR stall for tens of restarts (a conjugate pair is split at every restart) while an
-        even one converges in 1-3 (docs_engine.md).
+        even one converges in 1-3 (docs/engine.md).
         """
         out = {k: int(float(self._values[f"{kind}_{k}"])) for k in ("ncv", "mpd") if f"{kind}_{k}" in self._user}
         if "ncv" not in out:
@@ -376,32 +374,3 @@ def _pairs(solver, ops: PetscOperators):
 def _count_oscillating(lam: np.ndarray, rtol: float = 1e-9) -> int:
     """Number of eigenvalues with Im λ > rtol·|λ| (one per frequency)."""
     return int(np.count_nonzero(lam.imag > rtol * np.abs(lam)))
-
-
-def _positive(text: str, name: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not value > 0:
-        raise OptionsError(f"{PREFIX}{name}: must be a number > 0 (got {text!r})")
-    return value
-
-
-def _enum_name(enum, value) -> str:
-    names = [k for k, v in vars(enum).items() if v == value and not k.startswith("_")]
-    return names[0] if names else str(value)
-
-
-def _describe(err: PETSc.Error) -> str:
-    """The message lines of a PETSc error (petsc4py's text is the code, a call stack, then them)."""
-    lines = [ln.removeprefix("[0] ").strip() for ln in str(err).splitlines()[1:]]
-    text = "; ".join(ln for ln in lines if ln and not re.search(r"\(\) at \S+:\d+$", ln))
-    return text or _ERROR_TEXT.get(getattr(err, "ierr", None), "no message")
-
-
-_ERROR_TEXT = {55: "out of memory", 56: "operation not supported", 58: "operation done in wrong order",
-               62: "invalid argument", 71: "zero pivot in LU factorization (singular matrix)",
-               72: "floating point exception", 73: "object in wrong state", 76: "error in an external library",
-               77: "inconsistent data in PETSc", 81: "zero pivot in Cholesky factorization",
-               82: "iterative method failed", 91: "solver did not converge"}  # fmt: skip

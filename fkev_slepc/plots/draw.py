@@ -1,7 +1,7 @@
-"""Figures drawn from :class:`~fkev_slepc.results.SweepResults` (matplotlib, no pyplot state).
+"""Figures drawn from :class:`~fkev_slepc.archive.reader.SweepResults` (matplotlib, no pyplot state).
 
 Every function returns a :class:`matplotlib.figure.Figure` and never recomputes physics: it
-draws archive arrays, or the §12 ratios :mod:`fkev_slepc.results` derives from them. Lines
+draws archive arrays, or the §12 ratios :mod:`fkev_slepc.archive.reader` derives from them. Lines
 carry labels naming the speed / case / mode they draw, so tests (and users) can read the
 plotted data back from the figure. One axes per mode; the figure title names the scene.
 
@@ -22,8 +22,8 @@ from typing import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .cases import CASE_NAMES
-from .plots_common import (
+from fkev_slepc.scene.cases import CASE_NAMES
+from fkev_slepc.plots.common import (
     FREQ_LABEL,
     SIMPLIFIED,
     angle_axis,
@@ -40,9 +40,9 @@ from .plots_common import (
     set_title,
     speed_label,
 )
-from .plots_maps import campbell, stability
-from .plots_shapes import mode_shape
-from .results import ArchiveError, SweepResults
+from fkev_slepc.plots.maps import campbell, stability
+from fkev_slepc.plots.shapes import mode_shape
+from fkev_slepc.archive.reader import ArchiveError, SweepResults
 
 KINDS = ("freq-angle", "param-speed", "error-angle", "mode-shape", "stability", "campbell")
 __all__ = ["KINDS", "draw", "freq_angle", "param_speed", "error_angle", "mode_shape", "stability",

@@ -1,0 +1,27 @@
+"""Stage 1 — scene files: TOML -> a validated, frozen :class:`Scene` in SI units.
+
+``model`` holds the dataclasses, ``schema`` the generic key/value reader, ``sections`` one reader
+per TOML section, ``reader`` the entry points, ``cases`` Table 3.1 as data. Nothing here imports
+PETSc, MPI or h5py.
+"""
+
+from fkev_slepc.scene.model import (
+    END_NAMES,
+    Analysis,
+    Driver,
+    Joint,
+    Link,
+    LinkEnd,
+    LumpedMass,
+    Problem,
+    Scene,
+    SceneError,
+    Solver,
+    with_elements,
+)
+from fkev_slepc.scene.reader import load_scene, parse_scene
+
+__all__ = [
+    "END_NAMES", "Analysis", "Driver", "Joint", "Link", "LinkEnd", "LumpedMass", "Problem", "Scene",
+    "SceneError", "Solver", "with_elements", "load_scene", "parse_scene",
+]

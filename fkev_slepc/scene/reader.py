@@ -1,0 +1,110 @@
+"""Reading a scene: TOML text -> validated :class:`~fkev_slepc.scene.model.Scene`.
+
+Every problem is collected with its dotted path and raised as one :class:`SceneError`.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from pathlib import Path
+
+from fkev_slepc.scene import sections as sec
+from fkev_slepc.scene.model import Problem, Scene, SceneError
+from fkev_slepc.scene.schema import Reader
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML scene file (format: ``runs/README.md``, "Scene file format").
+
+    Returns
+    -------
+    Scene
+        Frozen, validated, SI units; ``source_text`` holds the file verbatim.
+
+    Raises
+    ------
+    SceneError
+        Listing every problem found (unreadable file, TOML syntax, schema), each with its
+        dotted path and offending value.
+    """
+    source = str(path)
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise SceneError(source, [Problem("file", "no such file")]) from None
+    except IsADirectoryError:
+        raise SceneError(source, [Problem("file", "is a directory, not a scene file")]) from None
+    except OSError as exc:
+        raise SceneError(source, [Problem("file", f"cannot be read ({exc.strerror})")]) from None
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        problem = Problem("file", f"is not UTF-8 text (bad byte at offset {exc.start})")
+        raise SceneError(source, [problem]) from None
+    return parse_scene(text, source)
+
+
+def parse_scene(text: str, source: str = "<scene>") -> Scene:
+    """Validate the TOML ``text`` of a scene; see :func:`load_scene`.
+
+    Examples
+    --------
+    >>> try:
+    ...     parse_scene("title = 1", "x.toml")
+    ... except SceneError as err:
+    ...     print(err)
+    x.toml: 4 problems
+      title: must be a string (got 1)
+      links: missing required key (add at least one [[links]] table)
+      joints: missing required key (add at least one [[joints]] table)
+      driver: missing required key (add a [driver] table)
+    """
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(source, [_syntax_problem(exc)]) from None
+    r = Reader(sec.SECTIONS)
+    r.check_keys(doc, "", sec.TOP_KEYS)
+    title = r.string(doc, "title", "", default=Path(source).stem)
+    links, link_names = sec.read_links(r, doc)
+    n_before = len(r.problems)
+    joints, joint_names = sec.read_joints(r, doc, link_names)
+    topology_ok = len(r.problems) == n_before and None not in links and None not in joints
+    driver = sec.read_driver(r, doc, link_names, joints if topology_ok else None)
+    masses = sec.read_masses(r, doc, joints, joint_names)
+    analysis = sec.read_analysis(r, doc)
+    solver = sec.read_solver(r, doc)
+    if topology_ok and links:
+        sec.check_topology(r, links, joints)
+    if r.problems:
+        raise SceneError(source, r.problems)
+    return Scene(
+        title=title,
+        links=tuple(links),
+        joints=tuple(joints),
+        driver=driver,
+        masses=tuple(masses),
+        analysis=analysis,
+        solver=solver,
+        source_text=text,
+        source=source,
+    )
+
+
+def _syntax_problem(exc: tomllib.TOMLDecodeError) -> Problem:
+    msg = str(exc)
+    m = re.fullmatch(r"(.*) \(at line (\d+), column (\d+)\)", msg, flags=re.S)
+    if m:
+        return Problem(f"line {m[2]}, column {m[3]}", f"TOML syntax error: {m[1]}")
+    m = re.fullmatch(r"(.*) \(at end of document\)", msg, flags=re.S)
+    if m:
+        return Problem("end of file", f"TOML syntax error: {m[1]}")
+    return Problem("file", f"TOML syntax error: {msg}")
+
+
