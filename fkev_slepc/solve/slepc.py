@@ -1,9 +1,16 @@
 """The SLEPc engine: smallest-|λ| eigenpairs of (λ²M + λC + K)x = 0 by PEP, or by EPS in μ = -λ².
 
-One engine per rank holds one PEP and one EPS on ``PETSc.COMM_SELF`` and one set of PETSc
-matrices (:class:`~fkev_slepc.solve.petsc_backend.PetscOperators`), all created once and reused for every
+One engine per rank holds one solver object per problem type (PEP general / gyroscopic, EPS
+GHEP / GNHEP) on ``PETSc.COMM_SELF`` and one set of PETSc matrices
+(:class:`~fkev_slepc.solve.petsc_backend.PetscOperators`), all created once and reused for every
 grid point: values are copied in place and ``setOperators`` is called again (SLEPc 3.18 keeps
 its *solved* state otherwise and returns the previous point's eigenvalues).
+
+A solver object never changes its problem type: SLEPc 3.18 keeps the symmetric Krylov-Schur
+variant, its projected-problem type and the B-inner product chosen at the first ``setUp``, so
+an EPS that solved a GNHEP and is then told GHEP (a sweep over speeds 100, 0 of a case without
+Coriolis; or cases ``full`` and ``no_tangential`` with a crank acceleration) crashed the process
+with SIGSEGV (tests/test_stress.py).
 
 Formulation (docs/theory.md §10):
 
@@ -30,7 +37,7 @@ from fkev_slepc.solve.petsc_backend import (
     positive_option,
 )
 from fkev_slepc.solve.modes import untrustworthy, worst_reported_error
-from fkev_slepc.model.qep import GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
+from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
 from slepc4py import SLEPc  # noqa: E402  (PETSc is initialised by backend)
 
@@ -89,9 +96,10 @@ class SlepcEngine:
         self._sources = self._options.sources()
         self._values = self._options.effective_values()
         self.max_pair_error = positive_option(self._values["max_pair_error"], "max_pair_error")
-        self._pep = self._eps = None
+        self._solvers: dict = {}  # problem kind (qep.KINDS) -> its own PEP or EPS
         try:
-            self._pep, self._eps = self._new_pep(), self._new_eps()
+            # created now so that bad options are reported before the first point
+            self._solver_for(GENERAL), self._solver_for(LINEAR_SYMMETRIC)
         except PETSc.Error as err:  # e.g. a misspelt type in [solver.petsc] or on the command line
             self.close()
             chosen = ", ".join(f"{k} = {v!r}" for k, v in self._values.items() if k in self._user)
@@ -101,23 +109,30 @@ class SlepcEngine:
         self._ksp: PETSc.KSP | None = None  # K's own factorization, for the scale estimate of non-TOAR types
         self._last: dict = {}
 
-    def _new_pep(self):
-        pep = SLEPc.PEP().create(PETSc.COMM_SELF)
-        pep.setOptionsPrefix(PREFIX)
-        pep.setTarget(0.0)
-        pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
-        with self._options.inserted():  # the single setFromOptions of this object
-            pep.setFromOptions()
-        return pep
+    @property
+    def _pep(self):
+        """The general-QEP PEP (settings and options are the same for every problem type)."""
+        return self._solvers.get(GENERAL)
 
-    def _new_eps(self):
-        eps = SLEPc.EPS().create(PETSc.COMM_SELF)
-        eps.setOptionsPrefix(PREFIX)
-        eps.setTarget(0.0)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        with self._options.inserted():
-            eps.setFromOptions()
-        return eps
+    def _solver_for(self, kind: str):
+        """The PEP or EPS for problem ``kind``, created on first use with its problem type fixed."""
+        if kind not in self._solvers:
+            linear = kind in (LINEAR_SYMMETRIC, LINEAR)
+            cls = SLEPc.EPS if linear else SLEPc.PEP
+            obj = cls().create(PETSc.COMM_SELF)
+            obj.setOptionsPrefix(PREFIX)
+            obj.setTarget(0.0)
+            obj.setWhichEigenpairs(cls.Which.TARGET_MAGNITUDE)
+            with self._options.inserted():  # the single setFromOptions of this object
+                obj.setFromOptions()
+            gyro = kind == GYROSCOPIC
+            if gyro and obj.getType() == SLEPc.PEP.Type.LINEAR and not obj.getLinearExplicitMatrix():
+                gyro = False  # 3.18's Linear refuses a structured type without explicit matrices
+            types = cls.ProblemType
+            obj.setProblemType({LINEAR_SYMMETRIC: types.GHEP, LINEAR: types.GNHEP}.get(kind) if linear
+                               else (types.GYROSCOPIC if gyro else types.GENERAL))
+            self._solvers[kind] = obj
+        return self._solvers[kind]
 
     # -- the protocol ------------------------------------------------------------------------
     def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint: float | None = None) -> EigenSolution:
@@ -156,12 +171,9 @@ class SlepcEngine:
             # The failed solver may keep a broken state (MUMPS: a PC "set up" around an invalid
             # factor; Linear: a scale factor it refuses to push again), so every later point would
             # fail too (measured): replace it by a new one with the same options.
-            if linear:
-                self._eps.destroy()
-                self._eps = self._new_eps()
-            else:
-                self._pep.destroy()
-                self._pep = self._new_pep()
+            broken = self._solvers.pop(qep.kind, None)
+            if broken is not None:
+                broken.destroy()
             self._last = {"failed": msg}
             return EigenSolution(np.zeros(0, complex), np.zeros(0), None, False, self.name, msg)
         err = pair_error(qep, lam, X) if lam.size else np.zeros(0)
@@ -176,7 +188,7 @@ class SlepcEngine:
 
     def settings(self) -> dict:
         """Effective settings (archived): solver objects, options and where each came from."""
-        pep, eps = self._pep, self._eps
+        pep, eps = self._pep, self._solver_for(LINEAR_SYMMETRIC)
         pc = pep.getST().getKSP().getPC()
         out = {
             "engine": self.name,
@@ -203,10 +215,11 @@ class SlepcEngine:
 
     def close(self) -> None:
         """Destroy the PETSc/SLEPc objects (explicitly: collection order is not collective-safe)."""
-        for obj in (self._pep, self._eps, getattr(self, "_ksp", None), getattr(self, "_ops", None)):
+        for obj in (*getattr(self, "_solvers", {}).values(), getattr(self, "_ksp", None), getattr(self, "_ops", None)):
             if obj is not None:
                 obj.destroy()
-        self._pep = self._eps = self._ksp = self._ops = None
+        self._solvers = {}
+        self._ksp = self._ops = None
 
     def __enter__(self):
         return self
@@ -228,23 +241,18 @@ class SlepcEngine:
         self._ops = PetscOperators(qep)
 
     def _solve_quadratic(self, qep: QEP, n_modes: int, hint):
-        pep, ops = self._pep, self._ops
+        pep, ops = self._solver_for(qep.kind), self._ops
         # Again at every point: the values changed in place (see module docstring).
         pep.setOperators([ops.K, ops.C, ops.M])
-        gyro = qep.kind == GYROSCOPIC
-        if gyro and pep.getType() == SLEPc.PEP.Type.LINEAR and not pep.getLinearExplicitMatrix():
-            gyro = False  # 3.18's Linear refuses a structured type without explicit matrices
-        pep.setProblemType(SLEPc.PEP.ProblemType.GYROSCOPIC if gyro else SLEPc.PEP.ProblemType.GENERAL)
-        alpha, source = self._scale(hint)
+        alpha, source = self._scale(pep, hint)
         out = self._run(pep, "pep", n_modes, 2 * n_modes + 2, 2 * qep.n, 2, lambda lam, X: (lam, X))
         self._last.update(method=f"slepc-pep-{pep.getType()}", scale_alpha=alpha, scale_source=source)
         return out
 
     def _solve_linear(self, qep: QEP, n_modes: int):
-        eps, ops = self._eps, self._ops
+        eps, ops = self._solver_for(qep.kind), self._ops
         eps.setOperators(ops.K, ops.M)
         sym = qep.kind == LINEAR_SYMMETRIC
-        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP if sym else SLEPc.EPS.ProblemType.GNHEP)
 
         def to_lambda(mu, Y):  # μ = -λ²: ω² > 0 gives ±iω, μ < 0 a real pair
             root = np.sqrt(-mu.astype(complex))
@@ -295,7 +303,7 @@ class SlepcEngine:
             out["ncv"] = min(max(nev + 16, 2 * nev) + (nev % 2), size)
         return out
 
-    def _scale(self, hint):
+    def _scale(self, pep, hint):
         """Set the PEP's scalar scale factor α ≈ |λ₁|; returns (α, where it came from)."""
         if _SCALE_KEYS & self._user:
             return None, "options"
@@ -304,21 +312,21 @@ class SlepcEngine:
         if hint is not None and np.isfinite(hint) and hint > 0:
             alpha, source = hint, "hint"
         else:
-            alpha, source = self._estimate_lambda1(), "estimate"
+            alpha, source = self._estimate_lambda1(pep), "estimate"
         if alpha is None:
-            self._pep.setScale(SLEPc.PEP.Scale.SCALAR)  # SLEPc's norm-based factor, as a last resort
+            pep.setScale(SLEPc.PEP.Scale.SCALAR)  # SLEPc's norm-based factor, as a last resort
             return None, "slepc"
-        self._pep.setScale(SLEPc.PEP.Scale.SCALAR, alpha=float(alpha))
+        pep.setScale(SLEPc.PEP.Scale.SCALAR, alpha=float(alpha))
         return float(alpha), source
 
-    def _estimate_lambda1(self, its: int = 4) -> float | None:
+    def _estimate_lambda1(self, pep, its: int = 4) -> float | None:
         """|λ₁| by a few steps of inverse iteration on K⁻¹M (C ignored: an order of magnitude is enough).
 
         TOAR with shift-and-invert about 0 factorizes P(0) = K in ``setUp`` and its solve reuses
         that factorization, so the estimate costs a few triangular solves. Other types get a
         KSP of their own (3.18's Linear refuses a scale factor changed after ``setUp``).
         """
-        pep, M = self._pep, self._ops.M
+        M = self._ops.M
         st = pep.getST()
         if pep.getType() == SLEPc.PEP.Type.TOAR and st.getType() == SLEPc.ST.Type.SINVERT and pep.getTarget() == 0:
             pep.setUp()

@@ -1,0 +1,64 @@
+"""Regression tests found by the stress campaigns (scripts/stress.py, docs/numerical-stability.md).
+
+Fast representatives only: each campaign runs in full from the script.
+"""
+
+from __future__ import annotations
+
+import itertools
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from builders import turcic_midha
+from fkev_slepc.model.operators import Model
+from fkev_slepc.model.qep import KINDS
+from fkev_slepc.solve.dense import DenseEngine
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.solve.slepc import SlepcEngine
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# (case, Ω) giving each problem kind on the Turcic-Midha scene with a crank acceleration of
+# 100 rad/s² (the acceleration makes K non-symmetric at Ω = 0 in the full case).
+KIND_POINTS = {"linear_symmetric": ("structure", 0.0), "linear": ("no_coriolis", 100.0),
+               "gyroscopic": ("no_tangential", 100.0), "general": ("full", 100.0)}
+
+
+@pytest.fixture(scope="module")
+def tm_points():
+    model = Model(turcic_midha(n=3, accel=100.0, cases=("structure", "no_coriolis", "no_tangential", "full")))
+    pieces = model.pieces(0.0)
+    qeps = {kind: model.qep(pieces, w, case) for kind, (case, w) in KIND_POINTS.items()}
+    assert {q.kind for q in qeps.values()} == set(KINDS)
+    return qeps
+
+
+def _freqs(sol, n=3):
+    return postprocess(sol, n).frequency_hz
+
+
+def test_engine_survives_every_change_of_problem_kind(tm_points):
+    """One SlepcEngine solving every ordered pair of problem kinds in a row (the segfault of
+    issue 10: a GNHEP then a GHEP on the same EPS) gives what a fresh engine gives."""
+    n = 3
+    dense = {k: _freqs(DenseEngine().solve(q, n), n) for k, q in tm_points.items()}
+    for a, b in itertools.permutations(KINDS, 2):
+        with SlepcEngine() as engine:  # fresh: the first kind an object solves is what matters
+            for kind in (a, b, a):
+                sol = engine.solve(tm_points[kind], n)
+                assert sol.converged, (a, b, kind, sol.message)
+                np.testing.assert_allclose(_freqs(sol, n), dense[kind], rtol=1e-9, err_msg=f"{a}->{b}: {kind}")
+
+
+def test_cli_speeds_100_then_0_without_coriolis(tmp_path):
+    """The issue's reproducer: exit 0 and both points ok (was exit 59, SIGSEGV)."""
+    out = tmp_path / "x.h5"
+    r = subprocess.run([sys.executable, "-m", "fkev_slepc", "run", str(ROOT / "runs" / "turcic-midha-1984.toml"),
+                        "--cases", "no_coriolis", "--speeds", "100,0", "--angles", "0", "-o", str(out)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "2 points (ok 2)" in r.stdout
