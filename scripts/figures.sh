@@ -70,7 +70,7 @@ plot tm-stability-full.png "$OUT/tm-stability.h5" --kind stability --case full
 
 # --- the numbers of the claims table -------------------------------------------------------
 "$PY" - "$OUT" <<'EOF'
-"""Chapter-3 claims (FORMULATION §16) measured on the archives above. Errors are FORMULATION
+"""Chapter-3 claims (docs/theory.md §16) measured on the archives above. Errors are docs/theory.md
 §12's e = (ω_case − ω_full)/ω_full × 100 on sorted modes; α = Ω/ω₁(structure)."""
 import sys
 from pathlib import Path

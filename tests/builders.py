@@ -13,7 +13,7 @@ ALUMINIUM = dict(youngs_modulus=7.1e10, density=2710.0)
 
 def four_bar(lengths, ground, props, elements=(1, 2, 2), masses=(), speeds=(0.0,), accel=0.0,
              angles=(10.0,), cases=CASE_NAMES, modes=4, assembly="left") -> Scene:
-    """Crank-rocker: O1=(0,0), O2=(ground,0); links crank, coupler, follower (FORMULATION §2)."""
+    """Crank-rocker: O1=(0,0), O2=(ground,0); links crank, coupler, follower (docs/theory.md §2)."""
     names = ("crank", "coupler", "follower")
     props = props if isinstance(props, (list, tuple)) else (props,) * 3
     links = tuple(Link(n, L, elements=e, **p) for n, L, e, p in zip(names, lengths, elements, props))

@@ -2,7 +2,7 @@
 
 Beam QEPs are built here with a few lines of numpy (independent of the model code): a planar
 Euler-Bernoulli frame, clamped at x = 0, in a frame rotating at Ω about the clamp, so that
-C = 2Ω G (G the skew "secondary mass", FORMULATION §5.2) and K = K_s - Ω² M + Ω̇ G.
+C = 2Ω G (G the skew "secondary mass", docs/theory.md §5.2) and K = K_s - Ω² M + Ω̇ G.
 The thesis scenes then give the acceptance checks of issue 3.
 """
 

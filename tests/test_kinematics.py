@@ -40,7 +40,7 @@ def test_loop_closure(mech):
 
 
 def test_thesis_assembly_branch():
-    """B lies to the left of the ray A->O2 (FORMULATION §3, RBK: γ ≥ 0): above ground at θ = 0."""
+    """B lies to the left of the ray A->O2 (docs/theory.md §3, RBK: γ ≥ 0): above ground at θ = 0."""
     mech = build_mechanism(bahgat_willmert())
     kin = solve_kinematics(mech, [0.0])
     assert kin.pos[0, 2, 1] > 0

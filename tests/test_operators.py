@@ -95,7 +95,7 @@ def test_real_parts_sum_to_zero_with_coriolis_and_tangential(bw):
 
 
 def test_bahgat_willmert_fundamental_at_10_degrees():
-    """FORMULATION §12: ω₁⁰ = 1778.5 rad/s (283.05 Hz) at θ = 10°, so α = Ω/ω₁⁰ = 0.562 at 1000 rad/s."""
+    """docs/theory.md §12: ω₁⁰ = 1778.5 rad/s (283.05 Hz) at θ = 10°, so α = Ω/ω₁⁰ = 0.562 at 1000 rad/s."""
     r = frequencies(Model(bahgat_willmert()), 10.0, 0.0, "structure", 4)
     assert abs(2 * np.pi * r.frequency_hz[0] - 1778.5) < 0.1
     assert round(1000.0 / (2 * np.pi * r.frequency_hz[0]), 3) == 0.562

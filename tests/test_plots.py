@@ -4,7 +4,7 @@ The archives are produced once per session by the real sweep (`fkev run`, in a s
 dense engine on small thesis models). Expected values are read straight from the HDF5 file
 with h5py, independently of :mod:`fkev_slepc.archive.reader`, and compared with what the returned
 ``Figure`` holds (line data, labels, units), never with pixels. A few assertions are physical
-(FORMULATION §16): the structure's frequency parameter is 1, the pseudo-normal-free fundamental
+(docs/theory.md §16): the structure's frequency parameter is 1, the pseudo-normal-free fundamental
 falls while the full one rises, neglecting the tangential term is the smallest error.
 """
 
@@ -198,7 +198,7 @@ def test_error_angle_is_percent_error_vs_full(archives):
 
 
 def _hermite_mid(mesh_dofs, elem_nodes, xy, q):
-    """Displacement at the middle of each element, written out from FORMULATION §4 at ξ = 1/2:
+    """Displacement at the middle of each element, written out from docs/theory.md §4 at ξ = 1/2:
     u = (u1+u2)/2, v = (v1+v2)/2 + l(φ1−φ2)/8, in the element frame."""
     vals = np.append(q, 0.0)[mesh_dofs]
     n1, n2 = elem_nodes.T

@@ -139,7 +139,7 @@ class SweepResults:
     def frequency(self, order: str = "sorted") -> np.ndarray:
         """Frequencies (Hz), (angle, speed, case, mode), NaN where the point did not converge.
 
-        ``order="sorted"``: the i-th lowest at each point (FORMULATION §10.4);
+        ``order="sorted"``: the i-th lowest at each point (docs/theory.md §10.4);
         ``"tracked"``: modes followed along crank angle by eigenvector correlation.
         """
         if order not in ORDERS:
@@ -158,17 +158,17 @@ class SweepResults:
         return out
 
     def frequency_parameter(self, order: str = "sorted") -> np.ndarray:
-        """ω_i(case) / ω_i(structure), (angle, speed, case, mode) (FORMULATION §12)."""
+        """ω_i(case) / ω_i(structure), (angle, speed, case, mode) (docs/theory.md §12)."""
         return self.frequency(order) / self.structure_frequency(order)[:, None, None, :]
 
     def speed_parameter(self) -> np.ndarray:
         """α = Ω / ω_1(structure), (angle, speed), with ω_1 the lowest structure frequency in
-        rad/s at that crank angle (FORMULATION §12)."""
+        rad/s at that crank angle (docs/theory.md §12)."""
         w1 = 2.0 * np.pi * self.structure_frequency("sorted")[:, 0]
         return self.speed_rad_s[None, :] / w1[:, None]
 
     def percent_error(self, case: str | int, order: str = "sorted") -> np.ndarray:
-        """Signed % error of ``case`` against ``full``, (angle, speed, mode) (FORMULATION §12)."""
+        """Signed % error of ``case`` against ``full``, (angle, speed, mode) (docs/theory.md §12)."""
         f = self.frequency(order)
         return percent_error(f[:, :, self.case_index(case), :], f[:, :, self.case_index("full"), :])
 

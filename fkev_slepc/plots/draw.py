@@ -106,7 +106,7 @@ def param_speed(
     order: str = "sorted",
 ) -> Figure:
     """Frequency parameter ω_i(case)/ω_i(structure) vs speed parameter α = Ω/ω_1(structure)
-    at one crank angle, one curve per case (Figs 3.10-3.13; FORMULATION §12).
+    at one crank angle, one curve per case (Figs 3.10-3.13; docs/theory.md §12).
 
     Needs case ``structure`` in the archive and, to be useful, many speeds. Defaults: θ = 10°
     if on the grid (else the first angle), every case, every mode, sorted modes.
@@ -143,7 +143,7 @@ def error_angle(
     order: str = "sorted",
 ) -> Figure:
     """Signed % error (ω_i(case) − ω_i(full))/ω_i(full) × 100 of the simplified cases over the
-    crank cycle at one speed, one axes per mode (Figs 3.14-3.21; FORMULATION §12).
+    crank cycle at one speed, one axes per mode (Figs 3.14-3.21; docs/theory.md §12).
 
     Defaults: the highest speed, cases ``no_coriolis`` … ``no_pseudo_normal``, every mode.
     """

@@ -51,7 +51,7 @@ def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.
     ln = np.linalg.norm(d, axis=1)
     e = d / ln[:, None]
     en = np.stack([-e[:, 1], e[:, 0]], axis=1)
-    # q_local = T q_global (FORMULATION §8): translations rotated into the link frame, Φ unchanged
+    # q_local = T q_global (docs/theory.md §8): translations rotated into the link frame, Φ unchanged
     u1, u2 = np.sum(vals[n1, :2] * e, 1), np.sum(vals[n2, :2] * e, 1)
     v1, v2 = np.sum(vals[n1, :2] * en, 1), np.sum(vals[n2, :2] * en, 1)
     p1, p2 = vals[n1, 2], vals[n2, 2]
