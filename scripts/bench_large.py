@@ -192,7 +192,7 @@ def main(argv=None) -> int:
         row.update({"factorization": fac, "eigen-solve": (t2 - t1) - fac, "  SLEPc setup+solve": slepc,
                     "  engine rest": (t2 - t1) - fac - slepc, "point": t2 - t0})
         rows.append(row)
-        print(f"  point {r} (θ = {args.angle + r:g}°): {t2 - t0:.2f} s, status {res.status.name.lower()}, "
+        print(f"  point {r} (θ = {args.angle + r:g}°): {t2 - t0:.2f} s, status {res.status.value}, "
               f"f1 = {res.frequency_hz[0]:.4f} Hz, max pair error {np.nanmax(res.residual):.1e}"
               f"{'; ' + res.message if res.message else ''}", flush=True)
     for m in mats:
@@ -264,7 +264,7 @@ def compare_table(args, model, PETSc, SlepcEngine, postprocess) -> int:
         res = postprocess(sol, args.modes)
         err = abs(res.frequency_hz[0] / ref[0] - 1)
         label = "(default)" if value is None else value
-        print(f"{label:<12} {np.median(times):9.3f} {np.median(facs):10.3f} {its:>4}  {res.status.name.lower():<14}"
+        print(f"{label:<12} {np.median(times):9.3f} {np.median(facs):10.3f} {its:>4}  {res.status.value:<14}"
               f"{res.frequency_hz[0]:11.6f} {res.frequency_hz[-1]:13.6f}  {err:10.1e}  {np.nanmax(res.residual):.1e}"
               f"{'' if sol.converged else '  ' + sol.message[:50]}", flush=True)
     return 0

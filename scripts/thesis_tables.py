@@ -70,7 +70,7 @@ def bahgat_willmert() -> None:
             e = percent_error(r.frequency_hz, res["full"].frequency_hz)
             es = ["" if c in ("structure", "full") else f"{v:+.2f}" for v in e]
             print(f"| {omega:g} | {c} | " + " | ".join(f"{v:.2f}" for v in r.frequency_hz)
-                  + " | " + " | ".join(es) + f" | {r.max_real:.3g} | {r.status.name.lower()} |")
+                  + " | " + " | ".join(es) + f" | {r.max_real:.3g} | {r.status.value} |")
     print(f"\nω₁⁰ = {w10:.1f} rad/s, so α = Ω/ω₁⁰ = {1000 / w10:.3f} at 1000 rad/s and {500 / w10:.3f} at 500 rad/s.")
     r1 = postprocess(DenseEngine().solve(model.qep(p, 1000.0, "full"), 4), 4).frequency_hz[0]
     r4 = postprocess(DenseEngine().solve(model.qep(p, 1000.0, "no_normal"), 4), 4).frequency_hz[0]

@@ -35,11 +35,11 @@ def block(ia, mask=None, status=Status.OK, failed_at=()):
     f, lam = values(ia)
     ns, nc = GRID.shape[1:]
     mask = np.ones((ns, nc), bool) if mask is None else mask
-    st = np.full((ns, nc), int(status), np.uint8)
+    st = np.full((ns, nc), Status(status).code, np.uint8)
     errors = []
     for js, jc in failed_at:
-        st[js, jc] = int(Status.FAILED)
-        errors.append(((ia, js, jc), int(Status.FAILED), f"LinAlgError: point {ia},{js},{jc} ∞"))
+        st[js, jc] = Status.FAILED.code
+        errors.append(((ia, js, jc), Status.FAILED.code, f"LinAlgError: point {ia},{js},{jc} ∞"))
     sig = np.broadcast_to(np.eye(N_FREE, GRID.n_modes), (ns, nc, N_FREE, GRID.n_modes)) * (1 + ia)
     data = {"frequency_hz": f, "eigenvalue": lam, "residual": np.full(f.shape, 1e-15),
             "max_real": -0.01 * f[..., 0], "tracking/signature": sig,
@@ -72,7 +72,7 @@ def test_partial_name_and_fresh_archive_is_pending_nan(tmp_path):
         assert f["status"].shape == GRID.shape and np.all(f["status"][()] == 0)
         assert np.all(np.isnan(f["frequency_hz"][()])) and f["frequency_hz"].shape == GRID.shape + (3,)
         assert np.all(np.isnan(f["eigenvalue"][()].real))
-        assert h5py.check_enum_dtype(f["status"].dtype) == {s.name.lower(): int(s) for s in Status}
+        assert h5py.check_enum_dtype(f["status"].dtype) == {s.value: s.code for s in Status}
         assert f.attrs["format"] == "fkev-archive" and f.attrs["format_version"] == 1
         assert f.attrs["complete"] == 0
         for name in ("frequency_hz", "tracked_frequency_hz", "eigenvalue", "residual", "status", "max_real"):
@@ -94,7 +94,7 @@ def test_serial_writer_round_trip_and_errors(tmp_path):
             assert np.array_equal(f["eigenvalue"][ia], lam)
             assert np.array_equal(f["modes/node_xy"][ia], np.full((4, 2), float(ia)))
         st = f["status"][()]
-        assert st[2, 1, 1] == Status.FAILED and np.count_nonzero(st == Status.OK) == GRID.n_points - 1
+        assert st[2, 1, 1] == Status.FAILED.code and np.count_nonzero(st == Status.OK.code) == GRID.n_points - 1
         assert f["errors/index"][()].tolist() == [[2, 1, 1]]
         assert f["errors/message"][0].decode() == "LinAlgError: point 2,1,1 ∞"
 
@@ -105,10 +105,10 @@ def test_status_is_written_only_at_sync(tmp_path):
     w = W.Writer(part, MPI.COMM_SELF, parallel=False)
     w.write_block(block(0))
     with h5py.File(part, "r") as f:
-        assert np.all(f["status"][0] == Status.PENDING)
+        assert np.all(f["status"][0] == Status.PENDING.code)
     assert w.sync() == 6
     with h5py.File(part, "r") as f:
-        assert np.all(f["status"][0] == Status.OK) and np.all(f["status"][1:] == Status.PENDING)
+        assert np.all(f["status"][0] == Status.OK.code) and np.all(f["status"][1:] == Status.PENDING.code)
     w.close()
 
 
@@ -121,7 +121,7 @@ def test_partial_block_writes_only_its_points(tmp_path):
     w.close()
     f, _ = values(3)
     with h5py.File(part, "r") as h:
-        assert np.array_equal(np.argwhere(h["status"][3] == Status.OK), [[1, 0], [2, 1]])
+        assert np.array_equal(np.argwhere(h["status"][3] == Status.OK.code), [[1, 0], [2, 1]])
         got = h["frequency_hz"][3]
         assert np.array_equal(got[mask], f[mask]) and np.all(np.isnan(got[~mask]))
 
@@ -154,7 +154,7 @@ def test_finalize_keeps_newest_error_of_points_still_failed(tmp_path):
     w.write_block(block(4, mask2, failed_at=[(0, 1)]))
     w.sync()
     b = block(4, mask2, failed_at=[(0, 1)])
-    b.errors[0] = ((4, 0, 1), int(Status.FAILED), "second try")
+    b.errors[0] = ((4, 0, 1), Status.FAILED.code, "second try")
     w.write_block(b)
     w.close()
     out = A.finalize(part, tmp_path / "a.h5", None, {}, add_wall_time=2.5)
@@ -169,8 +169,8 @@ def test_read_state_and_todo(tmp_path):
     part = new_archive(tmp_path)
     w = W.Writer(part, MPI.COMM_SELF, parallel=False)
     b = block(0, failed_at=[(0, 0)])
-    b.status[2, 1] = Status.NOT_CONVERGED
-    b.status[1, 1] = Status.UNSTABLE
+    b.status[2, 1] = Status.NOT_CONVERGED.code
+    b.status[1, 1] = Status.UNSTABLE.code
     w.write_block(b)
     w.close()
     state = A.read_state(part)

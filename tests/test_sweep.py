@@ -84,7 +84,7 @@ def _crossing(n=13):
 
 def test_track_follows_shapes_through_a_crossing():
     t, fa, fb, freq, sig = _crossing()
-    st = np.full((len(t), 1, 1), int(Status.OK), np.uint8)
+    st = np.full((len(t), 1, 1), Status.OK.code, np.uint8)
     tracked, open_loops = track(freq, st, sig, np.linspace(0, 120, len(t)))
     assert np.allclose(tracked[:, 0, 0, 0], fa) and np.allclose(tracked[:, 0, 0, 1], fb)
     assert not np.allclose(freq[:, 0, 0, 0], fa)  # the sorted order does switch
@@ -93,8 +93,8 @@ def test_track_follows_shapes_through_a_crossing():
 
 def test_track_skips_unconverged_points_and_copies_without_vectors():
     t, fa, fb, freq, sig = _crossing()
-    st = np.full((len(t), 1, 1), int(Status.OK), np.uint8)
-    st[6] = Status.FAILED
+    st = np.full((len(t), 1, 1), Status.OK.code, np.uint8)
+    st[6] = Status.FAILED.code
     tracked, _ = track(freq, st, sig, np.linspace(0, 120, len(t)))
     assert np.all(np.isnan(tracked[6])) and np.allclose(tracked[7:, 0, 0, 0], fa[7:])
     same, _ = track(freq, st, None, np.linspace(0, 120, len(t)))
@@ -113,7 +113,7 @@ def test_track_counts_modes_that_come_back_permuted_after_a_revolution():
     lo = fa < fb
     freq = np.stack([np.minimum(fa, fb), np.maximum(fa, fb)], axis=-1)[:, None, None, :]
     sig = np.stack([np.where(lo[:, None], a, b), np.where(lo[:, None], b, a)], axis=-1)[:, None, None] + 0j
-    st = np.full((n, 1, 1), int(Status.OK), np.uint8)
+    st = np.full((n, 1, 1), Status.OK.code, np.uint8)
     tracked, open_loops = track(freq, st, sig, np.linspace(0, 360, n))
     assert np.allclose(tracked[:, 0, 0, 0], fa) and open_loops == 1
     _, open_arc = track(freq, st, sig, np.linspace(0, 180, n))  # not a revolution: nothing to close
@@ -166,7 +166,7 @@ def test_sweep_matches_direct_solves_and_solves_structure_once_per_angle(tmp_pat
     with h5py.File(part, "r") as f:
         freq, lam, st = f["frequency_hz"][()], f["eigenvalue"][()], f["status"][()]
         assert f["tracking/signature"].shape == grid.shape + (model.n_free, 4)
-    assert np.all(st != Status.PENDING)
+    assert np.all(st != Status.PENDING.code)
     assert np.array_equal(freq[:, 0, 0], freq[:, 2, 0])  # structure copied to every speed
     for ia, js, jc in [(1, 2, 1), (2, 1, 2), (0, 0, 0)]:
         p = model.pieces(np.radians(grid.angles_deg[ia]))
@@ -195,9 +195,9 @@ def test_solver_errors_mark_points_failed_and_the_sweep_goes_on(tmp_path):
     with h5py.File(part, "r") as f:
         st = f["status"][()]
         idx, msg = f["errors/index"][()], f["errors/message"][()]
-    failed = st == Status.FAILED
+    failed = st == Status.FAILED.code
     assert np.array_equal(np.argwhere(failed), [[a, s, 1] for a in range(3) for s in (1, 2)])
-    assert np.all(st[~failed] != Status.PENDING) and done == grid.n_points
+    assert np.all(st[~failed] != Status.PENDING.code) and done == grid.n_points
     assert sorted(map(tuple, idx)) == sorted(map(tuple, np.argwhere(failed)))
     assert all(m == b"LinAlgError: injected: QZ failed" for m in msg)
 

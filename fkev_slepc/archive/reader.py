@@ -72,7 +72,7 @@ class SweepResults:
     speed_rad_s: np.ndarray  # (n_speed,)
     cases: tuple[str, ...]
     modes: np.ndarray  # (n_mode,) 1-based
-    status: np.ndarray  # (n_angle, n_speed, n_case) uint8, values of modes.Status
+    status: np.ndarray  # (n_angle, n_speed, n_case) uint8, Status codes (status.STATUS_CODES)
     eigenvalue: np.ndarray  # (n_angle, n_speed, n_case, n_mode) complex, 1/s
     frequency_hz: np.ndarray  # same shape, sorted by frequency
     tracked_frequency_hz: np.ndarray  # same shape, modes followed along crank angle

@@ -38,10 +38,10 @@ import h5py
 import numpy as np
 
 from fkev_slepc.archive.writer import MESSAGE_BYTES
-from fkev_slepc.status import RETRYABLE, Status, converged_codes
+from fkev_slepc.status import RETRYABLE, Status, codes, converged_codes
 
 FORMAT, FORMAT_VERSION = "fkev-archive", 1
-STATUS_DTYPE = h5py.enum_dtype({s.name.lower(): int(s) for s in Status}, basetype="u1")
+STATUS_DTYPE = h5py.enum_dtype({s.value: s.code for s in Status}, basetype="u1")
 _STR = h5py.string_dtype("utf-8")
 _GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, case, mode)
     "frequency_hz": ("f8", np.nan, "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency"),
@@ -126,8 +126,8 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
             _gridded(f, name, (na, ns, nc, nm), dtype, fill, units, long_name, dims4)
         _gridded(f, "max_real", (na, ns, nc), *_MAX_REAL, dims4[:3])
         st = _gridded(f, "status", (na, ns, nc), STATUS_DTYPE, 0, "1", "outcome of the point", dims4[:3])
-        st.attrs["flag_values"] = np.array([int(s) for s in Status], dtype="u1")
-        st.attrs["flag_meanings"] = " ".join(s.name.lower() for s in Status)
+        st.attrs["flag_values"] = np.array([s.code for s in Status], dtype="u1")
+        st.attrs["flag_meanings"] = " ".join(s.value for s in Status)
         st.attrs["description"] = (
             "convergence first: pending (not solved yet), failed (the solver raised), not_converged "
             "(fewer modes than asked or the solver stopped short); a converged point is divergent if "
@@ -209,7 +209,7 @@ class ArchiveState:
         """Mask of the points to solve: pending ones, and with ``retry_failed`` the failed and
         not-converged ones too (e.g. again with other PETSc options)."""
         again = [Status.PENDING] + (list(RETRYABLE) if retry_failed else [])
-        return np.isin(self.status, [int(s) for s in again])
+        return np.isin(self.status, codes(again))
 
 
 def modulus(z) -> np.ndarray:
@@ -320,7 +320,7 @@ def _compact_errors(f) -> None:
     if index.shape[0] == 0:
         return
     status = f["status"][()]
-    bad = tuple(int(s) for s in RETRYABLE)
+    bad = codes(RETRYABLE)
     # newest row of each point: reverse, take the first occurrence
     flat = np.ravel_multi_index(index.T, status.shape)
     _, first = np.unique(flat[::-1], return_index=True)
@@ -336,4 +336,4 @@ def _compact_errors(f) -> None:
 def status_counts(status: np.ndarray) -> dict[str, int]:
     """Number of points of each status, by lower-case name."""
     counts = np.bincount(np.asarray(status, dtype=np.int64).ravel(), minlength=len(Status))
-    return {s.name.lower(): int(counts[int(s)]) for s in Status}
+    return {s.value: int(counts[s.code]) for s in Status}

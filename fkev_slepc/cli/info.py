@@ -96,10 +96,10 @@ def report(res, n_errors: int = 5) -> list[str]:
     for status in (Status.UNSTABLE, Status.DIVERGENT):
         for js, speed in enumerate(res.speed_rad_s):
             for jc, case in enumerate(res.cases):
-                mask = res.status[:, js, jc] == int(status)
+                mask = res.status[:, js, jc] == status.code
                 if mask.any():
                     mr = np.nanmax(res.max_real[:, js, jc][mask])
-                    regions.append(f"    {status.name.lower():<9} {case} at {speed:g} rad/s: "
+                    regions.append(f"    {status.value:<9} {case} at {speed:g} rad/s: "
                                    f"{intervals(res.crank_angle_deg, mask)} ({int(mask.sum())} points, "
                                    f"max Re lambda {mr:.4g} 1/s)")
     lines.append("  unstable/divergent regions:" + ("" if regions else " none"))

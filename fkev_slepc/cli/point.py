@@ -73,7 +73,7 @@ def run(args) -> int:
         "eigenvalue": [[_f(z.real), _f(z.imag)] for z in res.eigenvalue],
         "residual": _nan_to_none(res.residual),
         "max_real": _f(res.max_real), "divergent": [float(v) for v in res.divergent],
-        "status": res.status.name.lower(), "message": res.message,
+        "status": res.status.value, "message": res.message,
     }  # fmt: skip
     if args.cross_check:
         out["cross_check_max_rel_diff"] = cross_check(qep, n_modes, scene.solver.petsc)

@@ -265,9 +265,9 @@ def _settings(engine) -> dict:
 
 
 def _exit_code(status) -> int:
-    from fkev_slepc.status import RETRYABLE, Status
+    from fkev_slepc.status import RETRYABLE, Status, codes
 
-    bad = np.isin(status, [int(s) for s in (Status.PENDING, *RETRYABLE)])
+    bad = np.isin(status, codes((Status.PENDING, *RETRYABLE)))
     return 3 if bad.any() else 0
 
 

@@ -60,13 +60,13 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
     )
     fig.colorbar(mesh, ax=ax, label="max Re λ (1/s)")
     for status, marker, color, label in STATUS_MARKS:
-        ia, i_s = np.nonzero(st == int(status))
+        ia, i_s = np.nonzero(st == status.code)
         if ia.size:
             ax.scatter(
                 res.crank_angle_deg[ia], res.speed_rad_s[i_s], marker=marker, c=color,
                 s=16 if st.size <= 300 else 7, linewidths=0.8, label=f"{label}: {ia.size}",
             )
-    n_ok = int(np.sum(st == int(Status.OK)))
+    n_ok = int(np.sum(st == Status.OK.code))
     ax.set_xlabel(ANGLE_LABEL)
     ax.set_ylabel(SPEED_LABEL)
     if ax.get_legend_handles_labels()[0]:

@@ -38,7 +38,7 @@ import numpy as np
 from fkev_slepc.archive.store import Grid, modulus
 from fkev_slepc.archive.writer import Block, Writer
 from fkev_slepc.solve.modes import CNAN, PointResult, failed, match_modes, postprocess
-from fkev_slepc.status import CONVERGED, RETRYABLE, Status, converged_codes
+from fkev_slepc.status import CONVERGED, RETRYABLE, converged_codes
 
 log = logging.getLogger(__name__)
 TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
@@ -182,14 +182,14 @@ class Sweep:
             data["eigenvalue"][js, jc] = r.eigenvalue
             data["residual"][js, jc] = r.residual
             data["max_real"][js, jc] = r.max_real
-            status[js, jc] = int(r.status)
+            status[js, jc] = r.status.code
             if r.shapes is not None:
                 if o.tracking_dofs is not None:
                     data["tracking/signature"][js, jc] = r.shapes[o.tracking_dofs]
                 if o.mode_shapes:
                     data["modes/shape"][js, jc] = r.shapes
             if r.status in RETRYABLE:
-                errors.append(((ia, js, jc), int(r.status), r.message))
+                errors.append(((ia, js, jc), r.status.code, r.message))
         return Block(ia, np.asarray(todo, bool), data, status, errors, node_xy)
 
 
