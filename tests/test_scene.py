@@ -20,7 +20,7 @@ from fkev_slepc.scene import SceneError, load_scene, parse_scene, with_elements
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
 RUNS = ROOT / "runs"
-FKEV = ROOT / ".venv" / "bin" / "fkev"
+FKEV = [sys.executable, "-m", "fkev_slepc"]  # the installed package, wherever `fkev` is (or is not) on PATH
 
 # A minimal valid scene (the Bahgat-Willmert four-bar, one element per link) that the
 # direct-parsing tests below modify.
@@ -278,7 +278,7 @@ def test_cli_subprocess_reports_every_file_without_traceback(tmp_path):
     (tmp_path / "not-utf8.toml").write_bytes(b'title = "\xff"\n')
     paths = [*sorted(DATA.glob("bad_*.toml")), tmp_path / "missing.toml", tmp_path, tmp_path / "not-utf8.toml"]
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
-    proc = subprocess.run([str(FKEV), "check", *map(str, paths)], capture_output=True, text=True, env=env, timeout=120)
+    proc = subprocess.run([*FKEV, "check", *map(str, paths)], capture_output=True, text=True, env=env, timeout=120)
     assert proc.returncode == 2, proc.stderr
     assert "Traceback" not in proc.stderr and proc.stdout == ""
     for p in paths:
