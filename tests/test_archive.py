@@ -201,12 +201,14 @@ def test_resume_refuses_changed_scene_and_grid(tmp_path):
         A.open_for_resume(tmp_path / "b.h5", GRID, expect)
 
 
-def test_finished_archive_moves_back_to_partial_for_more_points(tmp_path):
+def test_finished_archive_is_copied_back_to_partial_for_more_points(tmp_path):
     part = new_archive(tmp_path)
     out = A.finalize(part, tmp_path / "a.h5", None, {})
     expect = dict(scene_toml=SCENE, elements=np.array([1, 1]), n_free=N_FREE, mode_shapes=1)
     assert A.open_for_resume(out, GRID, expect) == out
-    assert A.reopen_finished(out) == part and part.exists() and not out.exists()
+    before = out.read_bytes()
+    assert A.reopen_finished(out) == part and part.exists()
+    assert out.read_bytes() == before  # untouched until the resumed run completes (issue 10)
 
 
 def test_clip_cuts_utf8_at_a_character_boundary():

@@ -102,3 +102,71 @@ def test_dense_is_accurate_with_a_rigid_crank_and_a_heavy_mass(stiff, mass, join
         res = postprocess(engine.solve(q, 2), 2)
         assert res.status.name == "OK", (engine.name, res.message)
         np.testing.assert_allclose(res.frequency_hz, f_ref, rtol=1e-12, err_msg=engine.name)
+
+
+# ------------------------------------------------------------------------- archive integrity
+def _fkev(*args, timeout=300):
+    return subprocess.run([sys.executable, "-m", "fkev_slepc", *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def small_archive(tmp_path_factory):
+    out = tmp_path_factory.mktemp("arch") / "tm.h5"
+    r = _fkev("run", ROOT / "runs" / "turcic-midha-1984.toml", "--cases", "structure,full", "--speeds", "0,100",
+              "--angles", "0,20", "-o", out)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return out
+
+
+def _overwrite(path, offset, data=b"\x12\x34\x56\x78"):
+    with open(path, "r+b") as fh:
+        fh.seek(offset)
+        fh.write(data)
+
+
+def test_verify_passes_an_intact_archive_and_catches_changed_bytes(small_archive, tmp_path):
+    import shutil
+
+    import h5py
+
+    from fkev_slepc.archive.verify import verify
+
+    assert verify(small_archive).ok and verify(small_archive).complete
+    r = _fkev("verify", small_archive)
+    assert r.returncode == 0 and "ok (" in r.stdout
+    with h5py.File(small_archive, "r") as f:  # where the stored values of two datasets lie
+        spots = {name: f[name].id.get_offset() for name in ("frequency_hz", "status")}
+    for name, offset in spots.items():
+        bad = tmp_path / f"bad-{name}.h5"
+        shutil.copyfile(small_archive, bad)
+        _overwrite(bad, offset + 3)
+        check = verify(bad)
+        assert not check.ok and any(f"/{name}" in p for p in check.problems), check.problems
+        for cmd in ("verify", "info"):
+            r = _fkev(cmd, bad)
+            assert r.returncode == 2 and "DAMAGED" in r.stderr and "Traceback" not in r.stderr, (cmd, r.stderr)
+            assert r.stderr.count("\n") == 1
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(small_archive.read_bytes()[:2000])
+    r = _fkev("info", truncated)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and r.stderr.count("\n") == 1
+
+
+def test_lock_refuses_a_second_writer_and_is_released_when_the_holder_dies(tmp_path):
+    from fkev_slepc.archive.lock import ArchiveLock, ArchiveLocked, lock_path
+
+    out = tmp_path / "a.h5"
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\nfrom fkev_slepc.archive.lock import "
+                               "ArchiveLock\nArchiveLock(sys.argv[1]).acquire()\nprint('held', flush=True)\n"
+                               "time.sleep(60)", str(out)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(ArchiveLocked, match=f"pid {holder.pid}"):
+            ArchiveLock(out).acquire()
+    finally:
+        holder.kill()  # like kill -9: the kernel drops the flock
+        holder.wait()
+    with ArchiveLock(out):  # a dead holder leaves no stale lock
+        assert lock_path(out).exists()
+    assert not lock_path(out).exists()

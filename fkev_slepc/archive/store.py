@@ -31,12 +31,14 @@ from __future__ import annotations
 import datetime
 import json
 import os
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
 import h5py
 import numpy as np
 
+from fkev_slepc.archive.verify import ROOT_DIGEST_ATTR, stamp
 from fkev_slepc.archive.writer import MESSAGE_BYTES
 from fkev_slepc.status import RETRYABLE, Status, codes, converged_codes
 
@@ -284,9 +286,15 @@ def _show(v) -> str:
 
 
 def reopen_finished(path) -> Path:
-    """Move a finished archive back to its temporary name (to add points to it)."""
+    """Copy a finished archive to its temporary name (to add points to it), marked incomplete.
+
+    A copy, not a move: the finished archive stays untouched until the resumed run completes
+    and replaces it, so a run that fails never damages an existing archive."""
     part = partial_path(path)
-    os.replace(path, part)
+    shutil.copyfile(path, part)
+    with h5py.File(part, "r+") as f:
+        f.attrs["complete"] = 0
+        f.attrs.pop(ROOT_DIGEST_ATTR, None)  # its checksums go stale with the first point written
     return part
 
 
@@ -310,6 +318,7 @@ def finalize(part, path, tracked: np.ndarray | None, attrs: dict, add_wall_time:
         _set_attrs(f, attrs)
         f.attrs["wall_time_s"] = float(f.attrs.get("wall_time_s", 0.0)) + float(add_wall_time)
         f.attrs["complete"] = 1
+        stamp(f)  # last: the checksums cover every value and attribute written above
     os.replace(part, path)
     return Path(path)
 

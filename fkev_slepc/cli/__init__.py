@@ -13,7 +13,7 @@ import logging
 import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
-SUBCOMMANDS = ("run", "point", "check", "info", "plot")
+SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot")
 
 
 def split_petsc_options(argv: list[str]) -> tuple[list[str], list[str]]:

@@ -2,7 +2,8 @@
 
 Grid, cases, counts by status (every point accounted for), per-mode frequency range of each
 case, unstable and divergent regions as crank-angle intervals, failure messages, solver
-settings and run time. Exit code 0 for a readable archive, 2 otherwise.
+settings and run time. The archive is verified first (``fkev verify``): exit code 0 for an
+intact archive, 2 for a missing, unreadable or damaged one.
 """
 
 from __future__ import annotations
@@ -26,9 +27,14 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from fkev_slepc.sweep.parallel import world
     from fkev_slepc.archive.reader import ArchiveError, load
+    from fkev_slepc.archive.verify import verify
 
     if world().rank != 0:  # under mpiexec: one report
         return 0
+    check = verify(args.archive)  # never show the numbers of a damaged archive
+    if not check.ok:
+        print(f"fkev info: {check.summary()}", file=sys.stderr)
+        return 2
     try:
         res = load(args.archive)
     except ArchiveError as err:
