@@ -170,3 +170,49 @@ def test_lock_refuses_a_second_writer_and_is_released_when_the_holder_dies(tmp_p
     with ArchiveLock(out):  # a dead holder leaves no stale lock
         assert lock_path(out).exists()
     assert not lock_path(out).exists()
+
+
+# ------------------------------------------------------------------------------ geometry guard
+def _four_bar_lengths(a, b, c, d, angles=(10.0,)):
+    from builders import STEEL, four_bar
+
+    return four_bar((a, b, c), d, STEEL, (1, 1, 1), angles=angles, cases=("structure",))
+
+
+def test_assembly_range_grashof_class_and_transmission_angle_match_closed_forms():
+    from fkev_slepc.model.kinematics import assembly_problems, assembly_ranges, grashof_class, solve_kinematics
+    from fkev_slepc.model.mechanism import build_mechanism
+
+    a, b, c, d = 0.35, 0.2794, 0.2705, 0.254  # Turcic-Midha with a long crank: non-Grashof
+    scene = _four_bar_lengths(a, b, c, d, angles=tuple(np.arange(0.0, 360.0, 5.0)))
+    mech = build_mechanism(scene)
+    # B cannot close once |A O2| > b + c: cos θ = (a² + d² - (b + c)²) / (2ad)
+    lim = np.degrees(np.arccos((a * a + d * d - (b + c) ** 2) / (2 * a * d)))
+    (lo, hi), = assembly_ranges(mech)
+    assert abs(lo - lim) < 1e-6 and abs(hi - (360 - lim)) < 1e-6
+    assert grashof_class(mech).startswith("non-Grashof")
+    probs = assembly_problems(scene)
+    assert len(probs) == 1 and f"[{lim:.2f}°, {360 - lim:.2f}°]" in probs[0].message
+    theta = np.radians([0.0, 45.0, 90.0, 120.0])
+    ao2 = np.sqrt(a * a + d * d - 2 * a * d * np.cos(theta))
+    mu = np.arccos((b * b + c * c - ao2**2) / (2 * b * c))  # angle at B between coupler and follower
+    np.testing.assert_allclose(solve_kinematics(mech, theta).transmission, np.minimum(mu, np.pi - mu), atol=1e-12)
+    assert grashof_class(build_mechanism(_four_bar_lengths(0.127, 0.2794, 0.2667, 0.254))) == "Grashof crank-rocker"
+
+
+def test_point_needs_only_its_own_angle_and_check_names_the_range(tmp_path):
+    text = (ROOT / "runs" / "turcic-midha-1984.toml").read_text().replace("length_m = 0.1080", "length_m = 0.35")
+    scene = tmp_path / "long-crank.toml"
+    scene.write_text(text)
+    r = _fkev("check", scene)
+    assert r.returncode == 2 and r.stderr.count("\n") == 2, r.stderr  # header + one range
+    assert "cannot be assembled for θ in [130.46°, 229.54°]" in r.stderr and "non-Grashof" in r.stderr
+    r = _fkev("point", scene, "--angle", "10")
+    assert r.returncode == 0 and "status: ok" in r.stdout and r.stderr == "", r.stderr
+    r = _fkev("point", scene, "--angle", "180")
+    assert r.returncode == 2 and "--angle" in r.stderr and r.stderr.count("\n") == 2
+    r = _fkev("point", scene, "--angle", "130.4", "--speed", "100", "--case", "full", "--json")
+    assert "warning: transmission angle" in r.stderr and "Traceback" not in r.stderr
+    import json
+
+    assert json.loads(r.stdout)["transmission_angle_deg"] < 10

@@ -51,6 +51,8 @@ _GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, cas
     "eigenvalue": ("c16", complex(np.nan, np.nan), "1/s", "eigenvalue lambda of the mode (Im > 0 member)"),
     "residual": ("f8", np.nan, "1", "relative residual |P(lambda)x| / (|Kx| + |lambda||Cx| + |lambda|^2|Mx|)"),
 }
+_TRANSMISSION = ("smallest transmission angle of the linkage's dyads, folded to [0, 90] (90 ideal, 0 a toggle "
+                 "position; NaN without dyads or where the linkage cannot be assembled)")
 _MAX_REAL = ("f8", np.nan, "1/s", "max Re(lambda) over every computed eigenvalue (stability indicator)")
 
 
@@ -95,7 +97,8 @@ def _early():
 
 
 def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int = 0,
-           mode_shapes: bool = False, tracking_dofs: np.ndarray | None = None) -> None:
+           mode_shapes: bool = False, tracking_dofs: np.ndarray | None = None,
+           transmission_deg: np.ndarray | None = None) -> None:
     """Write a new, empty archive at ``path`` (serial; rank 0 only).
 
     Parameters
@@ -109,6 +112,9 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
     mode_shapes : create ``/modes/shape`` and ``/modes/node_xy``.
     tracking_dofs : free-DOF indices whose eigenvector entries are stored in
         ``/tracking/signature`` for mode tracking; None when nothing is tracked (one angle).
+    transmission_deg : smallest transmission angle at each crank angle (``kinematics``), stored
+        as ``transmission_angle_deg`` (it depends on the angle only: the same for every speed
+        and case of the angle's points).
     """
     na, ns, nc = grid.shape
     nm = grid.n_modes
@@ -127,6 +133,9 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
         for name, (dtype, fill, units, long_name) in _GRIDDED.items():
             _gridded(f, name, (na, ns, nc, nm), dtype, fill, units, long_name, dims4)
         _gridded(f, "max_real", (na, ns, nc), *_MAX_REAL, dims4[:3])
+        if transmission_deg is not None:
+            ds = _gridded(f, "transmission_angle_deg", (na,), "f8", np.nan, "degree", _TRANSMISSION, dims4[:1])
+            ds[...] = np.asarray(transmission_deg, dtype=float)
         st = _gridded(f, "status", (na, ns, nc), STATUS_DTYPE, 0, "1", "outcome of the point", dims4[:3])
         st.attrs["flag_values"] = np.array([s.code for s in Status], dtype="u1")
         st.attrs["flag_meanings"] = " ".join(s.value for s in Status)

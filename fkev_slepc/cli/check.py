@@ -1,8 +1,9 @@
 """``fkev check SCENE [SCENE...]``: validate scene files without computing anything.
 
 Schema problems come first (:func:`fkev_slepc.scene.load_scene`); only a scene without them is
-checked for assembly at every requested crank angle (kinematics) and meshed (to report the
-number of free DOFs). Every problem of every file is printed; the exit code is 2 if any file
+checked for assembly at every requested crank angle (kinematics: the intervals of θ where it
+cannot be assembled, with the Grashof class) and meshed (to report the number of free DOFs,
+the Grashof class and the smallest transmission angle). Every problem of every file is printed; the exit code is 2 if any file
 has one.
 """
 
@@ -58,10 +59,20 @@ def check_scene(path: str | Path) -> Scene:
 
 
 def summary(scene: Scene) -> str:
-    """One-line description: counts of links, joints, elements, free DOFs and sweep points."""
+    """One-line description: counts of links, joints, elements, free DOFs and sweep points,
+    the Grashof class of a four-bar and the smallest transmission angle over the grid."""
+    import numpy as np
+
+    from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, grashof_class, solve_kinematics
     from fkev_slepc.model.mechanism import build_mechanism
 
-    n_free = build_mechanism(scene).n_free
+    mech = build_mechanism(scene)
+    n_free = mech.n_free
+    geometry = [grashof_class(mech) or ""]
+    mu = solve_kinematics(mech, np.radians(scene.analysis.crank_angles_deg)).transmission
+    if np.isfinite(mu).any():
+        low = " (below %g°: near a toggle)" % TRANSMISSION_WARN_DEG if np.nanmin(mu) < np.radians(TRANSMISSION_WARN_DEG) else ""
+        geometry.append(f"transmission angle >= {np.degrees(np.nanmin(mu)):.1f}°{low}")
     a = scene.analysis
     n_el = sum(lk.elements for lk in scene.links)
     plural = lambda n, word: f"{n} {word}{'' if n == 1 else 's'}"  # noqa: E731
@@ -74,5 +85,6 @@ def summary(scene: Scene) -> str:
             f"{plural(len(a.crank_angles_deg), 'angle')} x {plural(len(scene.driver.speeds), 'speed')}"
             f" x {plural(len(a.cases), 'case')}",
             plural(a.modes, "mode"),
+            *(g for g in geometry if g),
         ]
     )

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+import numpy as np
+
 from fkev_slepc.scene import Problem, Scene, SceneError, with_elements
 
 
@@ -24,8 +26,9 @@ def add_elements_argument(p: argparse.ArgumentParser) -> None:
                    help="re-mesh: N elements on every link, or one count per link (scene order)")
 
 
-def load_checked(path, elements=None) -> Scene:
-    """Load a scene, apply ``--elements``, and check that it assembles at its crank angles.
+def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
+    """Load a scene, apply ``--elements``, and check that it assembles at its crank angles
+    (not with ``check_angles=False``: ``fkev point`` needs only its own angle).
 
     Raises SceneError listing every problem."""
     from fkev_slepc.model.kinematics import assembly_problems
@@ -34,7 +37,7 @@ def load_checked(path, elements=None) -> Scene:
     scene = load_scene(path)
     if elements is not None:
         scene = with_elements(scene, elements)
-    problems: list[Problem] = assembly_problems(scene)
+    problems: list[Problem] = assembly_problems(scene) if check_angles else []
     if problems:
         raise SceneError(scene.source, problems)
     return scene
@@ -43,3 +46,16 @@ def load_checked(path, elements=None) -> Scene:
 def report_scene_error(err: SceneError) -> int:
     print(str(err), file=sys.stderr)
     return 2
+
+
+def transmission_warning(model, theta: float) -> float:
+    """Transmission angle (deg) at crank angle ``theta`` (rad); a warning on stderr below
+    ``kinematics.TRANSMISSION_WARN_DEG`` (near a toggle, docs/numerical-stability.md)."""
+    from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG
+
+    mu = float(np.degrees(model.kinematics(theta).transmission[0]))
+    if mu < TRANSMISSION_WARN_DEG:
+        print(f"warning: transmission angle {mu:.3g}° < {TRANSMISSION_WARN_DEG:g}° at θ = {np.degrees(theta):g}°: "
+              "near a toggle position, where link speeds and the speed-dependent terms grow like "
+              "1/sin(μ) (docs/numerical-stability.md)", file=sys.stderr)
+    return mu

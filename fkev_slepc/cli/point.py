@@ -10,7 +10,7 @@ import numpy as np
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
-from .common import add_elements_argument, load_checked, report_scene_error
+from .common import add_elements_argument, load_checked, report_scene_error, transmission_warning
 
 
 def add_parser(sub) -> None:
@@ -34,7 +34,7 @@ def run(args) -> int:
     from fkev_slepc.model.operators import Model
 
     try:
-        scene = load_checked(args.scene, args.elements)
+        scene = load_checked(args.scene, args.elements, check_angles=False)  # only --angle matters
         case = case_name(args.case) if args.case is not None else scene.analysis.cases[0]
     except SceneError as err:
         return report_scene_error(err)
@@ -59,6 +59,7 @@ def run(args) -> int:
     except ValueError as err:
         return report_scene_error(SceneError(args.scene, [Problem("--angle", f"{err} (got {angle:g})")]))
     qep = model.qep(pieces, speed, case)
+    mu = transmission_warning(model, np.radians(angle))
     method = args.solver or scene.solver.method
     try:
         engine = make_engine(method, model.n_free, scene.solver.petsc)
@@ -73,7 +74,7 @@ def run(args) -> int:
         "eigenvalue": [[_f(z.real), _f(z.imag)] for z in res.eigenvalue],
         "residual": _nan_to_none(res.residual),
         "max_real": _f(res.max_real), "divergent": [float(v) for v in res.divergent],
-        "status": res.status.value, "message": res.message,
+        "status": res.status.value, "message": res.message, "transmission_angle_deg": _f(mu),
     }  # fmt: skip
     if args.cross_check:
         out["cross_check_max_rel_diff"] = cross_check(qep, n_modes, scene.solver.petsc)
