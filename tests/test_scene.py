@@ -239,7 +239,7 @@ BAD = {
     "bad_mobility": "joints: the linkage has 2 degrees of freedom (3 x 4 links - 10 pin constraints)",
     "bad_links_table": "links: must be an array of tables: write [[links]], not [links]",
     "bad_syntax": "line 11, column 14: TOML syntax error: Illegal character '\\n'",
-    "bad_assembly": "analysis.crank_angles_deg[2]: the linkage cannot be assembled at crank angle 180 deg",
+    "bad_assembly": "analysis.crank_angles_deg[2]: the linkage cannot be assembled for θ in [100.20°, 259.80°]",
 }
 
 
@@ -433,7 +433,8 @@ def test_check_reports_an_impossible_crank_angle_after_a_clean_schema(capsys):
     assert main(["check", str(path)]) == 2
     err = capsys.readouterr().err.splitlines()
     assert err[0] == f"{path}: 1 problem"
-    assert err[1].startswith("  analysis.crank_angles_deg[2]: the linkage cannot be assembled at crank angle 180 deg")
+    # one line per interval (closed form: cos θ = (0.2² + 0.254² - 0.35²) / (2 · 0.2 · 0.254))
+    assert err[1].startswith("  analysis.crank_angles_deg[2]: the linkage cannot be assembled for θ in [100.20°, 259.80°]")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -233,10 +233,11 @@ def assembly_problems(scene: Scene) -> list[Problem]:
             covered |= inside
             where = (f"at θ = {_deg(0.5 * (lo + hi))}° (a dead-centre position)" if hi - lo < 1e-3
                      else f"for θ in [{_deg(lo)}°, {_deg(hi)}°]")
-            problems.append(Problem("analysis.crank_angles_deg", f"the linkage cannot be assembled {where} "
+            first = int(np.flatnonzero(~kin.ok)[np.argmax(inside)])  # index of its first requested angle
+            problems.append(Problem(f"analysis.crank_angles_deg[{first}]", f"the linkage cannot be assembled {where} "
                                     f"({int(inside.sum())} requested angle(s)){tail}"))
-    for a in bad[~covered]:  # isolated dead centres the scan stepped over
-        problems.append(Problem("analysis.crank_angles_deg",
+    for i, a in zip(np.flatnonzero(~kin.ok)[~covered], bad[~covered]):  # dead centres the scan stepped over
+        problems.append(Problem(f"analysis.crank_angles_deg[{i}]",
                                 f"the linkage cannot be assembled at θ = {a:g}° (a dead-centre position){tail}"))
     return problems
 
