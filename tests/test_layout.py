@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -104,3 +105,83 @@ def test_lower_stages_never_import_higher_ones():
 @pytest.mark.parametrize("path", sorted(PKG.rglob("*.py")), ids=lambda p: str(p.relative_to(ROOT)))
 def test_modules_are_small(path):
     assert len(path.read_text().splitlines()) <= MAX_LINES
+
+
+# --- cited files exist ------------------------------------------------------------------------
+# Every file a comment or a document names must be in the repository: a stale path (a module
+# that moved, a note that was never committed) sends readers nowhere.
+
+CITING = ("fkev_slepc/**/*.py", "scripts/*", "tests/*.py", "runs/*.toml", "runs/*.md", "docs/*.md",
+          "README.md", "Makefile")
+# a path with a file extension we cite (not archives or other outputs), optionally with folders
+_PATH = re.compile(r"(?<![\w./@:-])((?:[\w.-]+/)*[\w-]+(?:\.[\w-]+)*\.(?:md|py|sh|toml|png))(?![\w/-])")
+_MODULE = re.compile(r"\bfkev_slepc((?:\.\w+)+)")
+# a test named in a document (`test_x`, or a test file followed by ::test_x), not a test file
+_TEST = re.compile(r"(?<![\w/])(test_\w+)(?![\w.])")
+
+
+def _citing_files(root: Path) -> list[Path]:
+    files = {p for pattern in CITING for p in root.glob(pattern) if p.is_file()}
+    return sorted(p for p in files if "__pycache__" not in p.parts)
+
+
+def _missing_citations(root: Path) -> list[str]:
+    """``file: cited`` for every cited path that exists neither from ``root`` nor next to the file.
+
+    A ``.py`` or ``.md`` name without a folder (``engines.py``) only has to match the name of
+    some file in the repository (other bare names are examples: ``scene.toml``, ``freq.png``). A
+    path with folders is checked when its first folder is in the repository (from the root, or
+    next to the citing file as in a Markdown link); ``runs/out/`` holds outputs, never committed.
+    ``fkev_slepc.<module>...`` must start with an existing module or subpackage, and a test a
+    Markdown file names must be defined in ``tests/``.
+    """
+    names = {p.name for p in root.rglob("*") if ".git" not in p.parts and ".venv" not in p.parts}
+    tests = set()
+    for t in root.glob("tests/*.py"):
+        tests.update(re.findall(r"^\s*def (test_\w+)", t.read_text(), flags=re.M))
+    bad = []
+    for f in _citing_files(root):
+        text = f.read_text(errors="replace")
+        for cited in sorted(set(_PATH.findall(text))):
+            first = cited.split("/")[0]
+            if "/" not in cited:
+                ok = cited in names or not cited.endswith((".py", ".md"))
+            elif (root / first).is_dir() or (f.parent / first).is_dir():
+                ok = (root / cited).exists() or (f.parent / cited).exists() or cited.startswith("runs/out/")
+            else:
+                ok = True  # an example path (out/freq.png, dir/scene.toml)
+            if not ok:
+                bad.append(f"{f.relative_to(root)}: {cited}")
+        for dotted in sorted(set(_MODULE.findall(text))):
+            first = dotted.split(".")[1]
+            pkg = root / "fkev_slepc"
+            if not ((pkg / first).is_dir() or (pkg / f"{first}.py").is_file()):
+                bad.append(f"{f.relative_to(root)}: fkev_slepc{dotted}")
+        if f.suffix == ".md":
+            bad.extend(f"{f.relative_to(root)}: {t}" for t in sorted(set(_TEST.findall(text)) - tests))
+    return bad
+
+
+def test_missing_citations_are_found(tmp_path):
+    """The check itself: a moved module and a note that is not in the repository are reported."""
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "fkev_slepc" / "solve").mkdir(parents=True)
+    (tmp_path / "fkev_slepc" / "solve" / "slepc.py").write_text("")
+    (tmp_path / "docs" / "engine.md").write_text("see docs/engine.md\n")
+    # the stale names are split so that this file does not cite them itself
+    stale = ["docs/nowhere" + ".md", "fkev_slepc/eigen" + ".py", "backend" + ".py", "fkev_slepc" + ".eigen.Engine"]
+    fine = "`fkev_slepc/solve/slepc.py`, slepc.py, fkev_slepc.solve.slepc, out/freq.png, scene.toml\n"
+    (tmp_path / "README.md").write_text(fine + ", ".join(stale))
+    (tmp_path / "tests").mkdir()
+    test_file, doc = "test_a" + ".py", "tests" + ".md"
+    (tmp_path / "tests" / test_file).write_text("def test_here():\n    pass\n")
+    (tmp_path / "docs" / doc).write_text(f"tests/{test_file}::test_here, `test_" + f"gone`, {test_file}\n")
+    assert _missing_citations(tmp_path) == ["README.md: " + c for c in sorted(stale[:3]) + stale[3:]] + [
+        f"docs/{doc}: test_" + "gone"
+    ]
+
+
+def test_cited_files_exist():
+    assert (ROOT / "docs" / "theory.md").is_file()
+    missing = _missing_citations(ROOT)
+    assert not missing, "cited but not in the repository:\n" + "\n".join(missing)

@@ -1,4 +1,6 @@
-"""The HDF5 sweep archive (writer side of the archive contract; the reader is ``results.py``).
+"""The HDF5 sweep archive (writer side of the archive contract).
+
+The reader is ``fkev_slepc/archive/reader.py``.
 
 Layout (see ``docs/archive.md``): the grid scales ``crank_angle_deg``, ``speed_rad_s``,
 ``case``, ``mode`` and every gridded dataset live in the root group, which is what xarray's
