@@ -162,6 +162,30 @@ def _missing_citations(root: Path) -> list[str]:
     return bad
 
 
+_LINK = re.compile(r"\]\(([\w./-]*?)#([^)\s]+)\)")
+
+
+def _anchors(md: Path) -> set[str]:
+    """GitHub's heading anchors: lower case, punctuation dropped, spaces to hyphens."""
+    out, fenced = set(), False
+    for line in md.read_text().splitlines():
+        fenced ^= line.startswith("```")
+        if not fenced and (m := re.match(r"#{1,6} +(.*)", line)):
+            out.add(re.sub(r"[^\w\- ]", "", m.group(1).strip().lower()).replace(" ", "-"))
+    return out
+
+
+def _broken_anchors(root: Path) -> list[str]:
+    """``file: target#anchor`` for every Markdown link to a heading that does not exist."""
+    bad = []
+    for f in sorted(root.glob("*.md")) + sorted(root.glob("*/*.md")):
+        for target, anchor in _LINK.findall(f.read_text()):
+            md = (f.parent / target) if target else f
+            if md.suffix == ".md" and md.is_file() and anchor not in _anchors(md):
+                bad.append(f"{f.relative_to(root)}: {target}#{anchor}")
+    return bad
+
+
 def test_missing_citations_are_found(tmp_path):
     """The check itself: a moved module and a note that is not in the repository are reported."""
     (tmp_path / "docs").mkdir()
@@ -179,9 +203,18 @@ def test_missing_citations_are_found(tmp_path):
     assert _missing_citations(tmp_path) == ["README.md: " + c for c in sorted(stale[:3]) + stale[3:]] + [
         f"docs/{doc}: test_" + "gone"
     ]
+    (tmp_path / "docs" / "engine.md").write_text("## Options (`-fkev_`)\n```\n# not a heading\n```\n[a](#options--fkev_)")
+    links = "[a](docs/engine.md#options--fkev_) [b](docs/engine.md#not-a-heading) [c](#gone)\n"
+    (tmp_path / "README.md").write_text("# Top\n" + links)
+    assert _broken_anchors(tmp_path) == ["README.md: docs/engine.md#not-a-heading", "README.md: #gone"]
 
 
 def test_cited_files_exist():
     assert (ROOT / "docs" / "theory.md").is_file()
     missing = _missing_citations(ROOT)
     assert not missing, "cited but not in the repository:\n" + "\n".join(missing)
+
+
+def test_links_to_headings_resolve():
+    broken = _broken_anchors(ROOT)
+    assert not broken, "links to headings that do not exist:\n" + "\n".join(broken)
