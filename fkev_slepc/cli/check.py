@@ -3,7 +3,9 @@
 Schema problems come first (:func:`fkev_slepc.scene.load_scene`); only a scene without them is
 checked for assembly at every requested crank angle (kinematics: the intervals of θ where it
 cannot be assembled, with the Grashof class) and meshed (to report the number of free DOFs,
-the Grashof class and the smallest transmission angle). Every problem of every file is printed; the exit code is 2 if any file
+the Grashof class and the smallest transmission angle), and its ``[solver.petsc]`` options are
+given to the SLEPc objects (an option no object reads, e.g. a misspelt name, is an error).
+Every problem of every file is printed; the exit code is 2 if any file
 has one.
 """
 
@@ -55,6 +57,13 @@ def check_scene(path: str | Path) -> Scene:
     problems = assembly_problems(scene)
     if problems:
         raise SceneError(scene.source, problems)
+    if scene.solver.petsc:  # names PETSc would silently ignore (misspelt) are errors too
+        from fkev_slepc.solve.engines import check_petsc_options
+
+        try:
+            check_petsc_options(scene.solver.petsc)
+        except SceneError as err:
+            raise SceneError(scene.source, err.problems) from None
     return scene
 
 

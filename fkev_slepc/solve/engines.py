@@ -59,14 +59,25 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
     if method == "dense" or (method == "auto" and n_free < crossover):
         from fkev_slepc.solve.dense import DenseEngine
 
+        check_petsc_options(petsc_options)  # a misspelt option is an error whichever engine runs
         return DenseEngine(_max_pair_error(petsc_options, slepc_kw.get("max_pair_error")))
+    return _slepc_engine(petsc_options, **slepc_kw)
+
+
+def _slepc_engine(petsc_options, **slepc_kw):
     from fkev_slepc.solve.slepc import OptionsError, SlepcEngine  # imports PETSc: only now, after the CLI initialised it
     from fkev_slepc.scene import Problem, SceneError
 
     try:
         return SlepcEngine(petsc_options, **slepc_kw)
     except OptionsError as err:  # reported like any bad scene value (exit code 2), not a traceback
-        raise SceneError("PETSc options", [Problem("solver.petsc", str(err))]) from None
+        raise SceneError("PETSc options", [Problem(p, m) for p, m in err.problems]) from None
+
+
+def check_petsc_options(petsc_options=()) -> None:
+    """Raise SceneError when PETSc/SLEPc reject the options or some option is read by no solver
+    object (a misspelt name: PETSc itself would ignore it). Builds and destroys a SLEPc engine."""
+    _slepc_engine(petsc_options).close()
 
 
 def _max_pair_error(petsc_options, explicit) -> float:

@@ -16,7 +16,13 @@ Two jobs, both about *reuse across grid points*:
 
 from __future__ import annotations
 
+import ctypes
+import difflib
+import io
+import os
 import re
+import sys
+import tempfile
 from collections.abc import Iterable, Mapping
 from contextlib import contextmanager
 
@@ -29,6 +35,13 @@ init_petsc()  # no-op when the CLI already initialised PETSc with the command-li
 from petsc4py import PETSc  # noqa: E402
 
 PREFIX = "fkev_"
+FKEV_KEYS = frozenset({"max_pair_error"})  # read by our engines under the prefix, not by PETSc
+# Read by the LU package when it factorizes (after setFromOptions): these cannot be checked up front.
+_LATE = re.compile(r"(^|_)mat_(mumps|superlu|superlu_dist|umfpack|klu|cholmod|strumpack|mkl_c?pardiso|pastix)_")
+# Families of options that belong under our prefix when given bare on the command line.
+_SOLVER_FAMILIES = ("pep_", "eps_", "st_", "ksp_", "pc_", "bv_", "ds_", "rg_", "fn_")
+KNOWN_OPTIONS: set[str] = set()
+"""Option names (without the prefix) that the solver objects configured in this process queried."""
 
 
 class PatternMismatch(ValueError):
@@ -144,7 +157,9 @@ class OptionsManager:
 
     def __init__(self, defaults: Mapping[str, str] = (), scene: Iterable[tuple[str, str]] = ()):
         self.defaults = {_option_key(k): str(v) for k, v in dict(defaults).items()}
+        scene = list(scene)
         self.scene = {_option_key(k): str(v) for k, v in scene}
+        self.scene_names = [str(k) for k, _ in scene]  # as written, for messages
         self.cmdline = command_line_keys()
         self._inserted_now: frozenset[str] = frozenset()
 
@@ -193,7 +208,91 @@ class OptionsManager:
 
 
 class OptionsError(ValueError):
-    """The PETSc options (scene ``[solver.petsc]`` or ``-fkev_`` on the command line) are invalid."""
+    """The PETSc options (scene ``[solver.petsc]`` or ``-fkev_`` on the command line) are invalid.
+
+    ``problems`` lists (path, message) pairs; the path names the offending option as the user
+    wrote it (``solver.petsc.pep_tyep`` or ``-fkev_pep_tpe``).
+    """
+
+    def __init__(self, message: str, path: str = "solver.petsc", problems: list[tuple[str, str]] | None = None):
+        super().__init__(message)
+        self.problems = list(problems) if problems else [(path, message)]
+
+
+# ------------------------------------------------------------------ unknown option names
+@contextmanager
+def listing_options():
+    """Record the names of the options that ``setFromOptions`` calls inside the block query.
+
+    PETSc has no API listing the options an object reads, but with ``-help`` in the database
+    every ``setFromOptions`` prints each option it queries (for the types actually selected)
+    to stdout. The block runs with ``-help`` set and file descriptor 1 redirected to a
+    temporary file; the names printed under our prefix are added to :data:`KNOWN_OPTIONS`
+    (which accumulates: PETSc prints one object family's list once per process).
+    """
+    opts = PETSc.Options()
+    had_help = opts.hasName("help")
+    sys.stdout.flush()
+    saved, py_stdout = os.dup(1), sys.stdout
+    with tempfile.TemporaryFile() as tmp:
+        # PETSc prints through C stdio to fd 1, or through Python's sys.stdout when that is not
+        # the process's stdout (petsc4py redirects it then, e.g. under pytest): catch both.
+        os.dup2(tmp.fileno(), 1)
+        sys.stdout = io.StringIO()
+        if not had_help:
+            opts["help"] = ""
+        try:
+            yield KNOWN_OPTIONS
+        finally:
+            if not had_help:
+                opts.delValue("help")
+            ctypes.CDLL(None).fflush(None)
+            os.dup2(saved, 1)
+            os.close(saved)
+            text, sys.stdout = sys.stdout.getvalue(), py_stdout
+            tmp.seek(0)
+            text += tmp.read().decode("utf-8", "replace")
+    KNOWN_OPTIONS.update(re.findall(r"-" + PREFIX + r"([A-Za-z0-9_]+)", text))
+
+
+def unknown_option_problems(scene_keys: Iterable[str], cmdline: Iterable[str], known: set[str]) -> list[tuple[str, str]]:
+    """(path, message) for every option no configured solver object reads.
+
+    Parameters
+    ----------
+    scene_keys : names as written in the scene's ``[solver.petsc]`` table
+    cmdline : the PETSc command-line tokens (``-fkev_pep_type``, ``toar``, ``-log_view``...)
+    known : names (without prefix) the objects queried (:func:`listing_options`)
+    """
+    valid = set(known) | FKEV_KEYS
+    out = []
+
+    def check(key: str, path: str) -> None:
+        if key in valid or _LATE.search(key):
+            return
+        close = difflib.get_close_matches(key, sorted(valid), n=1, cutoff=0.8)
+        hint = f"did you mean {close[0]}?" if close else "misspelt, or meant for another solver type"
+        out.append((path, f"unknown PETSc/SLEPc option: no solver object reads it ({hint})"))
+
+    for name in scene_keys:
+        check(_option_key(name), f"solver.petsc.{name}")
+    for tok in cmdline:
+        if not tok.startswith("-") or _is_number(tok):
+            continue
+        bare = tok.lstrip("-")
+        if bare.startswith(PREFIX):
+            check(bare.removeprefix(PREFIX), tok)
+        elif bare.startswith(_SOLVER_FAMILIES):
+            out.append((tok, f"fkev's solver options carry the prefix {PREFIX} (did you mean -{PREFIX}{bare}?)"))
+    return out
+
+
+def _is_number(tok: str) -> bool:
+    try:
+        float(tok)
+    except ValueError:
+        return False
+    return True
 
 
 # ----------------------------------------------------------------- option and error text

@@ -34,8 +34,9 @@ import numpy as np
 
 from fkev_slepc.solve.petsc_backend import (
     PREFIX, OptionsError, OptionsManager, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name,
-    positive_option,
+    listing_options, positive_option, unknown_option_problems,
 )
+from fkev_slepc.solve.petsc_init import command_line_options
 from fkev_slepc.solve.modes import untrustworthy, worst_reported_error
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
@@ -98,13 +99,18 @@ class SlepcEngine:
         self.max_pair_error = positive_option(self._values["max_pair_error"], "max_pair_error")
         self._solvers: dict = {}  # problem kind (qep.KINDS) -> its own PEP or EPS
         try:
-            # created now so that bad options are reported before the first point
-            self._solver_for(GENERAL), self._solver_for(LINEAR_SYMMETRIC)
+            # created now so that bad options (and option names no object reads) are reported before the first point
+            with listing_options() as known:
+                self._solver_for(GENERAL), self._solver_for(LINEAR_SYMMETRIC)
         except PETSc.Error as err:  # e.g. a misspelt type in [solver.petsc] or on the command line
             self.close()
             chosen = ", ".join(f"{k} = {v!r}" for k, v in self._values.items() if k in self._user)
             raise OptionsError(f"PETSc/SLEPc rejected the {PREFIX} options ({chosen or 'defaults'}): "
                                f"{describe_error(err)}") from None
+        unknown = unknown_option_problems(self._options.scene_names, command_line_options(), known)
+        if unknown:  # PETSc would silently ignore them (and run with its defaults)
+            self.close()
+            raise OptionsError("; ".join(f"{p}: {m}" for p, m in unknown), problems=unknown)
         self._ops: PetscOperators | None = None
         self._ksp: PETSc.KSP | None = None  # K's own factorization, for the scale estimate of non-TOAR types
         self._last: dict = {}
