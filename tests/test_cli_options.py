@@ -2,39 +2,16 @@
 (misspelt, or without our prefix) is refused up front with "did you mean", exit 2, and an
 existing archive is left bit-identical (issue 12, Deliver 2)."""
 
-import hashlib
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-BW = ROOT / "runs/bahgat-willmert-1976.toml"
-
-
-def fkev(*args, cwd=None):
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.run([sys.executable, "-m", "fkev_slepc", *map(str, args)], capture_output=True, text=True,
-                          timeout=300, env=env, cwd=cwd)
-
-
-def digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+from clitools import BW, SMALL, digest, fkev, problem_lines, small_archive
 
 
 @pytest.fixture(scope="module")
 def archive(tmp_path_factory):
-    """A small finished archive (2 angles, structure case, dense)."""
-    out = tmp_path_factory.mktemp("opts") / "bw.h5"
-    r = fkev("run", BW, "--angles", "0,10", "--speeds", "0", "--cases", "structure", "--quiet", "-o", out)
-    assert r.returncode == 0, r.stderr
-    return out
-
-
-def problem_lines(stderr: str) -> list[str]:
-    return [ln.strip() for ln in stderr.splitlines() if ln.startswith("  ")]
+    return small_archive(tmp_path_factory.mktemp("opts") / "bw.h5")
 
 
 def test_check_rejects_a_misspelt_option_in_the_scene(tmp_path):
@@ -70,7 +47,7 @@ def test_check_accepts_options_the_objects_read(tmp_path):
 def test_run_rejects_unknown_command_line_options_before_solving(archive, argv, line):
     before, listing = digest(archive), sorted(archive.parent.iterdir())
     new = archive.with_name("new.h5")
-    r = fkev("run", BW, "--angles", "0,10", "--speeds", "0", "--cases", "structure", "-o", new, *argv)
+    r = fkev("run", BW, *SMALL, "-o", new, *argv)
     assert r.returncode == 2
     assert problem_lines(r.stderr) == [line]
     assert digest(archive) == before and sorted(archive.parent.iterdir()) == listing  # nothing written

@@ -268,8 +268,9 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
         for key, value in expect.items():
             have = f.attrs.get(key)
             if key == "scene_toml":
-                if _text(have) != value:
-                    problems.append("the scene file changed since the archive was written (scene_toml differs)")
+                diff = scene_difference(_text(have) if have is not None else "", value)
+                if diff:
+                    problems.append(f"the scene changed since the archive was written: {diff}")
             elif have is None or not np.array_equal(np.asarray(have), np.asarray(value)):
                 problems.append(f"{key}: archive has {_show(have)}, this run {_show(value)}")
         for flag, name, want in (
@@ -286,6 +287,44 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
     if problems:
         raise ArchiveMismatch(f"{src}: cannot resume: " + "; ".join(problems))
     return src
+
+
+def scene_difference(archived: str, current: str) -> str | None:
+    """The first field in which two scene texts differ once parsed (comments, layout, key
+    order and number spelling do not count), e.g. ``links[1].length_m: archive has 0.2794,
+    the scene now 0.28``; None when they describe the same scene."""
+    import tomllib
+
+    try:
+        a, b = tomllib.loads(archived), tomllib.loads(current)
+    except tomllib.TOMLDecodeError:
+        return None if archived == current else "the archived scene text cannot be parsed and differs"
+    return _first_difference(a, b, "")
+
+
+def _first_difference(a, b, path: str) -> str | None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in list(a) + [k for k in b if k not in a]:
+            sub = f"{path}.{key}" if path else str(key)
+            if key not in b:
+                return f"{sub}: in the archive, removed from the scene"
+            if key not in a:
+                return f"{sub}: added to the scene (not in the archive)"
+            found = _first_difference(a[key], b[key], sub)
+            if found:
+                return found
+        return None
+    if isinstance(a, list) and isinstance(b, list):
+        for i, (x, y) in enumerate(zip(a, b)):
+            found = _first_difference(x, y, f"{path}[{i}]")
+            if found:
+                return found
+        if len(a) != len(b):
+            return f"{path}: archive has {len(a)} entries, the scene now {len(b)}"
+        return None
+    if a == b and type(a) is type(b) or (isinstance(a, (int, float)) and isinstance(b, (int, float)) and a == b):
+        return None
+    return f"{path}: archive has {a!r}, the scene now {b!r}"
 
 
 def _show(v) -> str:

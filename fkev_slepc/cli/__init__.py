@@ -1,9 +1,10 @@
-"""Command line: ``fkev run | point | check | info | plot``. Wiring only.
+"""Command line: ``fkev run | point | check | info | plot | export``. Wiring only.
 
 Each subcommand lives in its own module exposing ``add_parser(subparsers)``, which registers
 the parser and sets ``func`` (args -> exit code). PETSc/SLEPc options (``-fkev_pep_type toar``)
 are separated from our own flags here and handed to ``slepc4py.init`` before anything imports
-PETSc, so the options database sees them.
+PETSc, so the options database sees them. The global flags ``-v``/``-q`` may stand before or
+after the subcommand; an error in a subcommand's flags prints that subcommand's usage.
 """
 
 from __future__ import annotations
@@ -13,7 +14,28 @@ import logging
 import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
-SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot")
+SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export")
+GLOBAL_FLAGS = {"-v": ("verbose", 1), "--verbose": ("verbose", 1), "-q": ("quiet", 1), "--quiet": ("quiet", 1)}
+
+
+def split_global_flags(argv: list[str]) -> tuple[list[str], dict[str, int]]:
+    """Remove ``-v``/``-vv``/``--verbose``/``-q``/``--quiet`` wherever they stand (before or after
+    the subcommand, before a bare ``--``); returns (rest, counts)."""
+    counts = {"verbose": 0, "quiet": 0}
+    rest: list[str] = []
+    for i, tok in enumerate(argv):
+        if tok == "--":
+            rest.extend(argv[i:])
+            break
+        if tok in GLOBAL_FLAGS:
+            counts[GLOBAL_FLAGS[tok][0]] += 1
+        elif len(tok) > 2 and tok[0] == "-" and set(tok[1:]) <= {"v"}:  # -vv, -vvv
+            counts["verbose"] += len(tok) - 1
+        elif len(tok) > 2 and tok[0] == "-" and set(tok[1:]) <= {"q"}:
+            counts["quiet"] += len(tok) - 1
+        else:
+            rest.append(tok)
+    return rest, counts
 
 
 def split_petsc_options(argv: list[str]) -> tuple[list[str], list[str]]:
@@ -58,8 +80,12 @@ def build_parser() -> argparse.ArgumentParser:
         description="Free kineto-elastovibration of flexible planar linkages (FE + SLEPc).",
         epilog="PETSc/SLEPc options (e.g. -fkev_pep_type toar) may follow the scene path or '--'.",
     )
-    ap.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
-    sub = ap.add_subparsers(dest="command", required=True)
+    ap.add_argument("-v", "--verbose", action="count", default=0,
+                    help="more log output (-vv: debug); before or after the subcommand")
+    ap.add_argument("-q", "--quiet", action="count", default=0,
+                    help="errors only, no progress output; before or after the subcommand")
+    ap.add_argument("--version", action="store_true", help="versions of fkev, PETSc, SLEPc and MPI, then exit")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
         try:
             mod = importlib.import_module(f"fkev_slepc.cli.{name}")
@@ -68,17 +94,38 @@ def build_parser() -> argparse.ArgumentParser:
                 raise
             continue
         mod.add_parser(sub)
+    ap.set_defaults(command=None)
+    ap.commands = sub.choices  # name -> subparser (for its usage on errors)
     return ap
+
+
+def version_text() -> str:
+    """``fkev X.Y (PETSc a.b.c, SLEPc a.b.c, h5py ..., HDF5 ..., MPI library)``."""
+    from fkev_slepc.sweep.parallel import software_versions
+
+    v = software_versions()
+    return (f"fkev {v['fkev_version']} (PETSc {v['petsc_version']}, SLEPc {v['slepc_version']}, "
+            f"h5py {v['h5py_version']}, HDF5 {v['hdf5_version']}, MPI: {v['mpi_version']})")
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    argv, flags = split_global_flags(argv)
     ours, petsc = split_petsc_options(argv)
     from fkev_slepc.solve.petsc_init import init_petsc
 
     init_petsc(petsc)
-    args = build_parser().parse_args(ours)
-    level = logging.WARNING - 10 * min(args.verbose, 2)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(ours)
+    if args.version:
+        print(version_text())
+        return EXIT_OK
+    if args.command is None:
+        parser.error("a command is required (one of: " + ", ".join(parser.commands) + ")")
+    if extra:  # the subcommand's usage, not the top-level one
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+    args.verbose, args.quiet = flags["verbose"], flags["quiet"] or getattr(args, "quiet", 0)
+    level = logging.ERROR if args.quiet else logging.WARNING - 10 * min(args.verbose, 2)
     from fkev_slepc.sweep.parallel import configure_logging
 
     configure_logging(level)

@@ -55,6 +55,12 @@ def check_scene(path: str | Path) -> Scene:
     from fkev_slepc.model.kinematics import assembly_problems
 
     problems = assembly_problems(scene)
+    if not problems:
+        from fkev_slepc.model.mechanism import build_mechanism
+
+        from .common import modes_problem
+
+        problems = [p for p in [modes_problem(scene.analysis.modes, build_mechanism(scene).n_free, None)] if p]
     if problems:
         raise SceneError(scene.source, problems)
     if scene.solver.petsc:  # names PETSc would silently ignore (misspelt) are errors too

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+import tomllib
 
 import numpy as np
 
@@ -19,6 +21,27 @@ def parse_elements(text: str) -> int | tuple[int, ...]:
     if any(v < 1 for v in vals):
         raise argparse.ArgumentTypeError(f"--elements: every count must be >= 1 (got {text!r})")
     return vals[0] if len(vals) == 1 else vals
+
+
+RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+
+
+def scene_uses_rpm(scene_toml: str, command_line: str = "") -> bool:
+    """True when the speeds were given in rpm: ``driver.speeds_rpm`` in the scene text, or
+    ``--speeds-rpm``/``--speed-rpm`` on the command line (rpm is then shown beside rad/s)."""
+    if "--speeds-rpm" in command_line or "--speed-rpm" in command_line:
+        return True
+    try:
+        doc = tomllib.loads(scene_toml) if scene_toml else {}
+    except tomllib.TOMLDecodeError:
+        return False
+    driver = doc.get("driver")
+    return isinstance(driver, dict) and "speeds_rpm" in driver
+
+
+def with_rpm(rad_s: float, show: bool) -> str:
+    """``104.72 rad/s`` or ``104.72 rad/s (1000 rpm)``."""
+    return f"{rad_s:g} rad/s" + (f" ({rad_s / RAD_S_PER_RPM:.6g} rpm)" if show else "")
 
 
 def add_elements_argument(p: argparse.ArgumentParser) -> None:
@@ -41,6 +64,16 @@ def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
     if problems:
         raise SceneError(scene.source, problems)
     return scene
+
+
+def modes_problem(n_modes: int, n_free: int, flag: str | None) -> Problem | None:
+    """A problem when more modes are asked than the model can have: its ``n_free`` DOFs give
+    at most ``n_free`` oscillating modes (conjugate pairs of the 2·n_free eigenvalues)."""
+    if n_modes <= n_free:
+        return None
+    return Problem(flag or "analysis.modes",
+                   f"{n_modes} modes asked, but the model has {n_free} free DOFs, so at most {n_free} "
+                   "oscillating modes (refine with --elements or ask fewer)")
 
 
 def report_scene_error(err: SceneError) -> int:

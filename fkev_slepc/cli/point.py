@@ -10,7 +10,10 @@ import numpy as np
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
-from .common import add_elements_argument, load_checked, report_scene_error, transmission_warning
+from .common import (
+    RAD_S_PER_RPM, add_elements_argument, load_checked, modes_problem, report_scene_error, scene_uses_rpm,
+    transmission_warning, with_rpm,
+)
 
 
 def add_parser(sub) -> None:
@@ -18,7 +21,9 @@ def add_parser(sub) -> None:
                        description="Natural frequencies and stability at one crank angle, speed and case.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--angle", type=float, help="crank angle, deg (default: the scene's first)")
-    p.add_argument("--speed", type=float, help="crank speed, rad/s (default: the scene's first)")
+    speed = p.add_mutually_exclusive_group()
+    speed.add_argument("--speed", type=float, help="crank speed, rad/s (default: the scene's first)")
+    speed.add_argument("--speed-rpm", type=float, metavar="RPM", help="crank speed, rev/min")
     p.add_argument("--case", help="case name or Table 3.1 number (default: the scene's first)")
     p.add_argument("--modes", type=int, help="number of modes (default: the scene's)")
     add_elements_argument(p)
@@ -42,6 +47,9 @@ def run(args) -> int:
         return report_scene_error(SceneError(args.scene, [Problem("--case", str(err))]))
     angle = scene.analysis.crank_angles_deg[0] if args.angle is None else args.angle
     speed = scene.driver.speeds[0] if args.speed is None else args.speed
+    if args.speed_rpm is not None:
+        speed = args.speed_rpm * RAD_S_PER_RPM
+    rpm = args.speed_rpm is not None or (args.speed is None and scene_uses_rpm(scene.source_text))
     n_modes = scene.analysis.modes if args.modes is None else args.modes
     bad = []
     if n_modes < 1:
@@ -49,11 +57,14 @@ def run(args) -> int:
     if not np.isfinite(angle):
         bad.append(Problem("--angle", f"must be finite (got {angle})"))
     if not np.isfinite(speed):
-        bad.append(Problem("--speed", f"must be finite (got {speed})"))
+        bad.append(Problem("--speed-rpm" if args.speed_rpm is not None else "--speed", f"must be finite (got {speed})"))
     if bad:
         return report_scene_error(SceneError(args.scene, bad))
 
     model = Model(scene, cases=(case,))
+    too_many = modes_problem(n_modes, model.n_free, "--modes" if args.modes is not None else None)
+    if too_many:
+        return report_scene_error(SceneError(args.scene, [too_many]))
     try:
         pieces = model.pieces(np.radians(angle))
     except ValueError as err:
@@ -68,7 +79,8 @@ def run(args) -> int:
     sol = engine.solve(qep, n_modes)
     res = postprocess(sol, n_modes, scene.analysis.imag_tol, scene.analysis.stability_tol)
     out = {
-        "scene": scene.title, "angle_deg": angle, "speed_rad_s": speed, "case": case,
+        "scene": scene.title, "angle_deg": angle, "speed_rad_s": speed,
+        "speed_rpm": speed / RAD_S_PER_RPM if rpm else None, "case": case,
         "n_free": model.n_free, "kind": qep.kind, "solver": sol.solver,
         "frequency_hz": _nan_to_none(res.frequency_hz),
         "eigenvalue": [[_f(z.real), _f(z.imag)] for z in res.eigenvalue],
@@ -96,7 +108,8 @@ def _nan_to_none(a):
 
 
 def _print_table(o: dict) -> None:
-    print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {o['speed_rad_s']:g} rad/s, case {o['case']}, "
+    print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {with_rpm(o['speed_rad_s'], o['speed_rpm'] is not None)}, "
+          f"case {o['case']}, "
           f"{o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
     print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'residual':>10}")
     for i, (f, (re, im), r) in enumerate(zip(o["frequency_hz"], o["eigenvalue"], o["residual"]), 1):

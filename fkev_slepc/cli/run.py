@@ -21,7 +21,7 @@ import numpy as np
 from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
 from fkev_slepc.scene import Problem, Scene, SceneError, with_elements
-from .common import add_elements_argument
+from .common import RAD_S_PER_RPM, add_elements_argument, modes_problem
 
 MAX_POINTS_PER_AXIS = 1_000_000
 
@@ -38,7 +38,9 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", type=Path, help="archive path (default <scene dir>/out/<stem>.h5)")
     p.add_argument("--angles", metavar="START:STOP:STEP|a,b,c",
                    help="crank angles, deg (STOP included when on the grid); default the scene's")
-    p.add_argument("--speeds", metavar="a,b,c", help="crank speeds, rad/s; default the scene's")
+    speeds = p.add_mutually_exclusive_group()
+    speeds.add_argument("--speeds", metavar="a,b,c", help="crank speeds, rad/s; default the scene's")
+    speeds.add_argument("--speeds-rpm", metavar="a,b,c", help="crank speeds, rev/min")
     p.add_argument("--cases", metavar="c1,c2,...", help="case names or Table 3.1 numbers, or 'all'")
     p.add_argument("--modes", type=int, metavar="N", help="modes per point (default the scene's)")
     add_elements_argument(p)
@@ -81,6 +83,13 @@ def parse_speeds(text: str) -> tuple[float, ...]:
     return values
 
 
+def parse_speeds_rpm(text: str) -> tuple[float, ...]:
+    values = _list(text)
+    if any(v < 0 for v in values):
+        raise ValueError(f"speeds must be >= 0 rpm (got {text!r})")
+    return tuple(v * RAD_S_PER_RPM for v in values)
+
+
 def parse_cases(text: str) -> tuple[str, ...]:
     if text.strip() == "all":
         return CASE_NAMES
@@ -118,6 +127,7 @@ def prepare(args) -> Scene:
     an, drv, problems = scene.analysis, scene.driver, []
     for flag, value, parse, field in (("--angles", args.angles, parse_angles, "crank_angles_deg"),
                                       ("--speeds", args.speeds, parse_speeds, "speeds"),
+                                      ("--speeds-rpm", args.speeds_rpm, parse_speeds_rpm, "speeds"),
                                       ("--cases", args.cases, parse_cases, "cases")):
         if value is None:
             continue
@@ -175,7 +185,10 @@ def run(args) -> int:
     grid = archive.Grid(np.asarray(an.crank_angles_deg, float), np.asarray(scene.driver.speeds, float),
                         tuple(an.cases), int(an.modes))
     model = Model(scene, cases=grid.cases)
+    too_many = modes_problem(grid.n_modes, model.n_free, "--modes" if args.modes is not None else None)
     try:
+        if too_many:
+            raise SceneError(scene.source, [too_many])
         factory = make_cross_check_engine if args.cross_check else make_engine
         engine = factory(args.solver or scene.solver.method, model.n_free, scene.solver.petsc)
     except SceneError as err:
