@@ -188,8 +188,9 @@ def test_resume_refuses_changed_scene_and_grid(tmp_path):
     out = tmp_path / "a.h5"
     expect = dict(scene_toml=SCENE, elements=np.array([1, 1]), n_free=N_FREE, mode_shapes=1)
     assert A.open_for_resume(out, GRID, expect) == part
-    with pytest.raises(A.ArchiveMismatch, match="scene file changed"):
+    with pytest.raises(A.ArchiveMismatch, match="scene changed since the archive was written: x: added to the scene"):
         A.open_for_resume(out, GRID, dict(expect, scene_toml=SCENE + "x = 1\n"))
+    assert A.open_for_resume(out, GRID, dict(expect, scene_toml="# a comment\n" + SCENE)) == part  # parsed, not text
     with pytest.raises(A.ArchiveMismatch, match="elements: archive has 1,1, this run 2,1"):
         A.open_for_resume(out, GRID, dict(expect, elements=np.array([2, 1])))
     other = A.Grid(GRID.angles_deg[:4], GRID.speeds, GRID.cases, 3)

@@ -84,6 +84,7 @@ class SweepResults:
     has_mode_shapes: bool
     node_xy: np.ndarray | None  # (n_angle, n_node, 2) undeformed node positions, m
     attrs: dict = field(default_factory=dict)  # every root attribute, decoded
+    status_flags: dict = field(default_factory=dict)  # status value -> name (CF flag_values/flag_meanings)
 
     # ---------------------------------------------------------------- selection by labels
     def angle_index(self, angle_deg: float, tol: float = 1e-6) -> int:
@@ -131,6 +132,14 @@ class SweepResults:
         return int(hit[0])
 
     # ------------------------------------------------------------------- derived arrays
+    @property
+    def status_names(self) -> np.ndarray:
+        """(angle, speed, case) array of status names (``ok``, ``unstable``, ...), decoded with
+        the archive's CF ``flag_values``/``flag_meanings`` (:class:`~fkev_slepc.status.Status` if absent)."""
+        flags = self.status_flags or {s.code: s.value for s in Status}
+        lookup = np.array([flags.get(v, f"unknown_{v}") for v in range(256)])
+        return lookup[self.status]
+
     @property
     def converged(self) -> np.ndarray:
         """(angle, speed, case) bool: the point's eigenvalues converged (ok/unstable/divergent)."""
@@ -246,6 +255,7 @@ def load(path: str | Path) -> SweepResults:
             has_mode_shapes=bool(has_shapes),
             node_xy=node_xy,
             attrs=attrs,
+            status_flags=_flags(h5["status"].attrs),
         )
 
 
@@ -299,6 +309,14 @@ def solver_settings(res: SweepResults) -> dict:
         return json.loads(raw) if raw else {}
     except (TypeError, json.JSONDecodeError):
         return {}
+
+
+def _flags(attrs) -> dict[int, str]:
+    """CF ``flag_values`` / ``flag_meanings`` as {value: name} (empty if the archive has none)."""
+    if "flag_values" not in attrs or "flag_meanings" not in attrs:
+        return {}
+    names = _decode(attrs["flag_meanings"]).split()
+    return {int(v): n for v, n in zip(np.atleast_1d(attrs["flag_values"]), names)}
 
 
 def _read_mesh(g) -> Mesh:

@@ -40,13 +40,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from fkev_slepc.archive.groups import STATUS_DTYPE, create_groups, flags, gridded, number_error_rows, scale
 from fkev_slepc.archive.verify import ROOT_DIGEST_ATTR, stamp
-from fkev_slepc.archive.writer import MESSAGE_BYTES
+from fkev_slepc.archive.writer import MESSAGE_BYTES  # noqa: F401 (part of the archive contract)
 from fkev_slepc.status import RETRYABLE, Status, codes, converged_codes
 
 FORMAT, FORMAT_VERSION = "fkev-archive", 1
-STATUS_DTYPE = h5py.enum_dtype({s.value: s.code for s in Status}, basetype="u1")
-_STR = h5py.string_dtype("utf-8")
 _GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, case, mode)
     "frequency_hz": ("f8", np.nan, "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency"),
     "tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank angle (MAC)"),
@@ -90,14 +89,6 @@ def partial_path(path: str | Path) -> Path:
     return path.with_name(path.name + ".part")
 
 
-def _early():
-    """Dataset creation properties: storage allocated (and filled) at creation, so that
-    ranks can later write hyperslabs independently without collective allocation."""
-    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
-    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
-    return dcpl
-
-
 def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int = 0,
            mode_shapes: bool = False, tracking_dofs: np.ndarray | None = None,
            transmission_deg: np.ndarray | None = None) -> None:
@@ -121,80 +112,29 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
     na, ns, nc = grid.shape
     nm = grid.n_modes
     with h5py.File(path, "w") as f:
-        scales = {
-            "crank_angle_deg": (np.asarray(grid.angles_deg, "f8"), "f8", "degree", "crank angle"),
-            "speed_rad_s": (np.asarray(grid.speeds, "f8"), "f8", "rad/s", "crank speed"),
-            "case": (list(grid.cases), _STR, "1", "case of Table 3.1 (terms kept)"),
-            "mode": (np.arange(1, nm + 1, dtype="i4"), "i4", "1", "mode number, 1-based"),
-        }
-        for name, (data, dtype, units, long_name) in scales.items():
-            ds = f.create_dataset(name, data=data, dtype=dtype)
-            ds.make_scale(name)
-            ds.attrs.update(units=units, long_name=long_name)
+        scale(f, "crank_angle_deg", np.asarray(grid.angles_deg, "f8"), "degree", "crank angle")
+        scale(f, "speed_rad_s", np.asarray(grid.speeds, "f8"), "rad/s", "crank speed")
+        scale(f, "case", list(grid.cases), "1", "case of Table 3.1 (terms kept)")
+        scale(f, "mode", np.arange(1, nm + 1, dtype="i4"), "1", "mode number, 1-based")
         dims4 = ("crank_angle_deg", "speed_rad_s", "case", "mode")
         for name, (dtype, fill, units, long_name) in _GRIDDED.items():
-            _gridded(f, name, (na, ns, nc, nm), dtype, fill, units, long_name, dims4)
-        _gridded(f, "max_real", (na, ns, nc), *_MAX_REAL, dims4[:3])
+            gridded(f, name, (na, ns, nc, nm), dtype, fill, units, long_name, dims4)
+        gridded(f, "max_real", (na, ns, nc), *_MAX_REAL, dims4[:3])
         if transmission_deg is not None:
-            ds = _gridded(f, "transmission_angle_deg", (na,), "f8", np.nan, "degree", _TRANSMISSION, dims4[:1])
+            ds = gridded(f, "transmission_angle_deg", (na,), "f8", np.nan, "degree", _TRANSMISSION, dims4[:1])
             ds[...] = np.asarray(transmission_deg, dtype=float)
-        st = _gridded(f, "status", (na, ns, nc), STATUS_DTYPE, 0, "1", "outcome of the point", dims4[:3])
-        st.attrs["flag_values"] = np.array([s.code for s in Status], dtype="u1")
-        st.attrs["flag_meanings"] = " ".join(s.value for s in Status)
+        st = gridded(f, "status", (na, ns, nc), STATUS_DTYPE, 0, "1", "outcome of the point", dims4[:3])
+        flags(st)
         st.attrs["description"] = (
             "convergence first: pending (not solved yet), failed (the solver raised), not_converged "
             "(fewer modes than asked or the solver stopped short); a converged point is divergent if "
             "it has a positive real eigenvalue, else unstable if some Re(lambda) > stability_tol*|lambda|, "
             "else ok. max_real holds the stability number of every point.")
 
-        err = f.create_group("errors")
-        err.attrs["description"] = "messages of failed and not-converged points (one row per point)"
-        err.create_dataset("index", (0, 3), "i4", maxshape=(None, 3), chunks=(256, 3), dcpl=_early())
-        err["index"].attrs["long_name"] = "(angle, speed, case) indices of the point"
-        err.create_dataset("status", (0,), STATUS_DTYPE, maxshape=(None,), chunks=(256,), dcpl=_early())
-        err.create_dataset("message", (0,), h5py.string_dtype("utf-8", MESSAGE_BYTES),
-                           maxshape=(None,), chunks=(64,), dcpl=_early())
-
-        if mesh is not None:
-            g = f.create_group("mesh")
-            for key, units, long_name in (
-                ("node_link", "1", "link of each node (index into link_names)"),
-                ("node_s", "m", "station of the node along its link, from the link's root"),
-                ("node_dofs", "1", "free DOF index of (U, V, Phi) at each node, -1 if constrained"),
-                ("elem_nodes", "1", "(left, right) node of each element"),
-            ):
-                ds = g.create_dataset(key, data=np.asarray(mesh[key]))
-                ds.attrs.update(units=units, long_name=long_name)
-            g.create_dataset("link_names", data=list(mesh["link_names"]), dtype=_STR)
-        if tracking_dofs is not None:
-            g = f.create_group("tracking")
-            g.attrs["description"] = ("eigenvector entries at the free DOFs `dofs`, used to follow modes "
-                                      "between neighbouring crank angles by MAC")
-            g.create_dataset("dofs", data=np.asarray(tracking_dofs, dtype="i4"))
-            _plain(g, "signature", (na, ns, nc, len(tracking_dofs), nm), "c16", complex(np.nan, np.nan))
-        if mode_shapes:
-            if mesh is None:
-                raise ValueError("an archive with mode shapes needs the mesh (node positions)")
-            g = f.create_group("modes")
-            ds = _plain(g, "shape", (na, ns, nc, n_free, nm), "c16", complex(np.nan, np.nan))
-            ds.attrs.update(units="1", long_name="mode shape over the free DOFs, max |entry| = 1 and real")
-            ds = _plain(g, "node_xy", (na, len(mesh["node_link"]), 2), "f8", np.nan)
-            ds.attrs.update(units="m", long_name="undeformed node positions at each crank angle")
+        create_groups(f, grid, mesh, n_free, mode_shapes, tracking_dofs)
         now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, created=now, wall_time_s=0.0, complete=0)
         _set_attrs(f, attrs)
-
-
-def _plain(group, name, shape, dtype, fill):
-    return group.create_dataset(name, shape, dtype, fillvalue=fill, dcpl=_early())
-
-
-def _gridded(f, name, shape, dtype, fill, units, long_name, dims):
-    ds = _plain(f, name, shape, dtype, fill)
-    ds.attrs.update(units=units, long_name=long_name)
-    for i, dim in enumerate(dims):
-        ds.dims[i].attach_scale(f[dim])
-    return ds
 
 
 def _set_attrs(f, attrs: dict) -> None:
@@ -377,7 +317,7 @@ def _compact_errors(f) -> None:
     g = f["errors"]
     index = g["index"][()]
     if index.shape[0] == 0:
-        return
+        return number_error_rows(g)
     status = f["status"][()]
     bad = codes(RETRYABLE)
     # newest row of each point: reverse, take the first occurrence
@@ -390,6 +330,8 @@ def _compact_errors(f) -> None:
         g[name].resize(len(keep), axis=0)
         if len(keep):
             g[name][...] = data
+    number_error_rows(g)
+
 
 
 def status_counts(status: np.ndarray) -> dict[str, int]:

@@ -130,9 +130,12 @@ class Writer:
             return
         if self._errors:
             n0, k = f["errors/index"].shape[0], len(self._errors)
-            for name in ("index", "status", "message"):
+            names = ("index", "status", "message") + (("error",) if "error" in f["errors"] else ())
+            for name in names:  # "error" is the rows' dimension scale (numbered by the writer too)
                 f["errors/" + name].resize(n0 + k, axis=0)  # collective in mpio mode
             if self.root:
+                if "error" in names:
+                    f["errors/error"][n0:] = np.arange(n0, n0 + k, dtype="i4")
                 f["errors/index"][n0:] = np.array([e[0] for e in self._errors], dtype="i4")
                 f["errors/status"][n0:] = np.array([e[1] for e in self._errors], dtype="u1")
                 f["errors/message"][n0:] = [_clip(e[2]) for e in self._errors]

@@ -2,17 +2,20 @@
 
 Grid, cases, counts by status (every point accounted for), per-mode frequency range of each
 case, unstable and divergent regions as crank-angle intervals, failure messages, solver
-settings and run time. The archive is verified first (``fkev verify``): exit code 0 for an
-intact archive, 2 for a missing, unreadable or damaged one.
+settings (a short table) and run time; with ``--crossings`` the crank speeds at which each
+mode's frequency meets a crank-order line k·Ω/2π (the circles of the Campbell diagram). The
+archive is verified first (``fkev verify``): exit code 0 for an intact archive, 2 for a
+missing, unreadable or damaged one.
 """
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
+
+from .common import RAD_S_PER_RPM
 
 
 def add_parser(sub) -> None:
@@ -21,6 +24,12 @@ def add_parser(sub) -> None:
                        "solver settings and run time of an fkev archive.")
     p.add_argument("archive", type=Path, help="archive (.h5, or .h5.part of an unfinished run)")
     p.add_argument("--errors", type=int, default=5, metavar="N", help="failure messages to show (default 5)")
+    p.add_argument("--crossings", action="store_true",
+                   help="list the Campbell crossings: speeds where a mode's frequency meets a crank order k·Ω/2π")
+    p.add_argument("--angle", type=float, metavar="DEG",
+                   help="--crossings: crank angle (default 10 if on the grid, else the first)")
+    p.add_argument("--orders", type=int, metavar="K", help="--crossings: crank orders 1..K (default: enough to "
+                   "reach the highest frequency, at most 8)")
     p.set_defaults(func=run)
 
 
@@ -40,7 +49,14 @@ def run(args) -> int:
     except ArchiveError as err:
         print(f"fkev info: {err}", file=sys.stderr)
         return 2
-    print("\n".join(report(res, args.errors)))
+    lines = report(res, args.errors)
+    if args.crossings:
+        try:
+            lines += crossing_lines(res, args.angle, args.orders)
+        except ArchiveError as err:
+            print(f"fkev info: {err}", file=sys.stderr)
+            return 2
+    print("\n".join(lines))
     return 0
 
 
@@ -71,7 +87,10 @@ def report(res, n_errors: int = 5) -> list[str]:
     from fkev_slepc.status import Status
     from fkev_slepc.archive.reader import solver_settings
 
+    from .common import scene_uses_rpm
+
     at = res.attrs
+    rpm = scene_uses_rpm(res.scene_toml, str(at.get("command_line", "")))
     na, ns, nc = res.status.shape
     counts = status_counts(res.status)
     total = sum(counts.values())
@@ -80,7 +99,8 @@ def report(res, n_errors: int = 5) -> list[str]:
         f"{res.path}: {res.title}",
         f"  archive     {at.get('format')} v{at.get('format_version')}, {complete}; created {at.get('created')}",
         f"  crank angle {describe(res.crank_angle_deg, 'deg')}",
-        f"  speed       {describe(res.speed_rad_s, 'rad/s')}",
+        f"  speed       {describe(res.speed_rad_s, 'rad/s')}"
+        + (f" ({describe(res.speed_rad_s / RAD_S_PER_RPM, 'rpm')})" if rpm else ""),
         f"  cases       {', '.join(res.cases)}",
         f"  modes       {len(res.modes)} per point; {at.get('n_free', '?')} free DOFs; elements per link "
         f"{', '.join(str(n) for n in res.elements_per_link())}",
@@ -112,7 +132,7 @@ def report(res, n_errors: int = 5) -> list[str]:
     lines.extend(regions)
     lines.extend(_errors(res, n_errors))
     settings = solver_settings(res)
-    lines.append("  solver      " + (json.dumps(settings, sort_keys=True) if settings else "-"))
+    lines.extend(settings_table(settings))
     lines.append(f"  thresholds  imag_tol {at.get('imag_tol')}, stability_tol {at.get('stability_tol')}")
     if "tracking_open_loops" in at:
         lines.append(f"  tracking    MAC along crank angle; {int(at['tracking_open_loops'])} (speed, case) "
@@ -121,6 +141,63 @@ def report(res, n_errors: int = 5) -> list[str]:
                  f"fkev {at.get('fkev_version')}, PETSc {at.get('petsc_version')}, SLEPc {at.get('slepc_version')}, "
                  f"h5py {at.get('h5py_version')}, {at.get('mpi_version')}")
     lines.append(f"  command     {at.get('command_line', '?')}")
+    return lines
+
+
+def settings_table(settings: dict) -> list[str]:
+    """The solver settings as a short table: the engine, then one row per option with its
+    value and where it came from (command line, scene, default)."""
+    if not settings:
+        return ["  solver      -"]
+    versions = ", ".join(f"{k.split('_')[0].upper().replace('PETSC', 'PETSc').replace('SLEPC', 'SLEPc')} {settings[k]}"
+                         for k in ("petsc_version", "slepc_version") if k in settings)
+    head = f"  solver      engine {settings.get('engine', '?')}" + (f" ({versions})" if versions else "")
+    options, sources = settings.get("options") or {}, settings.get("option_sources") or {}
+    rows = [(k, str(v), sources.get(k, "default").replace("_", " ")) for k, v in sorted(options.items())]
+    if not rows:  # the dense engine: its few scalar settings
+        rows = [(k, str(v), "") for k, v in sorted(settings.items())
+                if k not in ("engine", "petsc_version", "slepc_version") and not k.startswith("last_")
+                and not isinstance(v, (dict, list))]
+    width = max(len(k) for k, _, _ in rows) if rows else 0
+    lines = [head] + [f"    {k:<{width}}  {v:<14} {src}".rstrip() for k, v, src in rows]
+    cc = settings.get("cross_check")
+    if isinstance(cc, dict):
+        lines.append(f"    cross-check vs {cc.get('other_engine')}: max relative frequency difference "
+                     f"{float(cc.get('max_rel_diff', float('nan'))):.2e} over {cc.get('points')} points")
+    return lines
+
+
+def crossing_lines(res, angle: float | None = None, orders: int | None = None) -> list[str]:
+    """Campbell crossings at one crank angle: for each case and mode, the crank speeds Ω where
+    the frequency meets k·Ω/2π (linear interpolation between neighbouring archived speeds,
+    :func:`fkev_slepc.plots.maps.crossings`; the points circled in ``fkev plot --kind campbell``)."""
+    from fkev_slepc.archive.reader import ArchiveError
+    from fkev_slepc.plots.common import pick_angle
+    from fkev_slepc.plots.maps import MAX_DEFAULT_ORDERS, crossings
+
+    from .common import scene_uses_rpm, with_rpm
+
+    if res.speed_rad_s.size < 2:
+        raise ArchiveError(f"--crossings: {res.path} has one crank speed; crossings need a speed sweep")
+    if orders is not None and orders < 1:
+        raise ArchiveError(f"--orders: must be >= 1 (got {orders})")
+    a = pick_angle(res, angle)
+    f = res.frequency("sorted")[a]  # (speed, case, mode), NaN where not converged
+    om = res.speed_rad_s
+    if orders is None:
+        top = om.max() / (2 * np.pi)
+        fmax = float(np.nanmax(f)) if np.any(np.isfinite(f)) else 0.0
+        orders = int(min(MAX_DEFAULT_ORDERS, max(1, np.ceil(fmax / top)))) if top > 0 else 1
+    rpm = scene_uses_rpm(res.scene_toml, str(res.attrs.get("command_line", "")))
+    lines = [f"  crossings   at θ = {res.crank_angle_deg[a]:g} deg, crank orders k = 1..{orders} "
+             f"(speeds {om.min():g}-{om.max():g} rad/s, linear between grid speeds):"]
+    for c, case in enumerate(res.cases):
+        for m, mode in enumerate(res.modes):
+            for k in range(1, orders + 1):
+                for w, hz in zip(*crossings(om, f[:, c, m], k)):
+                    lines.append(f"    {case:<17} mode {mode} x order {k}: Ω = {with_rpm(float(w), rpm)}, f = {hz:.6g} Hz")
+    if len(lines) == 1:
+        lines.append("    none in the archived speed range")
     return lines
 
 

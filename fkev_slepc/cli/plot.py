@@ -3,7 +3,8 @@
 Wiring only: load the archive(s), call :func:`fkev_slepc.plots.draw.draw`, save. Without ``-o``
 the figure goes next to the (first) archive as ``<archive stem>_<kind>.png``. A bad request
 (unknown case, angle or speed not on the grid, no mode shapes in the archive, not an
-archive) is reported in one line on stderr with exit code 2.
+archive, an output path that cannot be written) is reported in one line on stderr with exit
+code 2, before anything is drawn.
 """
 
 from __future__ import annotations
@@ -81,9 +82,13 @@ def run(args) -> int:
     from fkev_slepc.plots.draw import draw
     from fkev_slepc.archive.reader import ArchiveError, load
 
+    from fkev_slepc.archive.paths import PathProblem, check_output
+
     out = args.output or default_output(args.archive[0], args.kind)
-    if out.suffix.lower() not in FORMATS:
-        print(f"fkev plot: -o: unsupported format {out.suffix!r} (use {', '.join(FORMATS)})", file=sys.stderr)
+    try:  # before drawing: a bad path is one line, not a traceback after the work
+        check_output(out, FORMATS, "-o" if args.output else "output")
+    except PathProblem as err:
+        print(f"fkev plot: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
     if args.orders is not None and args.orders < 1:
         print(f"fkev plot: --orders: must be >= 1 (got {args.orders})", file=sys.stderr)
@@ -103,7 +108,6 @@ def run(args) -> int:
     except ArchiveError as exc:
         print(f"fkev plot: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=args.dpi)
     print(out)
     return 0
