@@ -41,7 +41,8 @@ def create_groups(f, grid, mesh, n_free, mode_shapes, tracking_dofs) -> None:
     nm = grid.n_modes
     err = f.create_group("errors")
     err.attrs["description"] = "messages of failed and not-converged points (one row per point)"
-    row = scale(err, "error", np.zeros(0, "i4"), "1", "row number", maxshape=(None,), chunks=(256,))
+    row = scale(err, "error", np.zeros(0, "i4"), "1", "row number", maxshape=(None,), chunks=(256,),
+                dcpl=_early())  # allocated early like the rows: mpio resizes it collectively
     axis = scale(err, "point_axis", ["angle", "speed", "case"], "1", "axis of the (angle, speed, case) index")
     ds = err.create_dataset("index", (0, 3), "i4", maxshape=(None, 3), chunks=(256, 3), dcpl=_early())
     _describe(ds, "1", "(angle, speed, case) indices of the point", row, axis)

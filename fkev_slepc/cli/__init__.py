@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
@@ -110,6 +111,7 @@ def version_text() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    full_argv, environ = list(argv), dict(os.environ)  # before MPI starts (it adds variables)
     argv, flags = split_global_flags(argv)
     ours, petsc = split_petsc_options(argv)
     from fkev_slepc.solve.petsc_init import init_petsc
@@ -124,6 +126,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("a command is required (one of: " + ", ".join(parser.commands) + ")")
     if extra:  # the subcommand's usage, not the top-level one
         parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+    if getattr(args, "np", None) is not None:  # fkev run --np N: launch the ranks ourselves
+        from fkev_slepc.cli.launch import relaunch
+
+        code = relaunch(args.np, full_argv, environ)
+        if code >= 0:
+            return code
     args.verbose, args.quiet = flags["verbose"], flags["quiet"] or getattr(args, "quiet", 0)
     level = logging.ERROR if args.quiet else logging.WARNING - 10 * min(args.verbose, 2)
     from fkev_slepc.sweep.parallel import configure_logging

@@ -52,6 +52,8 @@ def add_parser(sub) -> None:
     p.add_argument("--resume", action="store_true", help="continue an interrupted run of the same scene")
     p.add_argument("--retry-failed", action="store_true", help="with --resume: solve failed and not-converged points again")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--np", type=int, metavar="N", help="start N MPI ranks (runs mpiexec itself; with Open MPI "
+                   "adds --oversubscribe when N exceeds the CPUs)")
     p.set_defaults(func=run)
 
 
