@@ -209,6 +209,34 @@ def test_missing_citations_are_found(tmp_path):
     assert _broken_anchors(tmp_path) == ["README.md: docs/engine.md#not-a-heading", "README.md: #gone"]
 
 
+def _theory_sections(theory: Path) -> set[str]:
+    """Section numbers of docs/theory.md: ``## 10. Title`` -> 10, ``### 10.3 Title`` -> 10.3."""
+    return set(re.findall(r"^#{2,3} (\d+(?:\.\d+)?)\.? ", theory.read_text(), flags=re.M))
+
+
+def _unknown_sections(root: Path) -> list[str]:
+    """``file: §N`` for every section a line citing docs/theory.md names that does not exist."""
+    sections = _theory_sections(root / "docs" / "theory.md")
+    bad = []
+    for f in _citing_files(root):
+        for line in f.read_text(errors="replace").splitlines():
+            if "theory.md" in line:
+                bad.extend(f"{f.relative_to(root)}: §{n}" for n in re.findall(r"§(\d+(?:\.\d+)?)", line)
+                           if n not in sections)
+    return bad
+
+
+def test_theory_section_citations_resolve(tmp_path):
+    """Code and docs cite `docs/theory.md §N`: the section must exist (and the check must work)."""
+    assert {"1", "5.4", "10.3", "17"} <= _theory_sections(ROOT / "docs" / "theory.md")
+    bad = _unknown_sections(ROOT)
+    assert not bad, "sections of docs/theory.md that do not exist:\n" + "\n".join(bad)
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "theory.md").write_text("## 1. One\n### 1.2 Two\n")
+    (tmp_path / "README.md").write_text("docs/theory.md §1, §" + "1.2 and §" + "3\n§4 (no citation here)\n")
+    assert _unknown_sections(tmp_path) == ["README.md: §" + "3"]
+
+
 # Cited by work in progress (issue 10's stress campaigns) and being written now; drop an entry as
 # soon as its file is in the repository.
 PENDING = {"docs/numerical-stability.md", "scripts/stress.py"}
