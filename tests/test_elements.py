@@ -99,3 +99,79 @@ def test_pinned_beam_with_tension_follows_euler_load_formula():
     for ratio in (0.3, 1.0, 2.5):
         w = _bending(_beam(32, "pinned", axial=ratio * P_cr))[0]
         assert abs(w**2 / (w0**2 * (1 + ratio)) - 1) < 1e-3
+
+
+# ----------------------------------------------------------------- the cubic-axial element
+from fkev_slepc.model.element_types import ElementType, element_type  # noqa: E402
+
+CUBIC = element_type("cubic")
+
+
+def test_generic_quadrature_reproduces_the_thesis_closed_forms():
+    """The quadrature path that builds the cubic element, run with the thesis's linear axial
+    shape functions (6 DOFs), gives the thesis's closed-form matrices; k_s = Bᵀ diag(w) B too."""
+    generic = ElementType("generic", 6)
+    thesis = element_type("thesis")
+    l, rho_a, ea, ei = np.array([0.3, 0.07]), np.array([2.0, 5.0]), np.array([3e7, 1e6]), np.array([40.0, 7.0])
+    c = np.array([[10.0, -3.0, 2.0], [-4.0, 1.0, 0.5]])
+    for a, b in ((generic.mass(rho_a, l), thesis.mass(rho_a, l)),
+                 (generic.skew_mass(rho_a, l), thesis.skew_mass(rho_a, l)),
+                 (generic.structural(ea, ei, l), thesis.structural(ea, ei, l)),
+                 (generic.axial_force(c, l), thesis.axial_force(c, l))):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
+    B, w = thesis.strains(ea, ei, l)
+    np.testing.assert_allclose(np.einsum("esi,es,esj->eij", B, w, B), thesis.structural(ea, ei, l), rtol=1e-12)
+
+
+def test_cubic_element_structure():
+    """m SPD, m_a skew, k_s symmetric PSD with exactly the 3 rigid-body modes in its null space,
+    k_g symmetric and blind to axial DOFs; all 8×8."""
+    l, rho_a = np.array([0.2, 0.45]), np.array([2.0, 3.0])
+    m, ma = CUBIC.mass(rho_a, l), CUBIC.skew_mass(rho_a, l)
+    ks = CUBIC.structural(np.array([1e6, 2e6]), np.array([10.0, 20.0]), l)
+    kg = CUBIC.axial_force(np.array([[5.0, 1.0, -2.0], [3.0, 0.0, 0.0]]), l)
+    assert m.shape == ks.shape == ma.shape == kg.shape == (2, 8, 8)
+    assert np.allclose(m, np.swapaxes(m, 1, 2)) and np.all(la.eigvalsh(m[0]) > 0) and np.all(la.eigvalsh(m[1]) > 0)
+    assert np.allclose(ma, -np.swapaxes(ma, 1, 2))
+    assert np.allclose(ks, np.swapaxes(ks, 1, 2)) and np.allclose(kg, np.swapaxes(kg, 1, 2))
+    ev = la.eigvalsh(ks[0])
+    assert np.sum(np.abs(ev) < 1e-9 * ev.max()) == 3 and ev.min() > -1e-9 * ev.max()
+    rigid = np.array([[1, 0, 0, 1, 0, 0, 0, 0], [0, 1, 0, 0, 1, 0, 0, 0], [0, 0, 1, 0, l[0], 1, 0, 0]], float).T
+    np.testing.assert_allclose(ks[0] @ rigid, 0, atol=1e-8)
+    assert np.all(kg[:, [0, 3, 6, 7], :] == 0)
+    T = el.rotation(np.array([0.7, -2.0]), 8)
+    np.testing.assert_allclose(T @ np.swapaxes(T, 1, 2), np.broadcast_to(np.eye(8), T.shape), atol=1e-15)
+
+
+def _bar(n, etype):
+    """Axial frequencies of a clamped-free bar of n elements (u DOFs and bubbles only)."""
+    l = np.full(n, L / n)
+    m, k = etype.mass(np.full(n, RHO * A), l), etype.structural(np.full(n, E * A), np.full(n, E * I), l)
+    ax = [0, 3] + list(range(6, etype.n_dof))
+    nb = etype.n_dof - 6
+    dofs = np.stack([np.arange(n), np.arange(1, n + 1)], axis=1)
+    dofs = np.concatenate([dofs, n + 1 + np.arange(n * nb).reshape(n, nb)], axis=1) - 1  # node 0 clamped
+    pat = Pattern(dofs, n + n * nb)
+    sub = np.ix_(range(n), ax, ax)
+    M, K = (pat.matrix(pat.scatter(x[sub])).toarray() for x in (m, k))
+    return np.sqrt(la.eigh(K, M, eigvals_only=True)[:3])
+
+
+def test_axial_frequencies_converge_like_h2_thesis_and_h6_cubic():
+    exact = (2 * np.arange(1, 4) - 1) * np.pi / 2 * np.sqrt(E / RHO) / L
+    for etype, lo, hi, ns in ((element_type("thesis"), 1.8, 2.2, (8, 16, 32)), (CUBIC, 5.5, 6.5, (2, 4, 8))):
+        errs = [abs(_bar(n, etype)[2] / exact[2] - 1) for n in ns]
+        slope = np.polyfit(np.log(1 / np.array(ns)), np.log(errs), 1)[0]
+        assert lo < slope < hi, (etype.name, errs, slope)
+
+
+def test_cubic_element_bending_keeps_closed_forms_and_h4():
+    """Bending of the cubic element is the thesis's Hermite bending: the axial bubbles decouple
+    from a straight beam's transverse modes, so its bending frequencies are identical."""
+    for n in (1, 16):
+        l = np.full(n, L / n)
+        mc, kc = CUBIC.mass(np.full(n, RHO * A), l), CUBIC.structural(np.full(n, E * A), np.full(n, E * I), l)
+        np.testing.assert_allclose(mc[:, :6, :6], el.mass_local(np.full(n, RHO * A), l), rtol=1e-12, atol=1e-18)
+        np.testing.assert_allclose(kc[:, :6, :6], el.structural_local(np.full(n, E * A), np.full(n, E * I), l),
+                                   rtol=1e-12, atol=1e-6)
+        assert np.all(mc[:, [1, 2, 4, 5], 6:] == 0) and np.all(kc[:, [1, 2, 4, 5], 6:] == 0)

@@ -13,11 +13,12 @@ import scipy.sparse as sp
 
 
 class Pattern:
-    """CSR pattern of ``elem_dofs`` (n_el, 6) over ``n_free`` DOFs, with scatter positions."""
+    """CSR pattern of ``elem_dofs`` (n_el, n_dof) over ``n_free`` DOFs, with scatter positions."""
 
     def __init__(self, elem_dofs: np.ndarray, n_free: int):
-        rows = np.repeat(elem_dofs, 6, axis=1).ravel()
-        cols = np.tile(elem_dofs, (1, 6)).ravel()
+        k = elem_dofs.shape[1]
+        rows = np.repeat(elem_dofs, k, axis=1).ravel()
+        cols = np.tile(elem_dofs, (1, k)).ravel()
         self.valid = (rows >= 0) & (cols >= 0)
         r, c = rows[self.valid], cols[self.valid]
         key = r.astype(np.int64) * n_free + c
@@ -33,7 +34,7 @@ class Pattern:
         self.diag_position = diag
 
     def scatter(self, stack: np.ndarray) -> np.ndarray:
-        """CSR data array Σ_e Aᵀ k_e A of an (n_el, 6, 6) stack."""
+        """CSR data array Σ_e Aᵀ k_e A of an (n_el, n_dof, n_dof) stack."""
         w = stack.reshape(-1)[self.valid]
         return np.bincount(self.position, weights=w, minlength=self.nnz)
 

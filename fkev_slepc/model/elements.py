@@ -79,10 +79,14 @@ def axial_force_local(c: np.ndarray, l: np.ndarray) -> np.ndarray:
     return k
 
 
-def rotation(phi: np.ndarray) -> np.ndarray:
-    """T = blockdiag(R, 1, R, 1), R = [[cos φ, sin φ], [-sin φ, cos φ]]: q_local = T q_global (§8)."""
+def rotation(phi: np.ndarray, n_dof: int = 6) -> np.ndarray:
+    """T = blockdiag(R, 1, R, 1, I), R = [[cos φ, sin φ], [-sin φ, cos φ]]: q_local = T q_global (§8).
+
+    DOFs beyond the sixth are internal axial amplitudes (element_types.py): already local.
+    """
     c, s = np.cos(phi), np.sin(phi)
-    T = np.zeros((phi.size, 6, 6))
+    T = np.zeros((phi.size, n_dof, n_dof))
+    T[:, 6:, 6:] = np.eye(n_dof - 6)
     for o in (0, 3):
         T[:, o, o] = T[:, o + 1, o + 1] = c
         T[:, o, o + 1] = s

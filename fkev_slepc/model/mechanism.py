@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.model.element_types import element_type
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 
@@ -50,7 +51,7 @@ class Mechanism:
     elem_nodes: np.ndarray  # (n_el, 2)
     elem_length: np.ndarray
     elem_s0: np.ndarray  # station of the left node
-    elem_dofs: np.ndarray  # (n_el, 6)
+    elem_dofs: np.ndarray  # (n_el, n_dof): nodal (u1 v1 φ1 u2 v2 φ2), then internal (element_types)
     n_free: int
     # joints
     joint_names: tuple[str, ...]
@@ -136,6 +137,12 @@ def build_mechanism(scene: Scene) -> Mechanism:
     dof_of_raw = np.where(fixed, -1, free_index[rep])
     node_dofs = dof_of_raw.reshape(n_node, 3)
     elem_dofs = np.concatenate([node_dofs[elem_nodes[:, 0]], node_dofs[elem_nodes[:, 1]]], axis=1)
+    n_free = int(keep.sum())
+    # Internal DOFs of higher-order elements (element_types.py) follow every nodal DOF.
+    n_int = element_type(scene.analysis.element).n_internal
+    internal = n_free + np.arange(elem_link.size * n_int).reshape(elem_link.size, n_int)
+    elem_dofs = np.concatenate([elem_dofs, internal], axis=1)
+    n_free += internal.size
 
     dyads = _plan_dyads(scene, names, root_joint, tip_joint, joint_ground, driver, problems)
     if problems:
@@ -160,7 +167,7 @@ def build_mechanism(scene: Scene) -> Mechanism:
         scene=scene, link_names=names, length=length, rho_a=rho_a, ea=ea, ei=ei, n_elem=n_elem,
         node_link=node_link, node_s=node_s, node_dofs=node_dofs, elem_link=elem_link,
         elem_nodes=elem_nodes, elem_length=elem_length, elem_s0=elem_s0, elem_dofs=elem_dofs,
-        n_free=int(keep.sum()), joint_names=tuple(j.name for j in scene.joints),
+        n_free=n_free, joint_names=tuple(j.name for j in scene.joints),
         joint_ground=joint_ground, link_root_joint=root_joint, link_tip_joint=tip_joint,
         driver=driver, dyads=tuple(dyads), mass_joint=m_joint_a, mass_link=m_link_a,
         mass_at_tip=m_tip_a, mass_value=np.array(m_val, dtype=float), mass_dofs=mass_dofs,

@@ -21,6 +21,8 @@ import numpy as np
 
 from fkev_slepc.model import elements as el
 from fkev_slepc.model.assembly import Pattern
+from fkev_slepc.model.element_types import element_type
+from fkev_slepc.model.energy import StagedStiffness
 from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
 from fkev_slepc.model.kinematics import solve_kinematics
 from fkev_slepc.model.kinetostatics import axial_polynomials, solve_loads
@@ -44,6 +46,7 @@ class OperatorPieces:
     tangential: tuple[np.ndarray, np.ndarray] | None
     normal: np.ndarray | None  # per Ω²
     pseudo_normal: tuple[np.ndarray, np.ndarray] | None
+    staged: StagedStiffness | None = None  # K_s kept factored (model/energy.py)
 
 
 def classify(has_damping: bool, k_symmetric: bool) -> str:
@@ -71,10 +74,12 @@ class Model:
         self.pattern = Pattern(mech.elem_dofs, mech.n_free)
         self.cases = tuple(cases or scene.analysis.cases)
         self.terms = terms_used(self.cases)
+        self.element = et = element_type(scene.analysis.element)
         lk, l = mech.elem_link, mech.elem_length
-        self._m = el.mass_local(mech.rho_a[lk], l)
-        self._ma = el.skew_mass_local(mech.rho_a[lk], l)
-        self._ks = el.structural_local(mech.ea[lk], mech.ei[lk], l)
+        self._m = et.mass(mech.rho_a[lk], l)
+        self._ma = et.skew_mass(mech.rho_a[lk], l)
+        self._ks = et.structural(mech.ea[lk], mech.ei[lk], l)
+        self._strain_op = et.strains(mech.ea[lk], mech.ei[lk], l)
 
     # -- per angle -------------------------------------------------------------------------
     def kinematics(self, theta: float):
@@ -90,7 +95,7 @@ class Model:
         mech, pat, terms = self.mechanism, self.pattern, self.terms
         kin = self.kinematics(theta)
         lk = mech.elem_link
-        T = el.rotation(kin.phi[0, lk])
+        T = el.rotation(kin.phi[0, lk], self.element.n_dof)
         m_g = el.to_global(self._m, T)
         mass = pat.add_diagonal(pat.scatter(m_g), mech.mass_dofs, mech.mass_value[:, None])
         structural = pat.scatter(el.to_global(self._ks, T))
@@ -107,10 +112,11 @@ class Model:
             c_w2, c_acc = axial_polynomials(mech, kin, loads, 0)
             l = mech.elem_length
             pseudo = (
-                pat.scatter(el.to_global(el.axial_force_local(c_w2, l), T)),
-                pat.scatter(el.to_global(el.axial_force_local(c_acc, l), T)),
+                pat.scatter(el.to_global(self.element.axial_force(c_w2, l), T)),
+                pat.scatter(el.to_global(self.element.axial_force(c_acc, l), T)),
             )
-        return OperatorPieces(float(theta), mass, structural, coriolis, tangential, normal, pseudo)
+        staged = StagedStiffness(*self._strain_op, T, mech.elem_dofs, mech.n_free)
+        return OperatorPieces(float(theta), mass, structural, coriolis, tangential, normal, pseudo, staged)
 
     # -- per speed and case ----------------------------------------------------------------
     def qep(self, p: OperatorPieces, omega: float, case: str, accel: float | None = None) -> QEP:
@@ -121,24 +127,26 @@ class Model:
         t = CASES[case]
         acc = self.scene.driver.acceleration if accel is None else float(accel)
         w2 = omega * omega
-        K = p.structural.copy()
+        rest = np.zeros_like(p.structural)  # every stiffness term but K_s
         moving = t.motion and (omega != 0.0 or acc != 0.0)
         k_sym = True
         for name, piece in (("tangential", p.tangential), ("pseudo_normal", p.pseudo_normal)):
             if moving and t.keeps(name):
                 self._require(name, piece)
                 part = w2 * piece[0] + acc * piece[1]
-                K += part
+                rest += part
                 # a tangential term that vanishes (e.g. a lone crank at constant speed) keeps K symmetric
                 k_sym &= name != "tangential" or not np.any(part)
         if moving and t.keeps("normal") and w2 != 0.0:
             self._require("normal", p.normal)
-            K += w2 * p.normal
+            rest += w2 * p.normal
         C = None
         if t.keeps("coriolis") and omega != 0.0:
             self._require("coriolis", p.coriolis)
             C = self.pattern.matrix(omega * p.coriolis)
-        return QEP(self.pattern.matrix(p.mass), C, self.pattern.matrix(K), classify(C is not None, k_sym))
+        pat = self.pattern
+        return QEP(pat.matrix(p.mass), C, pat.matrix(p.structural + rest), classify(C is not None, k_sym),
+                   staged=p.staged, stiffness_rest=pat.matrix(rest))
 
     def _require(self, name, piece):
         if piece is None:

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from fkev_slepc.model.energy import StagedStiffness
+
 # Problem kinds, from the term flags (see operators.classify):
 LINEAR_SYMMETRIC = "linear_symmetric"  # C = 0, K = Kᵀ: generalized symmetric-definite in μ = -λ²
 LINEAR = "linear"  # C = 0, K non-symmetric (tangential term): generalized non-symmetric in μ
@@ -34,6 +36,10 @@ class QEP:
     damping: sp.csr_matrix | None
     stiffness: sp.csr_matrix
     kind: str
+    # K = K_s + stiffness_rest with K_s also kept factored (model/energy.py): lets a solution be
+    # polished beyond the round-off of the assembled K (solve/refine.py). None when not built.
+    staged: StagedStiffness | None = None
+    stiffness_rest: sp.csr_matrix | None = None
 
     @property
     def n(self) -> int:
@@ -78,3 +84,35 @@ def pair_error(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
     scale = nK + np.abs(lam) * nC + np.abs(lam) ** 2 * nM
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(scale > 0, np.linalg.norm(R, axis=0) / scale, np.inf)
+
+
+def staged_residual(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """P(λ)x per column with K_s applied factored (model/energy.py), not from the assembled K.
+
+    Its round-off is a perturbation of the element stresses of relative size ~ε·n_el², which
+    moves the low eigenvalues only by as much; the assembled K's is ~ε·n_el⁴ of them.
+    """
+    lam = np.atleast_1d(np.asarray(lam, dtype=complex))
+    X = np.asarray(X, dtype=complex).reshape(qep.n, -1)
+    R = qep.staged.apply(X) + qep.stiffness_rest @ X + lam**2 * (qep.mass @ X)
+    if qep.damping is not None:
+        R += lam * (qep.damping @ X)
+    return R
+
+
+def polished_pair_error(qep: QEP, lam: complex, x: np.ndarray, solve) -> float:
+    """Pair error of a pair polished by solve/refine.py: the relative change of direction of x
+    that one more residual-inverse-iteration step x - P(σ)⁻¹P(λ)x would make.
+
+    ``solve`` applies P(σ)⁻¹ for the shift σ the polish used. O(1) for a wrong pair (the
+    iteration would turn it toward another eigenvector), ~ε·n_el² for a right one.
+    :func:`pair_error` cannot judge these pairs: on fine meshes the round-off of the assembled K
+    alone gives them ~ε·n_el⁴.
+    """
+    x = np.asarray(x, dtype=complex).ravel()
+    piv = np.argmax(np.abs(x))
+    y = x - solve(staged_residual(qep, lam, x[:, None])[:, 0])
+    if y[piv] == 0:
+        return float("inf")
+    y, x = y / y[piv], x / x[piv]
+    return float(np.linalg.norm(y - x) / np.linalg.norm(x))

@@ -13,6 +13,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 END_NAMES = ("root", "tip")
+# Element types (model/element_types.py): the thesis frame element (linear axial) and the
+# frame element with cubic axial interpolation (docs/accuracy.md §1).
+ELEMENT_NAMES = ("thesis", "cubic")
 
 
 @dataclass(frozen=True)
@@ -91,6 +94,8 @@ class Analysis:
     # Re λ > stability_tol*|λ| marks a pair unstable.
     imag_tol: float = 1e-9
     stability_tol: float = 1e-9
+    element: str = "thesis"  # one of ELEMENT_NAMES
+    rel_error: float | None = None  # requested relative frequency error (solve/accuracy.py)
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ import math
 import re
 
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
-from fkev_slepc.scene.model import END_NAMES, Analysis, Driver, Joint, Link, LinkEnd, LumpedMass, Solver
+from fkev_slepc.scene.model import ELEMENT_NAMES, END_NAMES, Analysis, Driver, Joint, Link, LinkEnd, LumpedMass, Solver
 from fkev_slepc.scene.schema import REQUIRED, Reader, is_number, join, show
 
 # --------------------------------------------------------------------------------------------
@@ -32,7 +32,8 @@ JOINT_TYPES = ("revolute",)
 ASSEMBLIES = ("left", "right")
 DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
 MASS_KEYS = ("joint", "link", "mass_kg")
-ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "stability_tol")
+ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "stability_tol", "element",
+                 "rel_error")
 SOLVER_KEYS = ("method", "petsc")
 SOLVER_METHODS = ("auto", "slepc", "dense")
 TOP_KEYS = ("title", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver")
@@ -251,8 +252,14 @@ def read_analysis(r: Reader, doc) -> Analysis | None:
         mode_shapes=r.boolean(table, "mode_shapes", "analysis", default=False),
         imag_tol=r.number(table, "imag_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
         stability_tol=r.number(table, "stability_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
+        element=r.string(table, "element", "analysis", default="thesis", choices=ELEMENT_NAMES),
     )
-    return None if None in values.values() else Analysis(**values)
+    rel_error = None
+    if "rel_error" in table:  # optional: None means "use the scene's meshes as given"
+        rel_error = r.number(table, "rel_error", "analysis", positive=True, below=1.0)
+        if rel_error is None:
+            return None
+    return None if None in values.values() else Analysis(**values, rel_error=rel_error)
 
 
 def _read_cases(r: Reader, table) -> tuple[str, ...] | None:

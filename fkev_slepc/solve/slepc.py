@@ -37,6 +37,7 @@ from fkev_slepc.solve.petsc_backend import (
     listing_options, positive_option, unknown_option_problems,
 )
 from fkev_slepc.solve.petsc_init import command_line_options
+from fkev_slepc.solve.refine import polish_reported
 from fkev_slepc.solve.modes import untrustworthy, worst_reported_error
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
@@ -183,6 +184,7 @@ class SlepcEngine:
             self._last = {"failed": msg}
             return EigenSolution(np.zeros(0, complex), np.zeros(0), None, False, self.name, msg)
         err = pair_error(qep, lam, X) if lam.size else np.zeros(0)
+        lam, X, err = polish_reported(qep, lam, X, err, n_modes)  # beyond the assembled K's round-off
         worst = worst_reported_error(lam, err, n_modes)
         bad = untrustworthy(worst, self.max_pair_error)
         if ok and bad:

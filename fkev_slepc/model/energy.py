@@ -1,0 +1,52 @@
+"""The structural stiffness kept factored, K_s = Σ_e (B_e T_e)ᵀ diag(w_e) (B_e T_e) (docs/accuracy.md §2).
+
+An assembled K_s applied to a smooth displacement cancels like n_el⁴ (its entries are EI/l³,
+the result is of the size of λ·M x), so its round-off sets a floor on the accuracy of the low
+modes of fine meshes. Evaluated in stages -- element strains (axial strain and curvature at
+Gauss points, cancellation ~n_el²) first, then the strain energy or the nodal forces -- the
+stiffness form xᴴK_s x is accurate to ~ε·n_el², and a residual computed this way is the residual
+of the exact K_s up to a perturbation of the element stresses of that relative size, which moves
+the eigenvalues only by as much (a perturbation of D in BᵀDB, not of the entries of K).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class StagedStiffness:
+    """K_s of one crank angle as strain operator and weights, applied without assembly.
+
+    Parameters
+    ----------
+    B_local : (n_el, n_s, n_dof) strain operator in local DOFs (element_types.ElementType.strains).
+    w : (n_el, n_s) weights (EA·l·w_g, EI·l·w_g).
+    T : (n_el, n_dof, n_dof) rotations (q_local = T q_global).
+    elem_dofs : (n_el, n_dof) free DOF index of each element DOF, -1 where constrained.
+    n_free : number of free DOFs.
+    """
+
+    def __init__(self, B_local, w, T, elem_dofs, n_free: int):
+        self.B = B_local @ T  # strains from global element DOFs
+        self.w = w
+        self.dofs = np.where(elem_dofs >= 0, elem_dofs, n_free)  # constrained -> a zero row
+        self.n = n_free
+
+    def strains(self, X: np.ndarray) -> np.ndarray:
+        """Element strains (n_el, n_s, k) of the columns of X (n, k)."""
+        X = np.asarray(X).reshape(self.n, -1)
+        Xp = np.concatenate([X, np.zeros((1, X.shape[1]), X.dtype)])
+        return np.einsum("esd,edk->esk", self.B, Xp[self.dofs])
+
+    def form(self, Y: np.ndarray, X: np.ndarray) -> np.ndarray:
+        """yᴴK_s x for corresponding columns of Y and X (k,), from element strains."""
+        ey, ex = self.strains(Y), self.strains(X)
+        return np.einsum("es,esk,esk->k", self.w, ey.conj(), ex)
+
+    def apply(self, X: np.ndarray) -> np.ndarray:
+        """K_s X (n, k): element stresses w·(B x) first, then Bᵀ, then summed into the nodes."""
+        X = np.asarray(X).reshape(self.n, -1)
+        f = np.einsum("esd,es,esk->edk", self.B, self.w, self.strains(X))
+        out = np.zeros((self.n + 1, X.shape[1]), dtype=np.result_type(X, float))
+        np.add.at(out, self.dofs.ravel(), f.reshape(-1, X.shape[1]))
+        return out[:-1]
