@@ -9,7 +9,7 @@ import tomllib
 
 import numpy as np
 
-from fkev_slepc.scene import Problem, Scene, SceneError, with_elements
+from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError, with_elements
 
 
 def parse_elements(text: str) -> int | tuple[int, ...]:
@@ -47,6 +47,30 @@ def with_rpm(rad_s: float, show: bool) -> str:
 def add_elements_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--elements", type=parse_elements, metavar="N|n1,n2,...",
                    help="re-mesh: N elements on every link, or one count per link (scene order)")
+
+
+def add_accuracy_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--element", choices=ELEMENT_NAMES, help="element type (default: the scene's analysis.element)")
+    p.add_argument("--rel-error", type=_positive_fraction, metavar="TOL",
+                   help="choose element and elements per link so that the requested frequencies are within TOL "
+                        "(relative) of the converged model's, by an a-posteriori estimate (docs/accuracy.md)")
+
+
+def _positive_fraction(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not 0 < v < 1:
+        raise argparse.ArgumentTypeError(f"--rel-error: must be a number in (0, 1) (got {text!r})")
+    return v
+
+
+def apply_element(scene: Scene, element: str | None) -> Scene:
+    """``scene`` with ``--element`` applied (None: unchanged)."""
+    from dataclasses import replace
+
+    return scene if element is None else replace(scene, analysis=replace(scene.analysis, element=element))
 
 
 def load_checked(path, elements=None, check_angles: bool = True) -> Scene:

@@ -11,8 +11,8 @@ from fkev_slepc.scene.cases import case_name
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import (
-    RAD_S_PER_RPM, add_elements_argument, load_checked, modes_problem, report_scene_error, scene_uses_rpm,
-    transmission_warning, with_rpm,
+    RAD_S_PER_RPM, add_accuracy_arguments, add_elements_argument, apply_element, load_checked, modes_problem,
+    report_scene_error, scene_uses_rpm, transmission_warning, with_rpm,
 )
 
 
@@ -27,6 +27,7 @@ def add_parser(sub) -> None:
     p.add_argument("--case", help="case name or Table 3.1 number (default: the scene's first)")
     p.add_argument("--modes", type=int, help="number of modes (default: the scene's)")
     add_elements_argument(p)
+    add_accuracy_arguments(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default: the scene's)")
     p.add_argument("--cross-check", action="store_true", help="solve with SLEPc and dense QZ and compare")
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -60,7 +61,7 @@ def run(args) -> int:
         bad.append(Problem("--speed-rpm" if args.speed_rpm is not None else "--speed", f"must be finite (got {speed})"))
     if bad:
         return report_scene_error(SceneError(args.scene, bad))
-
+    scene = apply_element(scene, args.element)
     model = Model(scene, cases=(case,))
     too_many = modes_problem(n_modes, model.n_free, "--modes" if args.modes is not None else None)
     if too_many:
@@ -69,6 +70,17 @@ def run(args) -> int:
         pieces = model.pieces(np.radians(angle))
     except ValueError as err:
         return report_scene_error(SceneError(args.scene, [Problem("--angle", f"{err} (got {angle:g})")]))
+    rel_error = scene.analysis.rel_error if args.rel_error is None else args.rel_error
+    plan = None
+    if rel_error is not None:  # re-mesh for the requested accuracy (solve/accuracy.py)
+        from fkev_slepc.solve.accuracy import planned_scene
+
+        try:
+            scene, plan = planned_scene(scene, [(angle, speed, case)], n_modes, rel_error, args.solver or scene.solver.method)
+        except ValueError as err:
+            return report_scene_error(SceneError(args.scene, [Problem("--rel-error", str(err))]))
+        model = Model(scene, cases=(case,))
+        pieces = model.pieces(np.radians(angle))
     qep = model.qep(pieces, speed, case)
     mu = transmission_warning(model, np.radians(angle))
     method = args.solver or scene.solver.method
@@ -87,7 +99,11 @@ def run(args) -> int:
         "residual": _nan_to_none(res.residual),
         "max_real": _f(res.max_real), "divergent": [float(v) for v in res.divergent],
         "status": res.status.value, "message": res.message, "transmission_angle_deg": _f(mu),
+        "element": scene.analysis.element, "elements": [lk.elements for lk in scene.links],
     }  # fmt: skip
+    if plan is not None:
+        out["rel_error_estimate"] = plan.predicted_error
+        out["accuracy"] = plan.summary()
     if args.cross_check:
         out["cross_check_max_rel_diff"] = cross_check(qep, n_modes, scene.solver.petsc)
     engine.close()
@@ -118,5 +134,9 @@ def _print_table(o: dict) -> None:
     print(f"max Re λ = {o['max_real']!r} 1/s; status: {o['status']}"
           + (f"; divergent (real) eigenvalues: {o['divergent']}" if o["divergent"] else "")
           + (f" ({o['message']})" if o["message"] else ""))
+    if "rel_error_estimate" in o:
+        a = o["accuracy"]
+        print(f"requested rel_error {a['rel_error']:g}: element {a['element']}, {a['elements_per_link']} elements per "
+              f"link, estimated max relative error {o['rel_error_estimate']:.1e}")
     if "cross_check_max_rel_diff" in o:
         print(f"cross-check SLEPc vs dense: max relative frequency difference {o['cross_check_max_rel_diff']:.2e}")

@@ -21,7 +21,7 @@ import numpy as np
 from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
 from fkev_slepc.scene import Problem, Scene, SceneError, with_elements
-from .common import RAD_S_PER_RPM, add_elements_argument, modes_problem
+from .common import RAD_S_PER_RPM, add_accuracy_arguments, add_elements_argument, apply_element, modes_problem
 
 MAX_POINTS_PER_AXIS = 1_000_000
 
@@ -44,6 +44,7 @@ def add_parser(sub) -> None:
     p.add_argument("--cases", metavar="c1,c2,...", help="case names or Table 3.1 numbers, or 'all'")
     p.add_argument("--modes", type=int, metavar="N", help="modes per point (default the scene's)")
     add_elements_argument(p)
+    add_accuracy_arguments(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
     p.add_argument("--mode-shapes", action="store_true", help="also archive mode shapes (/modes)")
     p.add_argument("--cross-check", action="store_true",
@@ -126,6 +127,7 @@ def prepare(args) -> Scene:
     scene = load_scene(args.scene)
     if args.elements is not None:
         scene = with_elements(scene, args.elements)
+    scene = apply_element(scene, getattr(args, "element", None))
     an, drv, problems = scene.analysis, scene.driver, []
     for flag, value, parse, field in (("--angles", args.angles, parse_angles, "crank_angles_deg"),
                                       ("--speeds", args.speeds, parse_speeds, "speeds"),
@@ -158,6 +160,35 @@ def prepare(args) -> Scene:
     return scene
 
 
+def _plan_accuracy(args, scene: Scene, comm):
+    """With ``--rel-error`` (or ``analysis.rel_error``): rank 0 plans the element and mesh at a few
+    sample points of the grid (solve/accuracy.py), every rank gets the re-meshed scene; the plan
+    (with its estimate) is archived as the ``accuracy`` attribute. Returns (scene, plan dict or None)."""
+    rel_error = scene.analysis.rel_error if getattr(args, "rel_error", None) is None else args.rel_error
+    if rel_error is None:
+        return scene, None
+    from fkev_slepc.solve.accuracy import planned_scene, sample_points
+
+    out = None
+    if comm.rank == 0:
+        an = scene.analysis
+        points = sample_points(an.crank_angles_deg, scene.driver.speeds, an.cases)
+        try:
+            _, plan = planned_scene(scene, points, an.modes, rel_error, args.solver or scene.solver.method)
+            out = dict(plan.summary(), sample_points=points)
+        except ValueError as err:
+            out = str(err)
+    out = comm.bcast(out, root=0)
+    if isinstance(out, str):
+        raise SceneError(scene.source, [Problem("--rel-error", out)])
+    scene = apply_element(with_elements(scene, out["elements_per_link"]), out["element"])
+    if comm.rank == 0 and not args.quiet:
+        print(f"fkev run: rel_error {rel_error:g}: element {out['element']}, {out['elements_per_link']} elements per "
+              f"link, estimated max relative error {out['predicted_rel_error']:.1e} at {len(out['sample_points'])} "
+              "sample points", file=sys.stderr, flush=True)
+    return scene, out
+
+
 def default_output(scene_path) -> Path:
     """``<scene dir>/out/<scene stem>.h5``."""
     p = Path(scene_path)
@@ -175,6 +206,7 @@ def run(args) -> int:
     rank0 = comm.rank == 0
     try:
         scene = prepare(args)
+        scene, plan = _plan_accuracy(args, scene, comm)
     except SceneError as err:
         if rank0:
             print(str(err), file=sys.stderr, flush=True)
@@ -202,7 +234,8 @@ def run(args) -> int:
     track_dofs = tracking_dofs(model.n_free, len(grid.angles_deg))
     elements = np.array([lk.elements for lk in scene.links], dtype="i4")
     expect = {"scene_toml": scene.source_text, "elements": elements, "n_free": model.n_free,
-              "mode_shapes": int(an.mode_shapes)}
+              "mode_shapes": int(an.mode_shapes), "element": an.element}
+    args.accuracy_plan = plan  # archived with the run attributes (not a resume condition)
     setup = None
     if rank0:
         setup = _open_or_create(args, out, part, grid, expect, model, engine, scene, comm.size, track_dofs)
@@ -268,6 +301,8 @@ def _open_or_create(args, out, part, grid, expect, model, engine, scene, n_ranks
     attrs = dict(expect, scene_source=str(scene.source), command_line=" ".join(sys.argv),
                  n_ranks=n_ranks, solver_settings=_settings(engine), imag_tol=scene.analysis.imag_tol,
                  stability_tol=scene.analysis.stability_tol, title=scene.title, **software_versions())
+    if getattr(args, "accuracy_plan", None) is not None:
+        attrs["accuracy"] = args.accuracy_plan
     archive.create(part, grid, attrs, mesh, model.n_free, scene.analysis.mode_shapes, track_dofs)
     shape = grid.shape
     state = archive.ArchiveState(np.zeros(shape, np.uint8), np.full(shape, np.nan))

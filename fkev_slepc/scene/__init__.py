@@ -7,6 +7,7 @@ PETSc, MPI or h5py.
 
 from fkev_slepc.scene.model import (
     END_NAMES,
+    ELEMENT_NAMES,
     Analysis,
     Driver,
     Joint,
@@ -22,6 +23,6 @@ from fkev_slepc.scene.model import (
 from fkev_slepc.scene.reader import load_scene, parse_scene
 
 __all__ = [
-    "END_NAMES", "Analysis", "Driver", "Joint", "Link", "LinkEnd", "LumpedMass", "Problem", "Scene",
+    "ELEMENT_NAMES", "END_NAMES", "Analysis", "Driver", "Joint", "Link", "LinkEnd", "LumpedMass", "Problem", "Scene",
     "SceneError", "Solver", "with_elements", "load_scene", "parse_scene",
 ]
