@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -89,3 +90,61 @@ def test_no_round_off_floor_on_fine_meshes():
     f = np.sort(sol.eigenvalues.imag[sol.eigenvalues.imag > 0])[:4] / (2 * np.pi)
     assert sol.converged
     np.testing.assert_allclose(f, f_inf, rtol=2e-8)
+
+
+def test_scene_element_and_rel_error_are_validated():
+    from fkev_slepc.scene import SceneError, parse_scene
+
+    text = BW.source_text
+    for bad, msg in (('element = "quintic"', r"analysis.element: must be one of 'thesis', 'cubic' \(got 'quintic'\)"),
+                     ("rel_error = 0", r"analysis.rel_error: must be > 0"),
+                     ("rel_error = 1.5", r"analysis.rel_error: must be < 1")):
+        with pytest.raises(SceneError, match=msg):
+            parse_scene(text.replace("[analysis]\n", f"[analysis]\n{bad}\n"), "bw.toml")
+    good = parse_scene(text.replace("[analysis]\n", '[analysis]\nelement = "cubic"\nrel_error = 1e-6\n'), "bw.toml")
+    assert good.analysis.element == "cubic" and good.analysis.rel_error == 1e-6
+
+
+def test_rel_error_plan_meets_the_tolerance_at_least_cost():
+    """The plan measures the rate (cubic ~4, thesis ~2 on the asymptotic meshes), picks the
+    cheaper element, and its answer is within the tolerance of the converged frequencies
+    (Richardson of the cubic element over 32/64 elements per link)."""
+    from fkev_slepc.solve.accuracy import planned_scene
+
+    point = (10.0, 1000.0, "full")
+    scene, plan = planned_scene(BW, [point], 4, 1e-5)
+    rates = {c.element: c.rate for c in plan.candidates}
+    assert 3.5 < rates["cubic"] < 4.5 and 1.7 < rates["thesis"] < 2.6, rates
+    assert plan.element == "cubic" and plan.predicted_error <= 1e-5
+    assert plan.n_free == min(c.n_free for c in plan.candidates)
+    with SlepcEngine() as engine:
+        ref = [frequencies(engine, bw_qep("cubic", n)[1], 4) for n in (32, 64)]
+        model = Model(scene, cases=("full",))
+        f = frequencies(engine, model.qep(model.pieces(np.radians(10.0)), 1000.0, "full"), 4)
+    f_inf = ref[1] + (ref[1] - ref[0]) / 15
+    err = np.abs(f / f_inf - 1).max()
+    assert err <= 1e-5 and err > 1e-8, err  # met, and not by an over-refined mesh
+    _, loose = planned_scene(BW, [point], 4, 3e-2)
+    assert loose.element == "thesis" and loose.elements <= 4  # a loose tolerance: the cheap thesis mesh
+
+
+def test_cli_rel_error_reports_and_archives_the_estimate(tmp_path, capsys):
+    import h5py
+
+    from fkev_slepc.cli import main
+
+    path = "runs/bahgat-willmert-1976.toml"
+    assert main(["point", path, "--angle", "10", "--speed", "1000", "--case", "full", "--rel-error", "1e-4",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["element"] == out["accuracy"]["element"] and 0 < out["rel_error_estimate"] <= 1e-4
+    assert out["elements"] == [out["accuracy"]["elements_per_link"]] * 3
+    h5 = tmp_path / "bw.h5"
+    assert main(["run", path, "--angles", "0,40", "--speeds", "500", "--cases", "full", "--rel-error", "1e-4",
+                 "--quiet", "-o", str(h5)]) == 0
+    with h5py.File(h5) as f:
+        plan = json.loads(f.attrs["accuracy"])
+        assert f.attrs["element"] == plan["element"] and 0 < plan["predicted_rel_error"] <= 1e-4
+        assert list(f.attrs["elements"]) == [plan["elements_per_link"]] * 3
+    assert main(["point", path, "--element", "cubic", "--elements", "2", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["n_free"] == 30
