@@ -220,6 +220,31 @@ def table(results) -> str:
         for r in res["pareto"]:
             lines.append(f"| {r['element']} | {r['elements_per_link']} | {r['n_free']} | {r['engine']} | "
                          f"{r['time_s'] * 1e3:.2f} | {r['error']:.1e} |")
+        if "floor" in res:
+            lines += ["\nround-off floor (SLEPc TOAR):", "| element | el/link | DOFs | assembled K: error (pair error) "
+                      "| polished: error (pair error) |", "|---|---|---|---|---|"]
+            lines += [f"| {r['element']} | {r['elements_per_link']} | {r['n_free']} | {r['assembled']:.1e} "
+                      f"({r['assembled_pair_error']:.0e}) | {r['polished']:.1e} ({r['polished_pair_error']:.0e}) |"
+                      for r in res["floor"]]
+    return "\n".join(lines)
+
+
+TARGETS = (1e-2, 1e-4, 1e-6, 1e-8)
+
+
+def targets_table(results) -> str:
+    """Cheapest configuration (time per point) reaching each error target, per scene."""
+    head = "| scene | " + " | ".join(f"error ≤ {t:.0e}" for t in TARGETS) + " |"
+    lines = [head, "|---" * (len(TARGETS) + 1) + "|"]
+    for res in results:
+        cells = []
+        for t in TARGETS:
+            ok = [r for r in res["pareto"] if r["error"] <= t]
+            r = min(ok, key=lambda r: r["time_s"]) if ok else None
+            cells.append("—" if r is None else f"{r['element']} {r['elements_per_link']}/link, {r['engine']}, "
+                         f"{r['time_s'] * 1e3:.0f} ms")
+        name = res["scene"].split("/")[-1].removesuffix(".toml")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -227,10 +252,18 @@ def main(argv=None) -> int:
     ap = benchlib.parser(__doc__, modes=N_MODES, repeats=3)
     ap.add_argument("--max-mesh", type=int, default=4096, help="finest elements per link")
     ap.add_argument("--floor-meshes", default="256,1024,2048,4096", help="meshes of the round-off floor table")
+    ap.add_argument("--replot", action="store_true", help="only redraw the figure and tables from --json")
     ap.add_argument("--json", default="runs/bench/time-vs-error.json")
     ap.add_argument("--figure", default="runs/figures/pareto-time-vs-error.png")
     args, _ = benchlib.parse(ap, argv)
     t0 = time.perf_counter()
+    if args.replot:
+        results = json.loads((benchlib.ROOT / args.json).read_text())["results"]
+        for res in results:
+            res["pareto"] = pareto(res["rows"])
+        figure(results, benchlib.ROOT / args.figure)
+        print(table(results) + "\n\n" + targets_table(results))
+        return 0
     results = [run_scene(path, point, args.repeats, args.max_mesh) for path, point in SCENES.items()]
     first = results[0]
     point = tuple(first["point"].values())
@@ -240,7 +273,7 @@ def main(argv=None) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"command": "scripts/bench_time_vs_error.py", "results": results}, indent=0))
     figure(results, benchlib.ROOT / args.figure)
-    print(table(results))
+    print(table(results) + "\n\n" + targets_table(results))
     print(f"\nwrote {args.json} and {args.figure} in {time.perf_counter() - t0:.0f} s")
     return 0
 
