@@ -23,8 +23,9 @@ KINDS = (LINEAR_SYMMETRIC, LINEAR, GYROSCOPIC, GENERAL)
 # A point whose reported pairs have pair_error above this is not converged, whatever the
 # solver's own test said (option -fkev_max_pair_error, or max_pair_error in [solver.petsc]).
 # Measured (README, "SLEPc engine"): right pairs give 1e-14..1e-5 up to a few thousand DOFs,
-# wrong pairs 0.1..1; on over-refined models (>~1e4 DOFs) every pair drifts toward 1, because
-# the round-off in the assembled K grows like n_el⁴.
+# wrong pairs 0.1..1; on over-refined models (>~1e4 DOFs) every unpolished pair drifts toward 1,
+# because the round-off in the assembled K grows like n_el⁴. Models keep K_s factored, and the
+# engines polish such pairs (solve/refine.py), judged by polished_pair_error instead.
 MAX_PAIR_ERROR = 1e-3
 
 
