@@ -2,9 +2,10 @@
 
 import numpy as np
 import pytest
+from balance import newton_euler_residual, power_residual
 from builders import bahgat_willmert, six_bar, turcic_midha
 
-from fkev_slepc.model.kinematics import point_on_link, solve_kinematics
+from fkev_slepc.model.kinematics import solve_kinematics
 from fkev_slepc.model.kinetostatics import solve_loads
 from fkev_slepc.model.mechanism import build_mechanism
 
@@ -67,52 +68,15 @@ def test_impossible_angles_are_flagged():
 
 @pytest.mark.parametrize("omega,alpha", [(500.0, 0.0), (300.0, 4e4), (0.0, -2e5)])
 def test_newton_euler_of_every_link(mech, omega, alpha):
-    """ΣF = m a_G and ΣM_G = J θ̈ for every link (lumped masses on their carrying link)."""
-    kin = solve_kinematics(mech, THETA)
-    loads = solve_loads(mech, kin)
-    f = omega**2 * loads.end_force[0] + alpha * loads.end_force[1]  # (n, link, end, 2)
-    links = np.arange(mech.n_link)
-    L, m = mech.length, mech.link_mass
-    G, dG, ddG = point_on_link(kin, mech, links, L / 2)
-    aG = omega**2 * ddG + alpha * dG
-    th_dd = omega**2 * kin.ddphi + alpha * kin.dphi
-    # particles: add their m·a to the carrying link's required force and moment
-    aJ = omega**2 * kin.ddpos + alpha * kin.dpos
-    need_F = m[None, :, None] * aG
-    need_M = m * L**2 / 12 * th_dd
-    for jm, lk, mv in zip(mech.mass_joint, mech.mass_link, mech.mass_value):
-        need_F[:, lk] += mv * aJ[:, jm]
-        r = kin.pos[:, jm] - G[:, lk]
-        need_M[:, lk] += mv * (r[:, 0] * aJ[:, jm, 1] - r[:, 1] * aJ[:, jm, 0])
-    sumF = f.sum(axis=2)
-    e = np.stack([np.cos(kin.phi), np.sin(kin.phi)], axis=-1)
-    arm = np.stack([-0.5 * L[None, :, None] * e, 0.5 * L[None, :, None] * e], axis=2)
-    sumM = (arm[..., 0] * f[..., 1] - arm[..., 1] * f[..., 0]).sum(axis=2)
-    torque = omega**2 * loads.torque[0] + alpha * loads.torque[1]
-    sumM[:, mech.driver] += torque
-    scale_F = np.abs(need_F).max() + np.abs(f).max()
-    scale_M = np.abs(need_M).max() + np.abs(sumM).max()
-    assert np.abs(sumF - need_F).max() <= 1e-9 * scale_F
-    assert np.abs(sumM - need_M).max() <= 1e-9 * scale_M
+    """ΣF = m a_G and ΣM = J θ̈ for every link (lumped masses on their carrying link), from the
+    elements and particles one by one (tests/balance.py)."""
+    assert newton_euler_residual(mech, THETA, omega, alpha) <= 1e-9
 
 
 def test_driving_power_equals_rate_of_kinetic_energy(mech):
     """T·Ω = dE_k/dt at constant crank speed (no gravity, no dissipation)."""
-    omega = 700.0
-    h = 1e-5
-    L, m = mech.length, mech.link_mass
-
-    def energy(theta):
-        kin = solve_kinematics(mech, theta)
-        _, dG, _ = point_on_link(kin, mech, np.arange(mech.n_link), L / 2)
-        ek = 0.5 * (m * (dG**2).sum(-1) + m * L**2 / 12 * kin.dphi**2).sum(-1)
-        ek += 0.5 * (mech.mass_value * (kin.dpos[:, mech.mass_joint] ** 2).sum(-1)).sum(-1)
-        return omega**2 * ek
-
-    dE_dtheta = (energy(THETA + h) - energy(THETA - h)) / (2 * h)
-    kin = solve_kinematics(mech, THETA)
-    torque = omega**2 * solve_loads(mech, kin).torque[0]
-    np.testing.assert_allclose(torque * omega, dE_dtheta * omega, rtol=1e-6, atol=1e-6 * np.abs(torque * omega).max())
+    power, dE = power_residual(mech, THETA)
+    np.testing.assert_allclose(power, dE, rtol=1e-6, atol=1e-6 * np.abs(power).max())
 
 
 def test_axial_force_balances_at_both_ends(mech):

@@ -51,9 +51,9 @@ def test_pieces_equal_direct_assembly(bw):
     wdot = (omega**2 * kin.ddphi[0, lk] + alpha * kin.dphi[0, lk])[:, None, None]
     loads = solve_loads(mech, kin)
     c2, c1 = axial_polynomials(mech, kin, loads, 0)
-    m = el.mass_local(mech.rho_a[lk], l)
-    ma = el.skew_mass_local(mech.rho_a[lk], l)
-    ke = el.structural_local(mech.ea[lk], mech.ei[lk], l) + wdot * ma - w**2 * m
+    m = el.mass_local(mech.elem_rho_a, l)
+    ma = el.skew_mass_local(mech.elem_rho_a, l)
+    ke = el.structural_local(mech.elem_ea, mech.elem_ei, l) + wdot * ma - w**2 * m
     ke += el.axial_force_local(omega**2 * c2 + alpha * c1, l)
     T = el.rotation(kin.phi[0, lk])
     pat = bw.pattern

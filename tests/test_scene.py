@@ -236,7 +236,7 @@ BAD = {
     "bad_mass_link": "masses[0].link: unknown link for this joint (got 'follower'; known: 'crank', 'coupler')",
     "bad_angle_range": "analysis.crank_angles_deg.step: must be > 0 (got 0)",
     "bad_petsc_option": "solver.petsc.pep_tol: must be a string, number or boolean (got [1e-10])",
-    "bad_mobility": "joints: the linkage has 2 degrees of freedom (3 x 4 links - 10 pin constraints)",
+    "bad_mobility": "joints: the linkage has 2 degrees of freedom (3 x 4 links - 10 joint constraints)",
     "bad_links_table": "links: must be an array of tables: write [[links]], not [links]",
     "bad_syntax": "line 11, column 14: TOML syntax error: Illegal character '\\n'",
     "bad_assembly": "analysis.crank_angles_deg[2]: the linkage cannot be assembled for θ in [100.20°, 259.80°]",
@@ -315,8 +315,10 @@ def test_cli_mixed_good_and_bad_files(capsys):
         (("position_m = [0.0, 0.0]", "position_m = [0.0]"), "joints[0].position_m: must be a pair [x, y] (got [0.0])"),
         (('[[joints]]\nname = "B"', '[[joints]]\nname = "B"\nassembly = "up"'),
          "joints[2].assembly: must be one of 'left', 'right' (got 'up')"),
+        (('[[joints]]\nname = "B"', '[[joints]]\nname = "B"\ntype = "slider"'),
+         "joints[2].type: must be one of 'revolute', 'prismatic' (got 'slider')"),
         (('[[joints]]\nname = "B"', '[[joints]]\nname = "B"\ntype = "prismatic"'),
-         "joints[2].type: must be one of 'revolute' (got 'prismatic')"),
+         "joints[2].connects: a prismatic joint connects 'ground' (its guide) and exactly one link end"),
         (('link = "crank"', 'link = "crnk"'), "driver.link: unknown link (got 'crnk'; did you mean 'crank'?"),
         (("speeds_rad_s = [0.0]", "speeds_rad_s = []"), "driver.speeds_rad_s: must not be empty"),
         (("speeds_rad_s = [0.0]", 'speeds_rad_s = "fast"'),
@@ -390,7 +392,7 @@ def test_topology_rules():
     text = FOURBAR + '[[links]]\nname = "loose"\nlength_m = 0.1\n'
     assert problems_of(text) == [
         "links[3]: link 'loose' is not connected to ground through any joint",
-        "joints: the linkage has 4 degrees of freedom (3 x 4 links - 8 pin constraints);"
+        "joints: the linkage has 4 degrees of freedom (3 x 4 links - 8 joint constraints);"
         " a single driver needs exactly 1",
     ]
     # Both ends of one link in one joint; 'ground' twice.

@@ -1,13 +1,14 @@
-"""Rigid-body kinematics (docs/theory.md §3), vectorised over crank angles.
+"""Rigid-body kinematics (docs/theory.md §3, docs/linkages.md), vectorised over crank angles.
 
 Everything is returned per unit crank speed: with crank angle θ, speed Ω = θ̇ and acceleration
 α = θ̈, a link angle obeys φ̇ = φ'Ω and φ̈ = φ''Ω² + φ'α, and a point p obeys ṗ = p'Ω,
 p̈ = p''Ω² + p'α, where ' is d/dθ. That split is what lets the operators be assembled once per
 angle and combined per speed.
 
-Joints are located in the order planned by :mod:`mechanism`: the driver (clamped at its ground
-pivot, direction θ), then RRR dyads in closed form. For the four-bar's dyad at B this is the RBK
-routine of the thesis (γ ≥ 0 is the ``left`` branch).
+Joints are located in the order planned by :mod:`fkev_slepc.model.plan`: the driver (clamped
+at its ground pivot, direction θ), then RRR dyads and RRP (slider) dyads in closed form; each
+placed link is a rigid body whose other joint points follow from its pose. For the four-bar's
+dyad at B this is the RBK routine of the thesis (γ ≥ 0 is the ``left`` branch).
 """
 
 from __future__ import annotations
@@ -53,6 +54,12 @@ def _unit(angle: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
 
 
+def _rotate(phi: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """R(φ) r for angles (..., ) and link-frame vectors broadcastable to (..., 2)."""
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([c * r[..., 0] - s * r[..., 1], s * r[..., 0] + c * r[..., 1]], axis=-1)
+
+
 def _solve2(c1: np.ndarray, c2: np.ndarray, det: np.ndarray, rhs: np.ndarray):
     """Solve [c1 c2] [x; y] = rhs by Cramer's rule, vectorised over angles (NaN where det = 0)."""
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -61,86 +68,155 @@ def _solve2(c1: np.ndarray, c2: np.ndarray, det: np.ndarray, rhs: np.ndarray):
     return x, y
 
 
+def _det(c1, c2):
+    return c1[:, 0] * c2[:, 1] - c1[:, 1] * c2[:, 0]
+
+
+class _State:
+    """Joint and link arrays being filled in, step by step."""
+
+    def __init__(self, mech: Mechanism, n: int):
+        nj, nl = len(mech.joint_names), mech.n_link
+        self.mech = mech
+        self.pos = np.full((n, nj, 2), np.nan)
+        self.dpos = np.zeros((n, nj, 2))
+        self.ddpos = np.zeros((n, nj, 2))
+        self.phi = np.full((n, nl), np.nan)
+        self.dphi = np.zeros((n, nl))
+        self.ddphi = np.zeros((n, nl))
+        self.root = np.full((n, nl, 2), np.nan)
+        self.droot = np.zeros((n, nl, 2))
+        self.ddroot = np.zeros((n, nl, 2))
+
+    def place(self, lk: int, j: int, r_j, phi, dphi, ddphi) -> None:
+        """Link ``lk`` with its link-frame point ``r_j`` at joint ``j`` (located): its root and
+        every other joint on it follow from the rigid-body pose."""
+        self.phi[:, lk], self.dphi[:, lk], self.ddphi[:, lk] = phi, dphi, ddphi
+        w, dw = dphi[:, None], ddphi[:, None]
+        a = _rotate(phi, -np.asarray(r_j, dtype=float))  # root - joint
+        self.root[:, lk] = self.pos[:, j] + a
+        self.droot[:, lk] = self.dpos[:, j] + w * _perp(a)
+        self.ddroot[:, lk] = self.ddpos[:, j] + dw * _perp(a) - w**2 * a
+        for jj, lk2, k in ((jj, l2, k) for jj, lst in enumerate(self.mech.attach) for (l2, k) in lst):
+            if lk2 == lk and jj != j:
+                p, dp, ddp = rigid_point(self.root[:, lk], self.droot[:, lk], self.ddroot[:, lk],
+                                         phi, dphi, ddphi, self.mech.link_points[lk, k])
+                if np.isnan(self.pos[:, jj]).all():
+                    self.pos[:, jj], self.dpos[:, jj], self.ddpos[:, jj] = p, dp, ddp
+
+
+def rigid_point(root, droot, ddroot, phi, dphi, ddphi, r):
+    """Position, d/dθ, d²/dθ² of link-frame point(s) ``r`` on a rigid link (broadcasting)."""
+    a = _rotate(phi, np.asarray(r, dtype=float))
+    w, dw = dphi[..., None], ddphi[..., None]
+    return root + a, droot + w * _perp(a), ddroot + dw * _perp(a) - w**2 * a
+
+
+def _rrr(st: _State, step) -> np.ndarray:
+    """Locate joint J of an RRR dyad; returns where it closes and its transmission angle."""
+    arm_a, arm_b = step.arms
+    da, db = np.asarray(arm_a.d), np.asarray(arm_b.d)
+    La, Lb = np.hypot(*da), np.hypot(*db)
+    P, dP, ddP = st.pos[:, arm_a.p], st.dpos[:, arm_a.p], st.ddpos[:, arm_a.p]
+    Q, dQ, ddQ = st.pos[:, arm_b.p], st.dpos[:, arm_b.p], st.ddpos[:, arm_b.p]
+    dq = Q - P
+    dist = np.hypot(dq[:, 0], dq[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos_g = (La**2 + dist**2 - Lb**2) / (2 * La * dist)
+    good = np.abs(cos_g) <= 1.0
+    psi_a = np.arctan2(dq[:, 1], dq[:, 0]) + step.sign * np.arccos(np.clip(cos_g, -1, 1))
+    ua = _unit(psi_a)
+    J = P + La * ua
+    vb = J - Q
+    psi_b = np.arctan2(vb[:, 1], vb[:, 0])
+    ub = _unit(psi_b)
+    # [La ua⊥, -Lb ub⊥] [ψa'; ψb'] = Q' - P'   (loop closure differentiated once, twice)
+    c1, c2 = La * _perp(ua), -Lb * _perp(ub)
+    det = _det(c1, c2)
+    good &= np.abs(det) > 1e-12 * La * Lb  # toggle (dead-centre) positions are singular
+    wa, wb = _solve2(c1, c2, det, dQ - dP)
+    rhs2 = ddQ - ddP + La * wa[:, None] ** 2 * ua - Lb * wb[:, None] ** 2 * ub
+    dwa, dwb = _solve2(c1, c2, det, rhs2)
+    j = step.joint
+    st.pos[:, j] = J
+    with np.errstate(invalid="ignore", over="ignore"):
+        st.dpos[:, j] = dP + La * (wa[:, None] * _perp(ua))
+        st.ddpos[:, j] = ddP + La * (dwa[:, None] * _perp(ua) - wa[:, None] ** 2 * ua)
+        for arm, d, psi, w, dw in ((arm_a, da, psi_a, wa, dwa), (arm_b, db, psi_b, wb, dwb)):
+            r_j = np.asarray(arm.r_p) + d
+            st.place(arm.link, j, r_j, psi - np.arctan2(d[1], d[0]), w, dw)
+        mu = np.arccos(np.clip(np.abs(np.sum(ua * ub, axis=-1)), 0.0, 1.0))  # angle between the links
+    return good, mu
+
+
+def _rrp(st: _State, step) -> np.ndarray:
+    """Locate the slider J of an RRP dyad on its guide G0 + λt; returns where it closes and its
+    transmission angle."""
+    (arm,) = step.arms
+    mech, j = st.mech, step.joint
+    d = np.asarray(arm.d)
+    La = np.hypot(*d)
+    t, G0 = mech.joint_guide[j], mech.joint_guide_point[j]
+    P, dP, ddP = st.pos[:, arm.p], st.dpos[:, arm.p], st.ddpos[:, arm.p]
+    w = P - G0
+    tw = w @ t
+    disc = tw**2 - (w**2).sum(axis=1) + La**2
+    good = disc >= 0
+    lam = tw + step.sign * np.sqrt(np.maximum(disc, 0.0))
+    J = G0 + lam[:, None] * t
+    v = J - P
+    psi = np.arctan2(v[:, 1], v[:, 0])
+    u = _unit(psi)
+    # P + La u(ψ) = G0 + λ t: [La u⊥, -t] [ψ'; λ'] = -P', and with + La ψ'² u for ψ'', λ''
+    c1, c2 = La * _perp(u), np.broadcast_to(-t, u.shape)
+    det = _det(c1, c2)
+    good &= np.abs(det) > 1e-12 * La  # the arm normal to the guide: the slider's limit
+    wpsi, dlam = _solve2(c1, c2, det, -dP)
+    dwpsi, ddlam = _solve2(c1, c2, det, -ddP + La * wpsi[:, None] ** 2 * u)
+    with np.errstate(invalid="ignore", over="ignore"):
+        st.pos[:, j], st.dpos[:, j], st.ddpos[:, j] = J, dlam[:, None] * t, ddlam[:, None] * t
+        st.place(arm.link, j, np.asarray(arm.r_p) + d, psi - np.arctan2(d[1], d[0]), wpsi, dwpsi)
+        # the link along the guide is ideal (π/2), normal to it a toggle (0)
+        mu = np.arccos(np.clip(np.abs(u @ _perp(t)), 0.0, 1.0))
+    return good, mu
+
+
 def solve_kinematics(mech: Mechanism, theta) -> Kinematics:
     """Positions, d/dθ and d²/dθ² of every joint and link angle at crank angles ``theta`` (rad)."""
     theta = np.atleast_1d(np.asarray(theta, dtype=float))
-    n, nj, nl = theta.size, len(mech.joint_names), mech.n_link
-    pos = np.full((n, nj, 2), np.nan)
-    dpos = np.zeros((n, nj, 2))
-    ddpos = np.zeros((n, nj, 2))
-    phi = np.full((n, nl), np.nan)
-    dphi = np.zeros((n, nl))
-    ddphi = np.zeros((n, nl))
+    n = theta.size
+    st = _State(mech, n)
+    ground = ~np.isnan(mech.joint_ground[:, 0])
+    st.pos[:, ground] = mech.joint_ground[ground]
     ok = np.ones(n, dtype=bool)
     mu = np.full(n, np.nan)
-    ground = ~np.isnan(mech.joint_ground[:, 0])
-    pos[:, ground] = mech.joint_ground[ground]
-
     d = mech.driver
-    phi[:, d], dphi[:, d] = theta, 1.0
-    if mech.link_tip_joint[d] >= 0:
-        L, e = mech.length[d], _unit(theta)
-        r = pos[:, mech.link_root_joint[d]]
-        t = mech.link_tip_joint[d]
-        pos[:, t] = r + L * e
-        dpos[:, t] = L * _perp(e)
-        ddpos[:, t] = -L * e
-
-    for st in mech.dyads:  # NaN where a dyad cannot close; those angles are masked below
-        La, Lb = mech.length[st.link_a], mech.length[st.link_b]
-        P, dP, ddP = pos[:, st.p], dpos[:, st.p], ddpos[:, st.p]
-        Q, dQ, ddQ = pos[:, st.q], dpos[:, st.q], ddpos[:, st.q]
-        dq = Q - P
-        dist = np.hypot(dq[:, 0], dq[:, 1])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cos_g = (La**2 + dist**2 - Lb**2) / (2 * La * dist)
-        good = np.abs(cos_g) <= 1.0
-        psi_a = np.arctan2(dq[:, 1], dq[:, 0]) + st.sign * np.arccos(np.clip(cos_g, -1, 1))
-        ua = _unit(psi_a)
-        J = P + La * ua
-        vb = J - Q
-        psi_b = np.arctan2(vb[:, 1], vb[:, 0])
-        ub = _unit(psi_b)
-        # [La ua⊥, -Lb ub⊥] [ψa'; ψb'] = Q' - P'   (loop closure differentiated once, twice)
-        c1, c2 = La * _perp(ua), -Lb * _perp(ub)
-        det = c1[:, 0] * c2[:, 1] - c1[:, 1] * c2[:, 0]
-        good &= np.abs(det) > 1e-12 * La * Lb  # toggle (dead-centre) positions are singular
-
-        da, db = _solve2(c1, c2, det, dQ - dP)
-        rhs2 = ddQ - ddP + La * da[:, None] ** 2 * ua - Lb * db[:, None] ** 2 * ub
-        dda, ddb = _solve2(c1, c2, det, rhs2)
-        pos[:, st.joint] = J
-        with np.errstate(invalid="ignore", over="ignore"):
-            dpos[:, st.joint] = dP + La * (da[:, None] * _perp(ua))
-            ddpos[:, st.joint] = ddP + La * (dda[:, None] * _perp(ua) - da[:, None] ** 2 * ua)
-        # A link's own angle runs root -> tip: flip by π when its root is at the dyad joint.
-        phi[:, st.link_a] = psi_a + (0.0 if st.a_tip_at_joint else np.pi)
-        phi[:, st.link_b] = psi_b + (0.0 if st.b_tip_at_joint else np.pi)
-        dphi[:, st.link_a], ddphi[:, st.link_a] = da, dda
-        dphi[:, st.link_b], ddphi[:, st.link_b] = db, ddb
+    st.place(d, mech.link_root_joint[d], (0.0, 0.0), theta, np.ones(n), np.zeros(n))
+    for step in mech.steps:  # NaN where a dyad cannot close; those angles are masked below
+        good, mu_step = _rrr(st, step) if len(step.arms) == 2 else _rrp(st, step)
         ok &= good
         with np.errstate(invalid="ignore"):
-            mu = np.fmin(mu, np.arccos(np.clip(np.abs(np.sum(ua * ub, axis=-1)), 0.0, 1.0)))
+            mu = np.fmin(mu, mu_step)
 
-    phi = np.mod(phi + np.pi, 2 * np.pi) - np.pi
-    rj = mech.link_root_joint
-    root, droot, ddroot = pos[:, rj], dpos[:, rj], ddpos[:, rj]
-    bad = ~ok
-    for arr in (phi, dphi, ddphi, pos, dpos, ddpos, root, droot, ddroot, mu):
-        arr[bad] = np.nan
-    return Kinematics(theta, ok, phi, dphi, ddphi, pos, dpos, ddpos, root, droot, ddroot, mu)
+    phi = np.mod(st.phi + np.pi, 2 * np.pi) - np.pi
+    arrays = (phi, st.dphi, st.ddphi, st.pos, st.dpos, st.ddpos, st.root, st.droot, st.ddroot, mu)
+    for arr in arrays:
+        arr[~ok] = np.nan
+    return Kinematics(theta, ok, *arrays)
+
+
+def point_local(kin: Kinematics, link: np.ndarray, r: np.ndarray):
+    """Position, d/dθ, d²/dθ² of link-frame points ``r`` (n_pt, 2) on links ``link`` (n_pt,):
+    arrays (n_ang, n_pt, 2)."""
+    link = np.asarray(link, dtype=int)
+    return rigid_point(kin.root[:, link], kin.droot[:, link], kin.ddroot[:, link],
+                       kin.phi[:, link], kin.dphi[:, link], kin.ddphi[:, link], np.asarray(r, dtype=float))
 
 
 def point_on_link(kin: Kinematics, mech: Mechanism, link: np.ndarray, s: np.ndarray):
-    """Position, d/dθ, d²/dθ² of points at stations ``s`` on links ``link``: arrays (n_ang, n_pt, 2)."""
-    e = _unit(kin.phi[:, link])
-    ep = _perp(e)
-    dphi, ddphi = kin.dphi[:, link, None], kin.ddphi[:, link, None]
-    s = np.asarray(s, dtype=float)[None, :, None]
-    p = kin.root[:, link] + s * e
-    dp = kin.droot[:, link] + s * dphi * ep
-    ddp = kin.ddroot[:, link] + s * (ddphi * ep - dphi**2 * e)
-    return p, dp, ddp
+    """Position, d/dθ, d²/dθ² of points at stations ``s`` along the axes of links ``link``."""
+    s = np.broadcast_to(np.asarray(s, dtype=float), np.shape(link))
+    return point_local(kin, link, np.stack([s, np.zeros_like(s)], axis=-1))
 
 
 def assembly_ranges(mech: Mechanism, step_deg: float = 0.25) -> list[tuple[float, float]]:
@@ -188,16 +264,15 @@ def grashof_class(mech: Mechanism) -> str | None:
     (the coupler); s + l = p + q: change-point (it passes through toggle positions);
     s + l > p + q: non-Grashof triple-rocker (the crank cannot turn fully).
     """
-    if len(mech.dyads) != 1:
+    if len(mech.steps) != 1 or len(mech.steps[0].arms) != 2 or mech.n_link != 3:
         return None
-    st, d = mech.dyads[0], mech.driver
+    (a, b), d = mech.steps[0].arms, mech.driver
     g = mech.joint_ground
     root = mech.link_root_joint[d]
-    if np.isnan(g[root, 0]) or st.p != mech.link_tip_joint[d] or np.isnan(g[st.q, 0]):
+    if np.isnan(g[root, 0]) or a.p != mech.link_tip_joint[d] or np.isnan(g[b.p, 0]):
         return None
-    L = mech.length
-    lengths = {"crank": L[d], "coupler": L[st.link_a], "follower": L[st.link_b],
-               "ground": float(np.hypot(*(g[st.q] - g[root])))}
+    lengths = {"crank": mech.length[d], "coupler": float(np.hypot(*a.d)), "follower": float(np.hypot(*b.d)),
+               "ground": float(np.hypot(*(g[b.p] - g[root])))}
     vals = sorted(lengths.values())
     s_l, p_q = vals[0] + vals[3], vals[1] + vals[2]
     if np.isclose(s_l, p_q, rtol=1e-12):

@@ -1,12 +1,17 @@
 """Topology, meshing and DOF numbering of a planar linkage of elastic links.
 
-Independent of crank angle and speed. Every link is a straight beam from its root to its tip,
-meshed into equal frame elements; every node has (U, V, Φ) in the global frame
-(docs/theory.md §4). Revolute joints share the translations of the link ends they connect and
-leave their rotations independent (§9.2); ground joints fix the translations; the driven link
-is clamped at its ground pivot (§9.3). The kinematic solution order (a driver, then RRR dyads)
-is planned here once, so that any single-DOF linkage of binary links that decomposes into
-dyads (four-bars, Watt/Stephenson-type chains with compound joints) is handled the same way.
+Independent of crank angle and speed. Links are meshed into frame elements by
+:mod:`fkev_slepc.model.mesh` (axis beam, segments, mass nodes, a ternary link's branch); every
+node has (U, V, Φ) in the global frame (docs/theory.md §4). Revolute joints share the
+translations of the link points they connect and leave their rotations independent (§9.2);
+ground joints fix the translations; the driven link is clamped at its ground pivot (§9.3).
+
+A prismatic joint (a slider on a ground guide, docs/linkages.md) constrains only the
+displacement normal to the guide: the translations of its node are taken in the guide frame
+(``node_axis``: direction of the node's first translational DOF; its second, the normal one,
+is fixed), which the element transformation includes (``element_frames``). The slider's mass
+rides on the along-guide DOF. The kinematic solution order is planned by
+:mod:`fkev_slepc.model.plan`.
 """
 
 from __future__ import annotations
@@ -16,56 +21,61 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.model.element_types import element_type
-from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.model.mesh import build_mesh, rigid_body
+from fkev_slepc.model.plan import Step, plan_steps
+from fkev_slepc.scene import THIRD, Problem, Scene, SceneError
 
-
-@dataclass(frozen=True)
-class DyadStep:
-    """Solve joint ``joint`` from links a (other end at joint ``p``) and b (other end at ``q``)."""
-
-    joint: int
-    link_a: int
-    a_tip_at_joint: bool  # True if link a's tip is at ``joint`` (so its root is at ``p``)
-    p: int
-    link_b: int
-    b_tip_at_joint: bool
-    q: int
-    sign: float  # +1: joint to the left of the ray P->Q
+POINT_INDEX = {"root": 0, "tip": 1, THIRD: 2}
 
 
 @dataclass(frozen=True)
 class Mechanism:
     scene: Scene
     link_names: tuple[str, ...]
-    length: np.ndarray  # (n_link,)
-    rho_a: np.ndarray  # (n_link,) mass per unit length
-    ea: np.ndarray
-    ei: np.ndarray
-    n_elem: np.ndarray  # (n_link,) elements per link
-    # nodes (n_node,)
+    length: np.ndarray  # (n_link,) root -> tip
+    # beams, nodes, elements (see mesh.Mesh)
+    beam_link: np.ndarray
+    beam_angle: np.ndarray
+    beam_origin: np.ndarray
     node_link: np.ndarray
-    node_s: np.ndarray  # station along the link from its root, m
+    node_beam: np.ndarray
+    node_s: np.ndarray  # station along the node's beam from the beam's start, m
+    node_local: np.ndarray  # (n_node, 2) link frame
     node_dofs: np.ndarray  # (n_node, 3) free DOF index or -1
-    # elements (n_el,)
+    node_axis: np.ndarray  # (n_node, 2) direction of the first translational DOF (x, or a guide)
     elem_link: np.ndarray
+    elem_beam: np.ndarray
     elem_nodes: np.ndarray  # (n_el, 2)
     elem_length: np.ndarray
-    elem_s0: np.ndarray  # station of the left node
+    elem_s0: np.ndarray  # station of the left node along the beam
+    elem_rho_a: np.ndarray  # mass per unit length
+    elem_ea: np.ndarray
+    elem_ei: np.ndarray
     elem_dofs: np.ndarray  # (n_el, n_dof): nodal (u1 v1 φ1 u2 v2 φ2), then internal (element_types)
     n_free: int
     # joints
     joint_names: tuple[str, ...]
-    joint_ground: np.ndarray  # (n_joint, 2) position for ground joints, NaN otherwise
+    joint_ground: np.ndarray  # (n_joint, 2) pivot of revolute ground joints, NaN otherwise
+    joint_guide: np.ndarray  # (n_joint, 2) guide direction of prismatic joints, NaN otherwise
+    joint_guide_point: np.ndarray  # (n_joint, 2) a point of the guide, NaN otherwise
+    attach: tuple[tuple[tuple[int, int], ...], ...]  # per joint: (link, point index 0/1/2)
+    link_points: np.ndarray  # (n_link, 3, 2) root, tip, third in the link frame (NaN: none)
+    point_node: np.ndarray  # (n_link, 3) node at each link point (-1: none)
     link_root_joint: np.ndarray  # (n_link,) joint index at the root (-1 if free)
     link_tip_joint: np.ndarray  # (n_link,) joint index at the tip (-1 if free)
     driver: int
-    dyads: tuple[DyadStep, ...]
-    # lumped masses: (joint, carrying link, end is tip, mass)
-    mass_joint: np.ndarray
+    steps: tuple[Step, ...]
+    # particles: lumped masses and slider blocks (link, link-frame point, mass, rotary inertia)
     mass_link: np.ndarray
-    mass_at_tip: np.ndarray
+    mass_local: np.ndarray  # (n_mass, 2)
     mass_value: np.ndarray
-    mass_dofs: np.ndarray  # (n_mass, 2) free translation DOFs (-1 if fixed)
+    mass_inertia: np.ndarray
+    mass_nodes: np.ndarray  # (n_mass,)
+    mass_dofs: np.ndarray  # (n_mass, 3) free DOFs (U, V, Φ) at the mass node (-1 if fixed)
+    # the links as rigid bodies (elements + particles)
+    body_mass: np.ndarray
+    body_centroid: np.ndarray  # (n_link, 2) link frame
+    body_inertia: np.ndarray  # about the centroid
 
     @property
     def n_link(self) -> int:
@@ -73,7 +83,13 @@ class Mechanism:
 
     @property
     def link_mass(self) -> np.ndarray:
-        return self.rho_a * self.length
+        """Mass of each link's beams (without lumped masses)."""
+        return np.bincount(self.elem_link, weights=self.elem_rho_a * self.elem_length, minlength=self.n_link)
+
+    @property
+    def elem_angle(self) -> np.ndarray:
+        """Direction of each element relative to its link's axis."""
+        return self.beam_angle[self.elem_beam]
 
 
 def build_mechanism(scene: Scene) -> Mechanism:
@@ -86,132 +102,115 @@ def build_mechanism(scene: Scene) -> Mechanism:
     """
     names = tuple(lk.name for lk in scene.links)
     index = {n: i for i, n in enumerate(names)}
-    length = np.array([lk.length for lk in scene.links], dtype=float)
-    n_elem = np.array([lk.elements for lk in scene.links], dtype=int)
-    rho_a = np.array([lk.density * lk.area for lk in scene.links])
-    ea = np.array([lk.youngs_modulus * lk.area for lk in scene.links])
-    ei = np.array([lk.youngs_modulus * lk.second_moment for lk in scene.links])
+    mesh = build_mesh(scene)
+    n_node = mesh.node_link.size
 
-    # Nodes: link j owns nodes offset[j] .. offset[j] + n_j (root .. tip).
-    offset = np.concatenate([[0], np.cumsum(n_elem + 1)])
-    n_node = int(offset[-1])
-    node_link = np.repeat(np.arange(len(names)), n_elem + 1)
-    local = np.arange(n_node) - offset[node_link]
-    node_s = local * (length / n_elem)[node_link]
-    elem_link = np.repeat(np.arange(len(names)), n_elem)
-    first_node = np.arange(elem_link.size) + elem_link  # skips each link's tip node
-    elem_nodes = np.stack([first_node, first_node + 1], axis=1)
-    elem_length = (length / n_elem)[elem_link]
-    elem_s0 = node_s[first_node]
-
-    def end_node(link: int, end: str) -> int:
-        return int(offset[link] + (n_elem[link] if end == "tip" else 0))
-
-    # Raw DOF 3*node+c; joints merge translations (union into the first end), ground fixes them.
+    # Raw DOF 3*node+c; joints merge translations (union into the first point), ground fixes them.
     rep = np.arange(3 * n_node)
     fixed = np.zeros(3 * n_node, dtype=bool)
+    axis = np.tile([1.0, 0.0], (n_node, 1))
     n_joint = len(scene.joints)
     joint_ground = np.full((n_joint, 2), np.nan)
+    guide = np.full((n_joint, 2), np.nan)
+    guide_point = np.full((n_joint, 2), np.nan)
     root_joint = -np.ones(len(names), dtype=int)
     tip_joint = -np.ones(len(names), dtype=int)
+    attach = []
     for jj, joint in enumerate(scene.joints):
-        nodes = [end_node(index[e.link], e.end) for e in joint.ends]
-        for e in joint.ends:
-            (tip_joint if e.end == "tip" else root_joint)[index[e.link]] = jj
+        here = tuple((index[e.link], POINT_INDEX[e.end]) for e in joint.ends)
+        attach.append(here)
+        nodes = [int(mesh.point_node[lk, k]) for lk, k in here]
+        for lk, k in here:
+            if k < 2:
+                (tip_joint if k == 1 else root_joint)[lk] = jj
         for c in (0, 1):
             rep[[3 * n + c for n in nodes]] = 3 * nodes[0] + c
-            if joint.ground is not None:
-                fixed[[3 * n + c for n in nodes]] = True
-        if joint.ground is not None:
+        if joint.prismatic:
+            # translations in the guide frame: along (free, carries the slider), normal (fixed)
+            guide[jj] = (np.cos(joint.guide_angle), np.sin(joint.guide_angle))
+            guide_point[jj] = joint.ground
+            axis[nodes] = guide[jj]
+            fixed[[3 * n + 1 for n in nodes]] = True
+        elif joint.ground is not None:
             joint_ground[jj] = joint.ground
+            fixed[[3 * n + c for n in nodes for c in (0, 1)]] = True
     driver = index[scene.driver.link]
     problems: list[Problem] = []
     if root_joint[driver] < 0 or np.isnan(joint_ground[root_joint[driver]]).any():
         problems.append(Problem("driver.link", f"the root of {names[driver]!r} must be at a ground joint"))
     else:
-        fixed[3 * end_node(driver, "root") + 2] = True  # driven crank: clamped root (§9.3)
+        fixed[3 * mesh.point_node[driver, 0] + 2] = True  # driven crank: clamped root (§9.3)
 
     keep = (rep == np.arange(rep.size)) & ~fixed
     free_index = -np.ones(rep.size, dtype=int)
     free_index[keep] = np.arange(int(keep.sum()))
-    dof_of_raw = np.where(fixed, -1, free_index[rep])
+    dof_of_raw = np.where(fixed | fixed[rep], -1, free_index[rep])
     node_dofs = dof_of_raw.reshape(n_node, 3)
-    elem_dofs = np.concatenate([node_dofs[elem_nodes[:, 0]], node_dofs[elem_nodes[:, 1]]], axis=1)
+    elem_dofs = np.concatenate([node_dofs[mesh.elem_nodes[:, 0]], node_dofs[mesh.elem_nodes[:, 1]]], axis=1)
     n_free = int(keep.sum())
     # Internal DOFs of higher-order elements (element_types.py) follow every nodal DOF.
+    n_el = mesh.elem_link.size
     n_int = element_type(scene.analysis.element).n_internal
-    internal = n_free + np.arange(elem_link.size * n_int).reshape(elem_link.size, n_int)
+    internal = n_free + np.arange(n_el * n_int).reshape(n_el, n_int)
     elem_dofs = np.concatenate([elem_dofs, internal], axis=1)
     n_free += internal.size
 
-    dyads = _plan_dyads(scene, names, root_joint, tip_joint, joint_ground, driver, problems)
+    ground_known = ~np.isnan(joint_ground[:, 0])
+    prismatic = np.array([j.prismatic for j in scene.joints], dtype=bool)
+    steps = plan_steps(scene, names, attach, mesh.link_points, ground_known, prismatic, driver, problems)
+    for lk in range(len(names)):
+        if lk != driver and (root_joint[lk] < 0 or tip_joint[lk] < 0):
+            problems.append(Problem(f"links[{lk}]", f"link {names[lk]!r} has a free end; only the driver may"))
     if problems:
         raise SceneError(scene.source, problems)
 
-    m_joint, m_link, m_tip, m_val = [], [], [], []
-    jindex = {j.name: i for i, j in enumerate(scene.joints)}
-    for m in scene.masses:
-        m_joint.append(jindex[m.joint])
-        m_link.append(index[m.link])
-        m_tip.append(tip_joint[index[m.link]] == jindex[m.joint])
-        m_val.append(m.mass)
-    m_joint_a = np.array(m_joint, dtype=int)
-    m_link_a = np.array(m_link, dtype=int)
-    m_tip_a = np.array(m_tip, dtype=bool)
-    mass_nodes = np.array(
-        [end_node(lk, "tip" if t else "root") for lk, t in zip(m_link_a, m_tip_a)], dtype=int
-    )
-    mass_dofs = node_dofs[mass_nodes, :2] if mass_nodes.size else np.zeros((0, 2), dtype=int)
+    particles = _particles(scene, index, mesh, attach)
+    m_link, m_local, m_val, m_inertia, m_node = particles
+    mass_dofs = node_dofs[m_node] if m_node.size else np.zeros((0, 3), dtype=int)
+    body = rigid_body(mesh, len(names), (m_link, m_local, m_val, m_inertia))
 
     return Mechanism(
-        scene=scene, link_names=names, length=length, rho_a=rho_a, ea=ea, ei=ei, n_elem=n_elem,
-        node_link=node_link, node_s=node_s, node_dofs=node_dofs, elem_link=elem_link,
-        elem_nodes=elem_nodes, elem_length=elem_length, elem_s0=elem_s0, elem_dofs=elem_dofs,
-        n_free=n_free, joint_names=tuple(j.name for j in scene.joints),
-        joint_ground=joint_ground, link_root_joint=root_joint, link_tip_joint=tip_joint,
-        driver=driver, dyads=tuple(dyads), mass_joint=m_joint_a, mass_link=m_link_a,
-        mass_at_tip=m_tip_a, mass_value=np.array(m_val, dtype=float), mass_dofs=mass_dofs,
+        scene=scene, link_names=names, length=np.array([lk.length for lk in scene.links], dtype=float),
+        beam_link=mesh.beam_link, beam_angle=mesh.beam_angle, beam_origin=mesh.beam_origin,
+        node_link=mesh.node_link, node_beam=mesh.node_beam, node_s=mesh.node_s, node_local=mesh.node_local,
+        node_dofs=node_dofs, node_axis=axis, elem_link=mesh.elem_link, elem_beam=mesh.elem_beam,
+        elem_nodes=mesh.elem_nodes, elem_length=mesh.elem_length, elem_s0=mesh.elem_s0,
+        elem_rho_a=mesh.elem_rho_a, elem_ea=mesh.elem_ea, elem_ei=mesh.elem_ei, elem_dofs=elem_dofs,
+        n_free=n_free, joint_names=tuple(j.name for j in scene.joints), joint_ground=joint_ground,
+        joint_guide=guide, joint_guide_point=guide_point, attach=tuple(attach), link_points=mesh.link_points,
+        point_node=mesh.point_node,
+        link_root_joint=root_joint, link_tip_joint=tip_joint, driver=driver, steps=tuple(steps),
+        mass_link=m_link, mass_local=m_local, mass_value=m_val, mass_inertia=m_inertia, mass_nodes=m_node,
+        mass_dofs=mass_dofs, body_mass=body[0], body_centroid=body[1], body_inertia=body[2],
     )  # fmt: skip
 
 
-def _plan_dyads(scene, names, root_joint, tip_joint, joint_ground, driver, problems) -> list[DyadStep]:
-    """Order in which joints are located: the driver first, then RRR dyads (two unplaced links
-    meeting at an unknown joint, each with its other end at a known joint)."""
-    n_link = len(names)
-    known = ~np.isnan(joint_ground[:, 0])
-    placed = np.zeros(n_link, dtype=bool)
-    placed[driver] = True
-    if tip_joint[driver] >= 0:
-        known[tip_joint[driver]] = True
-    steps: list[DyadStep] = []
-    progress = True
-    while progress and not placed.all():
-        progress = False
-        for jj, joint in enumerate(scene.joints):
-            if known[jj]:
-                continue
-            cands = []
-            for e in joint.ends:
-                lk = names.index(e.link)
-                other = root_joint[lk] if e.end == "tip" else tip_joint[lk]
-                if not placed[lk] and other >= 0 and known[other]:
-                    cands.append((lk, e.end == "tip", other))
-            if len(cands) >= 2:
-                (a, a_tip, p), (b, b_tip, q) = cands[:2]
-                sign = 1.0 if joint.assembly == "left" else -1.0
-                steps.append(DyadStep(jj, a, a_tip, int(p), b, b_tip, int(q), sign))
-                placed[[a, b]] = True
-                known[jj] = True
-                progress = True
-    for lk in np.flatnonzero(~placed):
-        problems.append(
-            Problem(
-                f"links[{lk}]",
-                f"link {names[lk]!r} cannot be located: the linkage must be the driven link plus "
-                "dyads (two links meeting at a joint, their other ends at located joints)",
-            )
-        )
-    for lk in range(n_link):
-        if lk != driver and (root_joint[lk] < 0 or tip_joint[lk] < 0) and placed[lk]:
-            problems.append(Problem(f"links[{lk}]", f"link {names[lk]!r} has a free end; only the driver may"))
-    return steps
+def _particles(scene: Scene, index, mesh, attach):
+    """(link, link-frame point, mass, inertia, node) of every lumped mass and slider block.
+
+    A mass at a joint rides on the named link's point there; a slider block on the link point
+    that its prismatic joint holds (for kinetostatics it is a particle at that point: the guide
+    takes only normal forces, so the block's inertia force goes into the link).
+    """
+    jindex = {j.name: i for i, j in enumerate(scene.joints)}
+    rows = []
+    for m in scene.masses:
+        lk = index[m.link]
+        if m.joint is not None:
+            k = next(k for (l2, k) in attach[jindex[m.joint]] if l2 == lk)
+            node = int(mesh.point_node[lk, k])
+        else:
+            on_axis = np.flatnonzero((mesh.node_link == lk) & (mesh.node_beam == mesh.node_beam[mesh.point_node[lk, 0]]))
+            node = int(on_axis[np.argmin(np.abs(mesh.node_s[on_axis] - m.position))])
+        rows.append((lk, mesh.node_local[node], m.mass, m.inertia, node))
+    for jj, joint in enumerate(scene.joints):
+        if joint.prismatic and joint.slider_mass > 0:
+            lk, k = attach[jj][0]
+            node = int(mesh.point_node[lk, k])
+            rows.append((lk, mesh.node_local[node], joint.slider_mass, 0.0, node))
+    if not rows:
+        z = np.zeros(0)
+        return np.zeros(0, dtype=int), np.zeros((0, 2)), z, z, np.zeros(0, dtype=int)
+    lk, local, mass, inertia, node = zip(*rows)
+    return (np.array(lk, dtype=int), np.array(local, dtype=float), np.array(mass, dtype=float),
+            np.array(inertia, dtype=float), np.array(node, dtype=int))

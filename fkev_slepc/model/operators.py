@@ -24,7 +24,7 @@ from fkev_slepc.model.assembly import Pattern
 from fkev_slepc.model.element_types import element_type
 from fkev_slepc.model.energy import StagedStiffness
 from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
-from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.model.kinematics import point_local, solve_kinematics
 from fkev_slepc.model.kinetostatics import axial_polynomials, solve_loads
 from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
@@ -56,6 +56,23 @@ def classify(has_damping: bool, k_symmetric: bool) -> str:
     return GYROSCOPIC if k_symmetric else GENERAL
 
 
+def node_frames(mech, n_dof: int = 6) -> np.ndarray | None:
+    """Per element blockdiag(Cₙ₁, 1, Cₙ₂, 1, I), Cₙ = [a, a⊥] with a = ``node_axis``: the node's
+    translations taken along/normal to a slider's guide (docs/linkages.md); internal DOFs of
+    higher-order elements (beyond the sixth) are unchanged. None if no node has a rotated frame
+    (then the element transformation is T alone)."""
+    a = mech.node_axis
+    if np.all(a[:, 0] == 1.0):
+        return None
+    C = np.zeros((mech.elem_nodes.shape[0], n_dof, n_dof))
+    C[:, 6:, 6:] = np.eye(n_dof - 6)
+    for o, nodes in ((0, mech.elem_nodes[:, 0]), (3, mech.elem_nodes[:, 1])):
+        ax, ay = a[nodes, 0], a[nodes, 1]
+        C[:, o, o], C[:, o, o + 1], C[:, o + 1, o], C[:, o + 1, o + 1] = ax, -ay, ay, ax
+        C[:, o + 2, o + 2] = 1.0
+    return C
+
+
 class Model:
     """A meshed mechanism with its constant element data and cached sparsity pattern.
 
@@ -75,11 +92,12 @@ class Model:
         self.cases = tuple(cases or scene.analysis.cases)
         self.terms = terms_used(self.cases)
         self.element = et = element_type(scene.analysis.element)
-        lk, l = mech.elem_link, mech.elem_length
-        self._m = et.mass(mech.rho_a[lk], l)
-        self._ma = et.skew_mass(mech.rho_a[lk], l)
-        self._ks = et.structural(mech.ea[lk], mech.ei[lk], l)
-        self._strain_op = et.strains(mech.ea[lk], mech.ei[lk], l)
+        l = mech.elem_length
+        self._m = et.mass(mech.elem_rho_a, l)
+        self._ma = et.skew_mass(mech.elem_rho_a, l)
+        self._ks = et.structural(mech.elem_ea, mech.elem_ei, l)
+        self._strain_op = et.strains(mech.elem_ea, mech.elem_ei, l)
+        self._node_frames = node_frames(mech, et.n_dof)
 
     # -- per angle -------------------------------------------------------------------------
     def kinematics(self, theta: float):
@@ -95,9 +113,12 @@ class Model:
         mech, pat, terms = self.mechanism, self.pattern, self.terms
         kin = self.kinematics(theta)
         lk = mech.elem_link
-        T = el.rotation(kin.phi[0, lk], self.element.n_dof)
+        T = el.rotation(kin.phi[0, lk] + mech.elem_angle, self.element.n_dof)
+        if self._node_frames is not None:
+            T = T @ self._node_frames
         m_g = el.to_global(self._m, T)
-        mass = pat.add_diagonal(pat.scatter(m_g), mech.mass_dofs, mech.mass_value[:, None])
+        mass = pat.add_diagonal(pat.scatter(m_g), mech.mass_dofs[:, :2], mech.mass_value[:, None])
+        mass = pat.add_diagonal(mass, mech.mass_dofs[:, 2], mech.mass_inertia)
         structural = pat.scatter(el.to_global(self._ks, T))
         dphi, ddphi = kin.dphi[0, lk][:, None, None], kin.ddphi[0, lk][:, None, None]
         ma_g = el.to_global(self._ma, T) if terms & {"coriolis", "tangential"} else None
@@ -159,6 +180,4 @@ class Model:
         """Undeformed node positions (n_node, 2) at crank angle ``theta`` (rad)."""
         mech = self.mechanism
         kin = self.kinematics(theta)
-        lk = mech.node_link
-        e = np.stack([np.cos(kin.phi[0, lk]), np.sin(kin.phi[0, lk])], axis=1)
-        return kin.root[0, lk] + mech.node_s[:, None] * e
+        return point_local(kin, mech.node_link, mech.node_local)[0][0]

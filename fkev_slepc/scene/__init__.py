@@ -8,6 +8,7 @@ PETSc, MPI or h5py.
 from fkev_slepc.scene.model import (
     END_NAMES,
     ELEMENT_NAMES,
+    THIRD,
     Analysis,
     Driver,
     Joint,
@@ -17,12 +18,13 @@ from fkev_slepc.scene.model import (
     Problem,
     Scene,
     SceneError,
+    Segment,
     Solver,
     with_elements,
 )
 from fkev_slepc.scene.reader import load_scene, parse_scene
 
 __all__ = [
-    "ELEMENT_NAMES", "END_NAMES", "Analysis", "Driver", "Joint", "Link", "LinkEnd", "LumpedMass", "Problem", "Scene",
-    "SceneError", "Solver", "with_elements", "load_scene", "parse_scene",
+    "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Driver", "Joint", "Link", "LinkEnd", "LumpedMass",
+    "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene", "parse_scene",
 ]

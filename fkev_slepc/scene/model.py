@@ -16,6 +16,7 @@ END_NAMES = ("root", "tip")
 # Element types (model/element_types.py): the thesis frame element (linear axial) and the
 # frame element with cubic axial interpolation (docs/accuracy.md §1).
 ELEMENT_NAMES = ("thesis", "cubic")
+THIRD = "third"  # the third joint point of a ternary link (docs/linkages.md)
 
 
 @dataclass(frozen=True)
@@ -41,8 +42,26 @@ class SceneError(ValueError):
 
 
 @dataclass(frozen=True)
+class Segment:
+    """One uniform piece of a stepped link, in order from the link's root (SI units)."""
+
+    length: float
+    elements: int
+    youngs_modulus: float
+    density: float
+    area: float
+    second_moment: float
+
+
+@dataclass(frozen=True)
 class Link:
-    """A straight, uniform Euler-Bernoulli link running from its root to its tip."""
+    """A straight Euler-Bernoulli link running from its root to its tip.
+
+    ``segments`` (empty for a uniform link) make it stepped; the uniform fields then hold the
+    first segment's section, and ``length``/``elements`` the totals. ``third`` makes it ternary:
+    the third joint point (x along root->tip, y to its left) in the link frame, reached by a
+    branch beam (``third_elements`` elements, the uniform section) from the axis node at x.
+    """
 
     name: str
     length: float  # m
@@ -51,6 +70,17 @@ class Link:
     area: float  # m^2
     second_moment: float  # m^4
     elements: int
+    segments: tuple[Segment, ...] = ()
+    third: tuple[float, float] | None = None  # m, link frame
+    third_elements: int = 2
+
+    @property
+    def pieces(self) -> tuple[Segment, ...]:
+        """The segments of the axis beam (one for a uniform link)."""
+        if self.segments:
+            return self.segments
+        return (Segment(self.length, self.elements, self.youngs_modulus, self.density, self.area,
+                        self.second_moment),)
 
 
 @dataclass(frozen=True)
@@ -61,13 +91,20 @@ class LinkEnd:
 
 @dataclass(frozen=True)
 class Joint:
-    """A revolute joint between link ends, or between link ends and a ground point."""
+    """A revolute joint between link ends, or between link ends and a ground point; or a
+    prismatic joint: one link end pinned to a slider on a straight ground guide."""
 
     name: str
-    type: str  # "revolute"
-    ends: tuple[LinkEnd, ...]  # the moving link ends it connects (1 or more)
-    ground: tuple[float, float] | None = None  # ground position (m) if pinned to ground
-    assembly: str = "left"  # dyad branch: joint left/right of the ray P->Q (see kinematics)
+    type: str  # "revolute" | "prismatic"
+    ends: tuple[LinkEnd, ...]  # the moving link ends it connects (1 or more; prismatic: 1)
+    ground: tuple[float, float] | None = None  # ground pivot, or a point of the guide (m)
+    assembly: str = "left"  # dyad branch: left/right of the ray P->Q; slider: ahead/behind
+    guide_angle: float = 0.0  # prismatic: direction of the guide from +x (rad)
+    slider_mass: float = 0.0  # prismatic: mass of the slider block (kg)
+
+    @property
+    def prismatic(self) -> bool:
+        return self.type == "prismatic"
 
 
 @dataclass(frozen=True)
@@ -79,9 +116,14 @@ class Driver:
 
 @dataclass(frozen=True)
 class LumpedMass:
-    joint: str
-    link: str  # the link whose end carries the particle (kinetostatics)
+    """A lumped mass carried by ``link``: at joint ``joint`` (one of that link's joint points)
+    or, with ``joint`` None, at station ``position`` along the link's axis from its root."""
+
+    joint: str | None
+    link: str  # the link that carries it (kinetostatics, mesh node)
     mass: float  # kg
+    position: float | None = None  # m from the root along the axis (when joint is None)
+    inertia: float = 0.0  # kg m^2 about the mass point
 
 
 @dataclass(frozen=True)
@@ -131,5 +173,17 @@ def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
     bad = [Problem(f"--elements[{i}]", f"must be >= 1 (got {n})") for i, n in enumerate(elements) if n < 1]
     if bad:
         raise SceneError(scene.source, bad)
-    links = tuple(replace(lk, elements=int(n)) for lk, n in zip(scene.links, elements))
+    links = tuple(_remesh(lk, int(n)) for lk, n in zip(scene.links, elements))
     return replace(scene, links=links)
+
+
+def _remesh(link: Link, n: int) -> Link:
+    """``link`` with ``n`` axis elements; a stepped link shares them among its segments in
+    proportion to their lengths (at least one each)."""
+    from dataclasses import replace
+
+    if not link.segments:
+        return replace(link, elements=n)
+    share = [max(1, round(n * s.length / link.length)) for s in link.segments]
+    segments = tuple(replace(s, elements=k) for s, k in zip(link.segments, share))
+    return replace(link, segments=segments, elements=sum(share))

@@ -9,6 +9,7 @@ import re
 import tomllib
 from pathlib import Path
 
+from fkev_slepc.scene import parts
 from fkev_slepc.scene import sections as sec
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.schema import Reader
@@ -72,12 +73,12 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     r = Reader(sec.SECTIONS)
     r.check_keys(doc, "", sec.TOP_KEYS)
     title = r.string(doc, "title", "", default=Path(source).stem)
-    links, link_names = sec.read_links(r, doc)
+    links, link_names, ternary = sec.read_links(r, doc)
     n_before = len(r.problems)
-    joints, joint_names = sec.read_joints(r, doc, link_names)
+    joints, joint_names = sec.read_joints(r, doc, link_names, ternary)
     topology_ok = len(r.problems) == n_before and None not in links and None not in joints
     driver = sec.read_driver(r, doc, link_names, joints if topology_ok else None)
-    masses = sec.read_masses(r, doc, joints, joint_names)
+    masses = parts.read_masses(r, doc, joints, joint_names, links, link_names)
     analysis = sec.read_analysis(r, doc)
     solver = sec.read_solver(r, doc)
     if topology_ok and links:

@@ -1,4 +1,5 @@
-"""Readers for the sections of a scene file (links, joints, driver, masses, analysis, solver).
+"""Readers for the sections of a scene file (links, joints, driver, analysis, solver; the
+general-linkage parts and masses are in :mod:`fkev_slepc.scene.parts`).
 
 Each reader validates one section with a :class:`~fkev_slepc.scene.schema.Reader`, which
 records problems instead of raising, and returns the section's dataclasses (``None`` for a bad
@@ -13,7 +14,8 @@ import math
 import re
 
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
-from fkev_slepc.scene.model import ELEMENT_NAMES, END_NAMES, Analysis, Driver, Joint, Link, LinkEnd, LumpedMass, Solver
+from fkev_slepc.scene import parts
+from fkev_slepc.scene.model import ELEMENT_NAMES, END_NAMES, THIRD, Analysis, Driver, Joint, Link, LinkEnd, Solver
 from fkev_slepc.scene.schema import REQUIRED, Reader, is_number, join, show
 
 # --------------------------------------------------------------------------------------------
@@ -26,12 +28,12 @@ LINK_PROPERTIES = {  # TOML key -> Link field; all must be finite and > 0
     "area_m2": "area",
     "second_moment_m4": "second_moment",
 }
-LINK_KEYS = ("name", *LINK_PROPERTIES, "elements")
-JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly")
-JOINT_TYPES = ("revolute",)
+LINK_DEFAULT_KEYS = (*LINK_PROPERTIES, "elements")
+LINK_KEYS = ("name", *LINK_DEFAULT_KEYS, "segments", *parts.TERNARY_KEYS)
+JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISMATIC_KEYS)
+JOINT_TYPES = ("revolute", "prismatic")
 ASSEMBLIES = ("left", "right")
 DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
-MASS_KEYS = ("joint", "link", "mass_kg")
 ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "stability_tol", "element",
                  "rel_error")
 SOLVER_KEYS = ("method", "petsc")
@@ -40,7 +42,7 @@ TOP_KEYS = ("title", "link_defaults", "links", "joints", "driver", "masses", "an
 GROUND = "ground"
 # Where a misplaced key belongs (``modes`` under [solver] -> analysis.modes).
 SECTIONS = {
-    "link_defaults": LINK_KEYS[1:],
+    "link_defaults": LINK_DEFAULT_KEYS,
     "driver": DRIVER_KEYS,
     "analysis": ANALYSIS_KEYS,
     "solver": SOLVER_KEYS,
@@ -49,8 +51,9 @@ _PETSC_PREFIXES = ("pep_", "eps_", "st_", "ksp_", "pc_", "bv_", "ds_", "rg_", "f
 _OPTION_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
-def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None]:
-    """``[[links]]`` merged over ``[link_defaults]``: (links, None where bad; valid names).
+def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set[str]]:
+    """``[[links]]`` merged over ``[link_defaults]``: (links, None where bad; valid names;
+    names of ternary links).
 
     The names are returned separately so that references to a link whose *other* fields are
     bad do not also show up as "unknown link"; they are ``None`` if ``[[links]]`` itself is
@@ -59,7 +62,7 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None]:
     defaults: dict = {}
     table = r.table(doc, "link_defaults", "")
     if table:
-        r.check_keys({k: v for k, v in table.items() if k != "name"}, "link_defaults", LINK_KEYS[1:])
+        r.check_keys({k: v for k, v in table.items() if k != "name"}, "link_defaults", LINK_DEFAULT_KEYS)
         if "name" in table:
             r.add("link_defaults.name", "links need their own names; set name in each [[links]]")
         # A bad default is reported once, here, and then stays silent (None) in every link.
@@ -70,24 +73,45 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None]:
             defaults["elements"] = r.integer(table, "elements", "link_defaults", minimum=1)
     out: list[Link | None] = []
     seen: dict[str, str] = {}
+    ternary: set[str] = set()
     remark = "set it here or in [link_defaults]"
     for path, item in r.tables(doc, "links", "", required=True):
         r.check_keys(item, path, LINK_KEYS)
         name = r.string(item, "name", path)
         if name is not None:
             name = _check_name(r, join(path, "name"), name, seen, "link")
-        values = {
-            field_: r.number(item, key, path, positive=True, remark=remark,
-                             default=defaults.get(key, REQUIRED))
-            for key, field_ in LINK_PROPERTIES.items()
-        }
-        default = defaults.get("elements", REQUIRED)
-        elements = r.integer(item, "elements", path, default=default, minimum=1, remark=remark)
+            if "third_joint_m" in item:
+                ternary.add(name)
+        stepped = "segments" in item
+        given = {}  # TOML key -> value (None: absent, or bad and already reported)
+        for key in (*LINK_PROPERTIES, "elements"):
+            # A stepped link's own section keys are optional defaults for its segments.
+            default = defaults.get(key, None if stepped else REQUIRED)
+            if key == "elements":
+                given[key] = r.integer(item, key, path, default=default, minimum=1, remark=remark)
+            elif not (stepped and key == "length_m"):
+                given[key] = r.number(item, key, path, positive=True, remark=remark, default=default)
+        segments = ()
+        if stepped:
+            inherited = {k: k in item or k in defaults for k in given}
+            segments = parts.read_segments(r, item, path, given, inherited)
+            if segments is not None:
+                first = segments[0]
+                given.update(youngs_modulus_pa=first.youngs_modulus, density_kg_m3=first.density,
+                             area_m2=first.area, second_moment_m4=first.second_moment,
+                             length_m=parts.stepped_length(r, item, path, segments),
+                             elements=sum(s.elements for s in segments))
+        third, third_el, third_ok = parts.read_third(r, item, path, given.get("length_m"), given.get("elements"))
+        values = {field_: given.get(key) for key, field_ in LINK_PROPERTIES.items()}
+        elements = given.get("elements")
         ok = name is not None and elements is not None and None not in values.values()
-        out.append(Link(name=name, elements=elements, **values) if ok else None)
+        ok = ok and segments is not None and third_ok
+        link = Link(name=name, elements=elements, segments=segments or (), third=third,
+                    third_elements=third_el or 2, **values) if ok else None
+        out.append(link)
     if not isinstance(doc.get("links"), list):
-        return out, None  # no usable [[links]]: references to links cannot be judged
-    return out, list(seen)
+        return out, None, ternary  # no usable [[links]]: references to links cannot be judged
+    return out, list(seen), ternary
 
 
 def _check_name(r: Reader, where: str, name: str, seen: dict[str, str], kind: str) -> str | None:
@@ -105,9 +129,10 @@ def _check_name(r: Reader, where: str, name: str, seen: dict[str, str], kind: st
     return name
 
 
-def read_joints(r: Reader, doc, link_names: list[str] | None) -> tuple[list[Joint | None], list[str]]:
+def read_joints(r: Reader, doc, link_names: list[str] | None, ternary: set[str] = frozenset()
+                ) -> tuple[list[Joint | None], list[str]]:
     """``[[joints]]``: (joints, None where bad; valid joint names)."""
-    valid_refs = [f"{n}.{e}" for n in link_names or () for e in END_NAMES] + [GROUND]
+    valid_refs = parts.end_names(link_names, ternary) + [GROUND]
     names: dict[str, str] = {}
     used: dict[LinkEnd, tuple[str, str]] = {}  # link end -> (joint name, path)
     out: list[Joint | None] = []
@@ -117,11 +142,15 @@ def read_joints(r: Reader, doc, link_names: list[str] | None) -> tuple[list[Join
         if name is not None:
             name = _check_name(r, join(path, "name"), name, names, "joint")
         jtype = r.string(item, "type", path, default="revolute", choices=JOINT_TYPES)
-        assembly = r.string(item, "assembly", path, default="left", choices=ASSEMBLIES)
+        sliding = jtype == "prismatic"
+        branches = parts.PRISMATIC_ASSEMBLIES if sliding else ASSEMBLIES
+        assembly = r.string(item, "assembly", path, default=branches[0], choices=branches)
         ends, grounded = _read_connects(r, item, join(path, "connects"), link_names, valid_refs)
+        angle, slider_mass, prismatic_ok = parts.read_prismatic(r, item, path, jtype, ends, grounded)
         position = None
         if grounded:
-            position = r.point(item, "position_m", path, remark="a ground joint needs its [x, y] position")
+            remark = "a point of the slider's guide" if sliding else "a ground joint needs its [x, y] position"
+            position = r.point(item, "position_m", path, remark=remark)
         elif "position_m" in item and isinstance(item.get("connects"), list):
             r.add(join(path, "position_m"), f"only a joint with '{GROUND}' in connects takes a position")
         if ends is not None and name is not None:
@@ -137,7 +166,8 @@ def read_joints(r: Reader, doc, link_names: list[str] | None) -> tuple[list[Join
                 else:
                     used[end] = (name, path)
         ok = None not in (name, jtype, assembly, ends) and (position is not None or not grounded)
-        out.append(Joint(name, jtype, tuple(ends), position, assembly) if ok else None)
+        ok = ok and prismatic_ok
+        out.append(Joint(name, jtype, tuple(ends), position, assembly, angle, slider_mass) if ok else None)
     return out, list(names)
 
 
@@ -176,14 +206,18 @@ def _read_connects(r: Reader, item, where, link_names, valid_refs):
 
 
 def _parse_end(r: Reader, at: str, ref, link_names, valid_refs) -> LinkEnd | None:
-    form = f"'<link>.root', '<link>.tip' or '{GROUND}'"
+    third = f", '<link>.{THIRD}'" if any(v.endswith(f".{THIRD}") for v in valid_refs) else ""
+    form = f"'<link>.root', '<link>.tip'{third} or '{GROUND}'"
     if not isinstance(ref, str):
         r.add(at, f"must be a string {form} (got {show(ref)})")
         return None
     link, dot, end = ref.rpartition(".")
     close = difflib.get_close_matches(ref, valid_refs, n=1)
     tip = f"; did you mean '{close[0]}'?" if close else ""
-    if not dot or end not in END_NAMES:
+    if end == THIRD and link_names is not None and link in link_names and ref not in valid_refs:
+        r.add(at, f"link '{link}' has no third joint point: give it third_joint_m (got {show(ref)})")
+        return None
+    if not dot or end not in (*END_NAMES, THIRD):
         r.add(at, f"must be {form} (got {show(ref)}{tip})")
         return None
     if link_names is None:
@@ -204,7 +238,7 @@ def read_driver(r: Reader, doc, link_names: list[str] | None, joints: list[Joint
     if link is not None and joints is not None:
         # The driver is clamped at its root, which must sit on a ground pivot (§9.3).
         root = [j for j in joints if LinkEnd(link, "root") in j.ends]
-        if not root or root[0].ground is None:
+        if not root or root[0].ground is None or root[0].prismatic:
             where = f"joint {show(root[0].name)}" if root else "no joint"
             r.add("driver.link", f"the root of {show(link)} must be at a ground joint (it is at {where})")
     if "speeds_rad_s" in table and "speeds_rpm" in table:
@@ -219,25 +253,6 @@ def read_driver(r: Reader, doc, link_names: list[str] | None, joints: list[Joint
     if None in (link, speeds, accel):
         return None
     return Driver(link=link, speeds=speeds, acceleration=accel)
-
-
-def read_masses(r: Reader, doc, joints: list[Joint | None], joint_names: list[str]) -> list[LumpedMass]:
-    """``[[masses]]``: point masses at joints, each carried by one link of its joint."""
-    by_name = {j.name: j for j in joints if j is not None}
-    out = []
-    for path, item in r.tables(doc, "masses", ""):
-        r.check_keys(item, path, MASS_KEYS)
-        joint = r.string(item, "joint", path, choices=joint_names, what="joint")
-        mass = r.number(item, "mass_kg", path, positive=True)
-        carriers = [e.link for e in by_name[joint].ends] if joint in by_name else None
-        if carriers is not None and len(carriers) == 1 and "link" not in item:
-            link = carriers[0]  # unambiguous: the joint holds one link end
-        else:
-            remark = "the link that carries the mass"
-            link = r.string(item, "link", path, choices=carriers, what="link for this joint", remark=remark)
-        if None not in (joint, link, mass):
-            out.append(LumpedMass(joint=joint, link=link, mass=mass))
-    return out
 
 
 def read_analysis(r: Reader, doc) -> Analysis | None:
@@ -352,7 +367,8 @@ def check_topology(r: Reader, links: list[Link], joints: list[Joint]) -> None:
     constraints = 0
     for j in joints:
         bodies = [index[e.link] for e in j.ends] + ([len(links)] if j.ground is not None else [])
-        constraints += 2 * (len(bodies) - 1)
+        # a pin: 2 per extra body; a slider on a guide: the link end stays on a line (1)
+        constraints += 1 if j.prismatic else 2 * (len(bodies) - 1)
         for b in bodies[1:]:
             parent[find(b)] = find(bodies[0])
     ground = find(len(links))
@@ -363,6 +379,6 @@ def check_topology(r: Reader, links: list[Link], joints: list[Joint]) -> None:
     if dof != 1:
         r.add(
             "joints",
-            f"the linkage has {dof} degrees of freedom (3 x {len(links)} links - {constraints} pin "
+            f"the linkage has {dof} degrees of freedom (3 x {len(links)} links - {constraints} joint "
             "constraints); a single driver needs exactly 1",
         )
