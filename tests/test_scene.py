@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from test_linkages import BAD_LINKAGES
 
 from fkev_slepc.scene.cases import CASE_NAMES
 from fkev_slepc.cli import main
@@ -241,6 +242,8 @@ BAD = {
     "bad_syntax": "line 11, column 14: TOML syntax error: Illegal character '\\n'",
     "bad_assembly": "analysis.crank_angles_deg[2]: the linkage cannot be assembled for θ in [100.20°, 259.80°]",
 }
+
+BAD.update(BAD_LINKAGES)  # the general-linkage keys (tests/test_linkages.py)
 
 
 def test_every_bad_file_has_a_test():

@@ -298,8 +298,18 @@ def declared_elements(scene_toml: str) -> tuple[int, ...] | None:
     default = defaults.get("elements") if isinstance(defaults, dict) else None
     if not isinstance(links, list) or not links:
         return None
-    counts = [lk.get("elements", default) if isinstance(lk, dict) else None for lk in links]
+    counts = [_declared(lk, default) if isinstance(lk, dict) else None for lk in links]
     return tuple(int(n) for n in counts) if all(isinstance(n, int) for n in counts) else None
+
+
+def _declared(link: dict, default):
+    """A link's axis elements: its own count, or the sum over its [[links.segments]]."""
+    own = link.get("elements", default)
+    segments = link.get("segments")
+    if not isinstance(segments, list):
+        return own
+    counts = [s.get("elements", own) if isinstance(s, dict) else None for s in segments]
+    return sum(counts) if all(isinstance(n, int) for n in counts) else None
 
 
 def solver_settings(res: SweepResults) -> dict:

@@ -5,6 +5,9 @@ Between nodes the displacement is interpolated with the element's own shape func
 (docs/theory.md §4) in its link frame: linear for the axial displacement u, cubic Hermite
 for the transverse displacement v (which uses the nodal rotations Φ). Drawing straight
 segments between displaced nodes would hide the bending that distinguishes the modes.
+
+Prismatic joints (docs/linkages.md) are drawn as their guide line with the slider block on it;
+the slider node's one translational DOF is along its guide (read from the archived scene).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from typing import Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 from fkev_slepc.plots.common import (
     case_label,
@@ -26,12 +30,36 @@ from fkev_slepc.plots.common import (
     speed_label,
 )
 from fkev_slepc.archive.reader import ArchiveError, Mesh, SweepResults
+from fkev_slepc.scene import SceneError, parse_scene
 
 N_SUB = 17  # samples per element: enough for a smooth cubic at figure resolution
 AMPLITUDE = 0.12  # drawn peak displacement as a fraction of the linkage's extent
 
 
-def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.ndarray) -> np.ndarray:
+def guides(scene_toml: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(point, unit direction) of every prismatic joint's guide in an archived scene text."""
+    try:
+        scene = parse_scene(scene_toml, "archive")
+    except SceneError:
+        return []
+    return [(np.asarray(j.ground, float), np.array([np.cos(j.guide_angle), np.sin(j.guide_angle)]))
+            for j in scene.joints if j.prismatic]
+
+
+def node_axes(mesh: Mesh, node_xy: np.ndarray, lines) -> np.ndarray:
+    """Direction (n_node, 2) of each node's first translational DOF: x, except at a slider node
+    (U free, V fixed), whose DOF runs along the guide it lies on (``lines`` from :func:`guides`)."""
+    axes = np.tile([1.0, 0.0], (node_xy.shape[0], 1))
+    slider = np.flatnonzero((mesh.node_dofs[:, 0] >= 0) & (mesh.node_dofs[:, 1] < 0))
+    if slider.size and lines:
+        for n in slider:
+            off = [abs(np.cross(t, node_xy[n] - p)) for p, t in lines]
+            axes[n] = lines[int(np.argmin(off))][1]
+    return axes
+
+
+def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.ndarray,
+                         axes: np.ndarray | None = None) -> np.ndarray:
     """Global displacement (n_el, n_xi, 2) of every element at stations ``xi`` ∈ [0, 1].
 
     Parameters
@@ -44,8 +72,14 @@ def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.
         Nodal DOF values (U, V in m; Φ in rad) in the global frame.
     xi : (n_xi,) array
         Stations along each element from its left node (0) to its right node (1).
+    axes : (n_node, 2) array, optional
+        Direction of each node's first translational DOF (:func:`node_axes`; default x).
     """
     vals = np.append(np.asarray(q, dtype=float), 0.0)[mesh.node_dofs]  # index -1 -> the appended 0
+    if axes is not None:  # (a, n) in the node's frame -> (U, V)
+        a, n = vals[:, 0].copy(), vals[:, 1].copy()
+        vals[:, 0] = a * axes[:, 0] - n * axes[:, 1]
+        vals[:, 1] = a * axes[:, 1] + n * axes[:, 0]
     n1, n2 = mesh.elem_nodes[:, 0], mesh.elem_nodes[:, 1]
     d = node_xy[n2] - node_xy[n1]
     ln = np.linalg.norm(d, axis=1)
@@ -68,21 +102,44 @@ def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.
 
 
 def linkage_polyline(mesh: Mesh, node_xy: np.ndarray, disp: np.ndarray | None, xi: np.ndarray) -> np.ndarray:
-    """(N, 2) polyline through every element, link by link (elements ordered from the link's
-    root), links separated by a NaN row; ``disp`` (n_el, n_xi, 2) is added if given."""
+    """(N, 2) polyline through every element, beam by beam (the elements of a beam are stored
+    in order, each starting at the previous one's right node), beams separated by a NaN row;
+    ``disp`` (n_el, n_xi, 2) is added if given."""
     n1, n2 = mesh.elem_nodes[:, 0], mesh.elem_nodes[:, 1]
     x = np.asarray(xi, dtype=float)[None, :, None]
     pts = node_xy[n1][:, None, :] + x * (node_xy[n2] - node_xy[n1])[:, None, :]
     if disp is not None:
         pts = pts + disp
-    link = mesh.node_link[n1]
-    order = np.lexsort((mesh.node_s[n1], link))
+    if not n1.size:
+        return np.zeros((0, 2))
+    starts = np.flatnonzero(np.r_[True, n1[1:] != n2[:-1]])
     pieces = []
-    for k in np.unique(link):
-        els = order[link[order] == k]
-        pieces.append(pts[els].reshape(-1, 2))
+    for a, b in zip(starts, np.r_[starts[1:], n1.size]):
+        pieces.append(pts[a:b].reshape(-1, 2))
         pieces.append(np.full((1, 2), np.nan))
-    return np.concatenate(pieces[:-1]) if pieces else np.zeros((0, 2))
+    return np.concatenate(pieces[:-1])
+
+
+def draw_guides(ax, node_xy: np.ndarray, mesh: Mesh, lines, extent: float) -> None:
+    """Each guide as a hatched line through its slider's travel, the slider as a block on it."""
+    slider = np.flatnonzero((mesh.node_dofs[:, 0] >= 0) & (mesh.node_dofs[:, 1] < 0))
+    for p, t in lines:
+        near = [n for n in slider if abs(np.cross(t, node_xy[n] - p)) <= 1e-9 * max(extent, 1.0)]
+        centre = node_xy[near[0]] if near else p
+        s = 0.35 * extent
+        seg = np.array([centre - s * t, centre + s * t])
+        normal = np.array([-t[1], t[0]])
+        w, h = 0.12 * extent, 0.06 * extent
+        ax.plot(seg[:, 0], seg[:, 1], color="k", lw=1.0, zorder=1, label="_guide")
+        ticks = np.linspace(-s, s, 12)
+        for u in ticks:  # hatching on the guide's right side
+            a = centre + u * t - 0.5 * h * normal
+            b = a + 0.25 * h * (t - normal)
+            ax.plot([a[0], b[0]], [a[1], b[1]], color="k", lw=0.6, zorder=1, label="_hatch")
+        corner = centre - 0.5 * w * t - 0.5 * h * normal
+        angle = float(np.degrees(np.arctan2(t[1], t[0])))
+        ax.add_patch(Rectangle(tuple(corner), w, h, angle=angle, facecolor="0.85", edgecolor="k",
+                               lw=1.0, zorder=2, label="_slider"))
 
 
 def align_phase(x: np.ndarray, ref: np.ndarray | None) -> np.ndarray:
@@ -128,6 +185,8 @@ def mode_shape(
     xi = np.linspace(0.0, 1.0, N_SUB)
     extent = float(np.max(np.ptp(xy, axis=0)))
     base = linkage_polyline(res.mesh, xy, None, xi)
+    lines = guides(res.scene_toml)
+    axes_dof = node_axes(res.mesh, xy, lines)
     f = res.frequency("sorted")
     shapes = {c: res.mode_shape(a, s, c) for c in c_idx}
     fig, axes = mode_grid(len(mode_idx), width=10.0, height=3.6)
@@ -135,6 +194,7 @@ def mode_shape(
     for ax, m in zip(axes, mode_idx):
         ax.plot(base[:, 0], base[:, 1], color="0.6", lw=2.5, ls="-", label="undeformed", zorder=1)
         ax.plot(xy[ground, 0], xy[ground, 1], "k^", ms=8, label="_ground", zorder=2)
+        draw_guides(ax, xy, res.mesh, lines, extent)
         ref = None
         for c_n, c in enumerate(c_idx):
             x = shapes[c][:, m]
@@ -144,7 +204,7 @@ def mode_shape(
                 continue
             z = align_phase(x, ref)
             ref = z if ref is None else ref
-            disp = element_displacement(res.mesh, xy, z.real, xi)
+            disp = element_displacement(res.mesh, xy, z.real, xi, axes_dof)
             peak = float(np.max(np.linalg.norm(disp, axis=-1)))
             k = AMPLITUDE * extent / peak if peak > 0 else 0.0
             line = linkage_polyline(res.mesh, xy, k * disp, xi)
@@ -166,4 +226,4 @@ def mode_shape(
     return fig
 
 
-__all__ = ["element_displacement", "linkage_polyline", "align_phase", "mode_shape"]
+__all__ = ["element_displacement", "guides", "node_axes", "linkage_polyline", "align_phase", "mode_shape"]

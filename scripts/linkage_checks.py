@@ -1,0 +1,62 @@
+"""Acceptance numbers quoted in docs/linkages.md, from the same scenes and helpers as
+tests/test_linkages.py. Run from the repository root:
+
+    PYTHONPATH=$PWD .venv/bin/python scripts/linkage_checks.py
+"""
+
+import sys
+
+sys.path.insert(0, "tests")  # the helpers of tests/test_linkages.py and tests/balance.py
+
+import numpy as np  # noqa: E402
+from balance import newton_euler_residual, power_residual  # noqa: E402
+from scipy.optimize import brentq  # noqa: E402
+from test_linkages import (  # noqa: E402 (SCENES, THETA, _section, central_mass_equation, dead_centre_rod, link_eigen,
+                           pinned_beam, tip_inertia_cantilever, tip_inertia_equation)
+from fkev_slepc.model.kinematics import point_local, solve_kinematics  # noqa: E402
+from fkev_slepc.model.mechanism import build_mechanism  # noqa: E402
+from fkev_slepc.model.operators import Model  # noqa: E402
+from fkev_slepc.scene import load_scene  # noqa: E402
+
+got, exact = dead_centre_rod()
+print("dead centre rod f_n (Hz):", np.round(got / 2 / np.pi, 3), "closed form:", np.round(exact / 2 / np.pi, 3),
+      "rel err:", ["%.1e" % e for e in np.abs(got / exact - 1)])
+r = 1.0
+sc, lk, ei, rho_a = _section(pinned_beam(mass=f'[[masses]]\nlink = "beam"\nposition_m = 0.5\nmass_kg = {r * 7850.0 * 1.8e-4!r}\n'))
+a = brentq(central_mass_equation, 0.5, np.pi / 2, args=(r,))
+ex = (2 * a / lk.length) ** 2 * np.sqrt(ei / rho_a)
+w1 = link_eigen(Model(sc, cases=("structure",)), "beam")[0]
+print("mid-span mass r=1, 32 el: w1 = %.6f rad/s, closed form %.6f, rel err %.1e" % (w1, ex, abs(w1 / ex - 1)))
+for name, path in SCENES.items():
+    mech = build_mechanism(load_scene(path))
+    kin = solve_kinematics(mech, THETA)
+    worst = max(np.abs(point_local(kin, [lk], mech.link_points[lk, k][None])[0][:, 0] - kin.pos[:, jj]).max()
+                for jj, here in enumerate(mech.attach) for lk, k in here)
+    ne = max(newton_euler_residual(mech, THETA, om, al) for om, al in ((500, 0), (300, 4e4), (0, -2e5)))
+    p, dE = power_residual(mech, THETA)
+    print(f"{name}: closure {worst / mech.length.max():.1e} L, Newton-Euler {ne:.1e}, "
+          f"power |TΩ - dE/dt|/max|TΩ| {np.abs(p - dE).max() / np.abs(p).max():.1e}")
+
+# rotary inertia j = J/(ρAL³) = 0.05 at the free end of a 32-element cantilever
+j = 0.05
+sc, lk, ei, rho_a = _section(tip_inertia_cantilever(j))
+lam = brentq(tip_inertia_equation, 0.5, 1.875104, args=(j,))
+ex = (lam / lk.length) ** 2 * np.sqrt(ei / rho_a)
+w1 = link_eigen(Model(sc, cases=("structure",)), "blade")[0]
+print("tip rotary inertia j=0.05, 32 el: w1 = %.6f rad/s, closed form %.6f, rel err %.1e" % (w1, ex, abs(w1 / ex - 1)))
+
+from fkev_slepc.solve.dense import DenseEngine  # noqa: E402
+from fkev_slepc.solve.modes import postprocess  # noqa: E402
+from fkev_slepc.solve.slepc import SlepcEngine  # noqa: E402
+
+for name, path in SCENES.items():
+    model = Model(load_scene(path), cases=("full",))
+    worst = 0.0
+    with SlepcEngine() as engine:
+        for angle in range(0, 360, 30):
+            for omega in (0.0, 300.0):
+                q = model.qep(model.pieces(np.radians(angle)), omega, "full")
+                fa = postprocess(engine.solve(q, 4), 4).frequency_hz
+                fb = postprocess(DenseEngine().solve(q, 4), 4).frequency_hz
+                worst = max(worst, np.abs(fa / fb - 1).max())
+    print(f"{name}: SLEPc vs dense, 12 angles x Ω = 0, 300 rad/s, case full, 4 modes: max rel diff {worst:.1e}")
