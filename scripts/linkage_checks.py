@@ -11,8 +11,10 @@ sys.path.insert(0, "tests")  # the helpers of tests/test_linkages.py and tests/b
 import numpy as np  # noqa: E402
 from balance import newton_euler_residual, power_residual  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
-from test_linkages import (  # noqa: E402 (SCENES, THETA, _section, central_mass_equation, dead_centre_rod, link_eigen,
-                           pinned_beam, tip_inertia_cantilever, tip_inertia_equation)
+from test_linkages import (  # noqa: E402
+    SCENES, THETA, _section, central_mass_equation, dead_centre_rod, link_eigen, pinned_beam,
+    tip_inertia_cantilever, tip_inertia_equation,
+)
 from fkev_slepc.model.kinematics import point_local, solve_kinematics  # noqa: E402
 from fkev_slepc.model.mechanism import build_mechanism  # noqa: E402
 from fkev_slepc.model.operators import Model  # noqa: E402

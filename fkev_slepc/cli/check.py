@@ -89,7 +89,7 @@ def summary(scene: Scene) -> str:
         low = " (below %g°: near a toggle)" % TRANSMISSION_WARN_DEG if np.nanmin(mu) < np.radians(TRANSMISSION_WARN_DEG) else ""
         geometry.append(f"transmission angle >= {np.degrees(np.nanmin(mu)):.1f}°{low}")
     a = scene.analysis
-    n_el = sum(lk.elements for lk in scene.links)
+    n_el = mech.elem_length.size  # with ternary branches and nodes inserted at masses
     plural = lambda n, word: f"{n} {word}{'' if n == 1 else 's'}"  # noqa: E731
     return ", ".join(
         [
