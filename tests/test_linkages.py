@@ -376,7 +376,7 @@ BAD_LINKAGES = {
     "bad_guide_on_revolute": "joints[1].guide_angle_deg: only a prismatic joint takes it (type is 'revolute')",
     "bad_slider_mass": "joints[2].slider_mass_kg: must be >= 0.0 (got -0.45)",
     "bad_slider_branch": "joints[2].assembly: must be one of 'ahead', 'behind' (got 'left')",
-    "bad_slider_offset": "analysis.crank_angles_deg[0]: the linkage cannot be assembled at crank angle 0 deg",
+    "bad_slider_offset": "analysis.crank_angles_deg[0]: the linkage cannot be assembled for θ in [0.00°, 360.00°]",
     "bad_mass_position": "masses[0].position_m: must be <= the length 0.15 of link 'rod' (got 0.2)",
     "bad_mass_inertia": "masses[0].inertia_kg_m2: must be >= 0.0 (got -2e-05)",
     "bad_mass_both": "masses[0].position_m: give joint or position_m (along the link), not both",
@@ -449,3 +449,13 @@ def test_mode_shape_moves_the_slider_along_its_guide():
     mesh6 = Mesh(m6.node_link, m6.node_s, m6.node_dofs, m6.elem_nodes, m6.link_names)
     line = linkage_polyline(mesh6, model6.node_positions(0.3), None, np.array([0.0, 1.0]))
     assert np.isnan(line[:, 0]).sum() == m6.beam_link.size - 1  # one polyline per beam
+
+
+def test_slider_crank_transmission_angle():
+    """In-line slider-crank: μ = 90° − (rod angle to the guide), smallest 90° − asin(r/L) at θ = ±90°."""
+    from fkev_slepc.model.kinematics import solve_kinematics
+    from fkev_slepc.model.mechanism import build_mechanism
+
+    kin = solve_kinematics(build_mechanism(load_scene(SCENES["slider-crank"])), np.radians([0.0, 90.0, 270.0]))
+    np.testing.assert_allclose(np.degrees(kin.transmission), [90.0, *[90.0 - np.degrees(np.arcsin(0.3))] * 2],
+                               rtol=1e-12)
