@@ -196,7 +196,7 @@ class SlepcEngine:
 
     def settings(self) -> dict:
         """Effective settings (archived): solver objects, options and where each came from."""
-        pep, eps = self._pep, self._solver_for(LINEAR_SYMMETRIC)
+        pep, eps = self._solver_for(GENERAL), self._solver_for(LINEAR_SYMMETRIC)
         pc = pep.getST().getKSP().getPC()
         out = {
             "engine": self.name,

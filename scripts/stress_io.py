@@ -1,0 +1,179 @@
+"""Stress campaigns through the command line: scene mutation fuzz and archive faults
+(scripts/stress.py fuzz | faults). Not part of the package."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from stresslib import ROOT, Tally
+
+NUMBER = re.compile(r"(?<![\w.])-?\d+(\.\d+)?([eE][-+]?\d+)?(?![\w.])")
+REPLACEMENTS = ["-1", "0", "nan", "inf", "1e300", "1e-300", '"x"', "true", "[]", "{}", "-0.0", "3.5"]
+
+
+def mutate(text: str, rng) -> str:
+    """One random, syntax-level or value-level change of a scene file."""
+    lines = text.splitlines()
+    op = rng.integers(6)
+    if op == 0 and lines:  # drop a line
+        del lines[rng.integers(len(lines))]
+    elif op == 1:  # a number becomes something else
+        spots = list(NUMBER.finditer(text))
+        if spots:
+            m = spots[rng.integers(len(spots))]
+            return text[: m.start()] + str(rng.choice(REPLACEMENTS)) + text[m.end():]
+    elif op == 2 and lines:  # duplicate a line
+        i = rng.integers(len(lines))
+        lines.insert(i, lines[i])
+    elif op == 3:  # truncate
+        return text[: rng.integers(len(text) + 1)]
+    elif op == 4:  # rename a key
+        keys = [i for i, ln in enumerate(lines) if "=" in ln and not ln.lstrip().startswith("#")]
+        if keys:
+            i = keys[rng.integers(len(keys))]
+            lines[i] = "x" + lines[i].lstrip()
+    else:  # swap two lines
+        if len(lines) > 1:
+            i, j = rng.integers(len(lines), size=2)
+            lines[i], lines[j] = lines[j], lines[i]
+    return "\n".join(lines) + "\n"
+
+
+def _cli(argv) -> tuple[int | None, str, str]:
+    """fkev in-process: (exit code or None on an escaped exception, stdout, stderr)."""
+    from fkev_slepc.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(list(argv))
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 2
+        except Exception:  # noqa: BLE001 - a traceback is what the campaign counts
+            traceback.print_exc()
+            code = None
+    return code, out.getvalue(), err.getvalue()
+
+
+def cmd_fuzz(args) -> Tally:
+    rng, t = np.random.default_rng(args.seed), Tally("mutation fuzz of runs/*.toml (fkev check, fkev point)")
+    scenes = sorted((ROOT / "runs").glob("*.toml"))
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(args.n):
+            for src in scenes:
+                path = Path(tmp) / f"m{i}-{src.name}"
+                path.write_text(mutate(src.read_text(), rng))
+                for argv in (["check", path], ["point", path, "--modes", "2"]):
+                    code, out, err = _cli(map(str, argv))
+                    t.add(f"{argv[0]} runs")
+                    if code is None or "Traceback" in err:
+                        t.add("tracebacks")
+                        t.notes.append(f"{argv[0]} {path.name}: {err.strip().splitlines()[-1]}")
+                        shutil.copy(path, Path(tempfile.gettempdir()) / f"stress-traceback-{path.name}")
+                    else:
+                        t.add(f"{argv[0]} exit {code}")
+                        if code == 2:
+                            t.high(f"{argv[0]}: lines of a refusal", err.count("\n"))
+    return t
+
+
+def _fkev(*args, **kw):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.Popen([sys.executable, "-m", "fkev_slepc", *map(str, args)], env=env, cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
+
+
+def _wait(p, timeout=600):
+    out, err = p.communicate(timeout=timeout)
+    return p.returncode, out, err
+
+
+def _datasets(path) -> dict:
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return {k: f[k][()] for k in ("frequency_hz", "eigenvalue", "residual", "max_real", "status")}
+
+
+def cmd_faults(args) -> Tally:
+    from fkev_slepc.archive.verify import verify
+
+    rng, t = np.random.default_rng(args.seed), Tally("faults (archives)")
+    scene = ROOT / "runs" / "turcic-midha-1984.toml"
+    grid = ["--speeds", "0,100,200", "--cases", "structure,no_coriolis,full"]
+    with tempfile.TemporaryDirectory() as tmp:
+        ref = Path(tmp) / "ref.h5"
+        code, _, err = _wait(_fkev("run", scene, *grid, "-o", ref))
+        assert code == 0, err
+        want = _datasets(ref)
+        for trial in range(args.n):
+            # kill -9 mid-sweep, then --resume: bit-identical to the uninterrupted run
+            out = Path(tmp) / f"kill{trial}.h5"
+            p = _fkev("run", scene, *grid, "-o", out)
+            time.sleep(float(rng.uniform(1.0, 3.0)))
+            os.killpg(p.pid, signal.SIGKILL)
+            p.communicate()
+            code, _, err = _wait(_fkev("run", scene, *grid, "-o", out, "--resume"))
+            same = code == 0 and all(np.array_equal(a, b, equal_nan=True) for a, b in
+                                     zip(want.values(), _datasets(out).values()))
+            t.add("kill -9 then --resume: identical" if same else "kill -9 then --resume: differs after resume")
+            # a second writer one second later: refused with exit 2, the first unharmed
+            out = Path(tmp) / f"two{trial}.h5"
+            first = _fkev("run", scene, *grid, "-o", out)
+            time.sleep(1.0)
+            c2, _, e2 = _wait(_fkev("run", scene, *grid, "-o", out))
+            c1, _, _ = _wait(first)
+            refused = c2 == 2 and e2.strip().count("\n") == 0 and "lock" in e2 and "Traceback" not in e2
+            t.add("second writer refused (exit 2, one line)" if refused else "second writer not refused")
+            intact = c1 == 0 and verify(out).ok and all(np.array_equal(a, b, equal_nan=True) for a, b in
+                                                        zip(want.values(), _datasets(out).values()))
+            t.add("first writer's archive intact" if intact else "first writer harmed (damaged archives)")
+        blob = ref.read_bytes()
+        spots = _data_offsets(ref)
+        for trial in range(max(10, 10 * args.n)):
+            bad = Path(tmp) / "bad.h5"
+            cut = int(rng.integers(0, len(blob)))
+            bad.write_bytes(blob[:cut])  # truncated
+            _judge_damaged(t, bad, "truncated")
+            data = bytearray(blob)  # bytes overwritten inside stored values
+            name, (off, size) = list(spots.items())[trial % len(spots)]
+            at = off + int(rng.integers(0, size))
+            data[at] ^= 0xFF
+            bad.write_bytes(bytes(data))
+            _judge_damaged(t, bad, "corrupted")
+    return t
+
+
+def _data_offsets(path) -> dict:
+    import h5py
+
+    found = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and obj.id.get_offset() is not None and obj.id.get_storage_size():
+                found[name] = (obj.id.get_offset(), obj.id.get_storage_size())
+        f.visititems(visit)
+    return found
+
+
+def _judge_damaged(t: Tally, path: Path, what: str) -> None:
+    code, _, err = _cli(["info", str(path)])
+    if code is None or "Traceback" in err:
+        t.add("tracebacks")
+    elif code == 2 and err.strip().count("\n") == 0:
+        t.add(f"{what} archive refused by fkev info (exit 2, one line)")
+    else:
+        t.add(f"{what} archive undetected (damaged archives)")
