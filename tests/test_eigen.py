@@ -244,13 +244,13 @@ def test_cross_check_measures_the_engines_disagreement():
 
 
 def test_max_pair_error_option_decides_what_counts_as_converged():
-    """At 9000 DOFs roundoff limits every unpolished pair to η ~ 1e-2 (f₁ still within 1e-4):
-    flagged by default, accepted when the user raises the threshold in [solver.petsc]. (Without
+    """At 9000 DOFs roundoff limits every unpolished pair to η ~ 7.5e-4 (f₁ still within 1e-4):
+    flagged under max_pair_error 1e-4, accepted when the user raises the threshold in [solver.petsc]. (Without
     the factored K_s, so no polish: solve/refine.py; tests/test_accuracy.py covers the polish.)"""
     model = Model(with_elements(load_scene("runs/bahgat-willmert-1976.toml"), 1000), cases=("full",))
     q = model.qep(model.pieces(np.radians(10)), 500.0, "full")
     q = dataclasses.replace(q, staged=None, stiffness_rest=None)
-    with SlepcEngine() as strict, SlepcEngine([("max_pair_error", "0.5")]) as lax:
+    with SlepcEngine([("max_pair_error", "1e-4")]) as strict, SlepcEngine([("max_pair_error", "0.5")]) as lax:
         a, b = strict.solve(q, 2, hint=2000.0), lax.solve(q, 2, hint=2000.0)
         assert lax.settings()["option_sources"]["max_pair_error"] == "scene"
     assert not a.converged and "pair error" in a.message

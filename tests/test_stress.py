@@ -253,3 +253,23 @@ def test_mutated_scenes_never_give_a_traceback(campaigns):
     t = stress_io.cmd_fuzz(ns(n=1))
     assert "tracebacks" not in t.counts, t.notes
     assert sum(v for k, v in t.counts.items() if k.startswith("check exit")) == t.counts["check runs"]
+
+
+def test_acceptance_rejects_pairs_less_accurate_than_their_conditioning():
+    """The old dense path (eigh(K, M) unbalanced) on the rigid-crank rhombus: pair error 6.6e-6,
+    under the absolute 1e-3, but 6.5e8 times its one-ulp floor: rejected; the engines' pairs pass."""
+    import scipy.linalg as la
+
+    from fkev_slepc.model.qep import MAX_FLOOR_RATIO, MAX_PAIR_ERROR, pair_error
+    from fkev_slepc.solve.modes import check_pairs
+
+    q = _rhombus(1e6, 1e4)
+    mu, V = la.eigh(q.stiffness.toarray(), q.mass.toarray())
+    lam = np.concatenate([1j * np.sqrt(mu), -1j * np.sqrt(mu)])
+    X = np.hstack([V, V]).astype(complex)
+    err = pair_error(q, lam, X)
+    worst, msg = check_pairs(q, lam, X, err, 2, MAX_PAIR_ERROR)
+    assert worst < MAX_PAIR_ERROR and "less accurate than their conditioning" in msg
+    assert f"> {MAX_FLOOR_RATIO:g}" in msg
+    for engine in (DenseEngine(), SlepcEngine()):
+        assert engine.solve(q, 2).converged

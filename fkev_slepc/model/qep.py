@@ -27,6 +27,13 @@ KINDS = (LINEAR_SYMMETRIC, LINEAR, GYROSCOPIC, GENERAL)
 # because the round-off in the assembled K grows like n_el⁴. Models keep K_s factored, and the
 # engines polish such pairs (solve/refine.py), judged by polished_pair_error instead.
 MAX_PAIR_ERROR = 1e-3
+# ... and no more than this multiple of what one-ulp changes of the matrix entries explain
+# (pair_error_floor): the accuracy contract of docs/numerical-stability.md. Measured there
+# (scripts/stress.py random, conditioning; 668 points): pairs of both engines within a few times
+# their frequency floor reach 4.9e5 (heavy masses, rigid links; refined meshes stay below 10);
+# the old dense eigh(K, M) of a rhombus with a rigid crank and a 1e4 kg mass (f₁ 6.6e-6 wrong)
+# had 6.5e8.
+MAX_FLOOR_RATIO = 1e7
 
 
 @dataclass(frozen=True)
@@ -117,3 +124,22 @@ def polished_pair_error(qep: QEP, lam: complex, x: np.ndarray, solve) -> float:
         return float("inf")
     y, x = y / y[piv], x / x[piv]
     return float(np.linalg.norm(y - x) / np.linalg.norm(x))
+
+
+def pair_error_floor(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """The pair error that one-ulp changes of the matrix entries alone can cause, per pair.
+
+    η₀ = ε (‖|K||x|‖ + |λ|‖|C||x|‖ + |λ|²‖|M||x|‖) / (‖Kx‖ + |λ|‖Cx‖ + |λ|²‖Mx‖): a pair that
+    is exact for some matrices within one unit in the last place of the assembled ones (the
+    definition of "accurate to its conditioning") has :func:`pair_error` ≲ η₀. It is large when
+    the products cancel: low modes of refined meshes, stiff links the mode hardly loads.
+    """
+    lam = np.atleast_1d(np.asarray(lam, dtype=complex))
+    X = np.asarray(X, dtype=complex).reshape(qep.n, -1)
+    aX = np.abs(X)
+    mats = (qep.stiffness, qep.damping, qep.mass)
+    weights = (np.ones_like(lam.real), np.abs(lam), np.abs(lam) ** 2)
+    num = sum(w * np.linalg.norm(abs(A) @ aX, axis=0) for A, w in zip(mats, weights) if A is not None)
+    den = sum(w * np.linalg.norm(A @ X, axis=0) for A, w in zip(mats, weights) if A is not None)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, np.finfo(float).eps * num / den, np.inf)

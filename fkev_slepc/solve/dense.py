@@ -13,7 +13,7 @@ import numpy as np
 import scipy.linalg as la
 
 from fkev_slepc.solve.refine import polish_reported
-from fkev_slepc.solve.modes import untrustworthy, worst_reported_error
+from fkev_slepc.solve.modes import check_pairs
 from fkev_slepc.model.qep import LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
 
@@ -23,19 +23,35 @@ def _lambda_from_mu(mu: np.ndarray) -> np.ndarray:
     return np.concatenate([root, -root])
 
 
-def balance(M: np.ndarray, K: np.ndarray) -> np.ndarray:
+def balance(M, K) -> np.ndarray:
     """Symmetric diagonal scaling d (D = diag(d)) with D K D and D M D balanced entry-wise.
 
     d_i = (|K_ii| |M_ii|)^(-1/4) puts every DOF's stiffness and mass on one scale, so that a
     rigid link (K_ii ~ 1e19) or a heavy lumped mass (M_ii ~ 1e4 kg) no longer dominates the
     norms against which LAPACK's backward errors are measured. Eigenvalues are unchanged
     (D K D x̃ = μ D M D x̃ with x = D x̃). Powers of 2, so the scaling itself is exact.
+    The SLEPc engine balances its operators the same way (:func:`balanced`).
     """
-    k, m = np.abs(np.diag(K)), np.abs(np.diag(M))
+    k, m = np.abs(K.diagonal()), np.abs(M.diagonal())  # dense arrays or scipy sparse matrices
     good = (k > 0) & (m > 0) & np.isfinite(k * m)
     d = np.ones(k.size)
     d[good] = (k[good] * m[good]) ** -0.25
     return np.exp2(np.round(np.log2(d)))
+
+
+def balanced(qep: QEP) -> tuple[QEP, np.ndarray]:
+    """``qep`` with D M D, D C D, D K D (:func:`balance`; same sparsity pattern) and d."""
+    d = balance(qep.mass, qep.stiffness)
+
+    def scaled(A):
+        if A is None:
+            return None
+        B = A.copy()
+        rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+        B.data = A.data * d[rows] * d[A.indices]
+        return B
+
+    return QEP(scaled(qep.mass), scaled(qep.damping), scaled(qep.stiffness), qep.kind), d
 
 
 def symmetric_low_modes(M: np.ndarray, K: np.ndarray):
@@ -95,7 +111,7 @@ class DenseEngine:
         lam, X, err = polish_reported(qep, lam, X, err, n_modes)  # beyond the assembled K's round-off
         # LAPACK always "converges"; the pairs still have to satisfy the QEP (the same check as
         # the SLEPc engine's: on over-refined meshes the assembled K no longer determines them).
-        msg = untrustworthy(worst_reported_error(lam, err, max(n_modes, 1)), self.max_pair_error)
+        msg = check_pairs(qep, lam, X, err, max(n_modes, 1), self.max_pair_error)[1]
         return EigenSolution(lam, err, X if want_vectors else None, not msg, method, msg)
 
     @staticmethod

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.model.qep import EigenSolution
+from fkev_slepc.model.qep import MAX_FLOOR_RATIO, EigenSolution, pair_error_floor
 from fkev_slepc.status import Status
 
 
@@ -84,11 +84,25 @@ def reported(lam: np.ndarray, n_modes: int, imag_tol: float = 1e-9) -> tuple[np.
     return osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes], is_real
 
 
-def worst_reported_error(lam: np.ndarray, err: np.ndarray, n_modes: int, imag_tol: float = 1e-9) -> float:
-    """Largest pair error among the pairs a point reports (inf if it reports none)."""
-    osc, is_real = reported(lam, n_modes, imag_tol)
+def check_pairs(qep, lam: np.ndarray, X: np.ndarray, err: np.ndarray, n_modes: int,
+                max_pair_error: float) -> tuple[float, str]:
+    """The acceptance test of both engines: (largest reported pair error, '' or why the pairs fail).
+
+    A point's reported pairs (the ``n_modes`` lowest frequencies and every real eigenvalue) must
+    have pair error ≤ ``max_pair_error`` *and* ≤ ``MAX_FLOOR_RATIO`` times what one-ulp changes
+    of the matrices explain (:func:`~fkev_slepc.model.qep.pair_error_floor`): accurate to their
+    conditioning (docs/numerical-stability.md).
+    """
+    osc, is_real = reported(lam, n_modes)
     used = np.concatenate([osc, np.flatnonzero(is_real)])
-    return float(np.asarray(err)[used].max()) if used.size else np.inf
+    worst = float(np.asarray(err)[used].max()) if used.size else np.inf
+    msg = untrustworthy(worst, max_pair_error)
+    if not msg:
+        ratio = float(np.max(np.asarray(err)[used] / pair_error_floor(qep, lam[used], X[:, used])))
+        if ratio > MAX_FLOOR_RATIO:
+            msg = (f"pair error {worst:.1e} is {ratio:.1e} times what one-ulp changes of the matrices explain "
+                   f"(> {MAX_FLOOR_RATIO:g}): eigenpairs less accurate than their conditioning allows")
+    return worst, msg
 
 
 def untrustworthy(worst: float, max_pair_error: float) -> str:
