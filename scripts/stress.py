@@ -4,7 +4,8 @@
 
 Sub-commands: ``random`` (random Grashof crank-rockers, dense vs SLEPc in-process), ``units``
 (SI vs mm-t-s vs in-lbf·s²/in-s), ``toggle`` (approach of a toggle position), ``conditioning``
-(slenderness, heavy/light masses, rigid links, refined meshes, near-repeated eigenvalues),
+(slenderness, heavy/light masses, rigid links, refined meshes, near-repeated eigenvalues), ``refine``
+(pair errors on meshes up to 9000 DOFs),
 ``fuzz`` (mutations of every scene in runs/ through the CLI), ``faults`` (kill -9 then resume,
 concurrent writers, truncated and corrupted archives), ``all``. Seeded and reproducible; each
 prints its counts and whether the targets hold, and exits 1 if one does not.
@@ -21,7 +22,7 @@ import sys
 
 import numpy as np
 
-from stresslib import FLOOR_FACTOR, Judge, Tally, four_bar, rel_diff, scale_units
+from stresslib import FLOOR_FACTOR, ROOT, Judge, Tally, four_bar, rel_diff, scale_units
 
 CASES = ("structure", "no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal", "full")
 
@@ -172,11 +173,34 @@ def cmd_conditioning(args) -> Tally:
     return t
 
 
+def cmd_refine(args) -> Tally:
+    """Pair errors of SLEPc on ever finer Bahgat-Willmert meshes, absolute and over their floor."""
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.scene import load_scene, with_elements
+    from fkev_slepc.solve.modes import postprocess
+    from fkev_slepc.solve.slepc import SlepcEngine
+    from stresslib import pair_ratio
+
+    t = Tally("refined meshes (Bahgat-Willmert, 10°, SLEPc, max_pair_error 0.5)")
+    print(f"{'el/link':>7} {'DOFs':>6} {'case':>9} {'max η':>9} {'η/η0':>9} status")
+    for ne in (10, 100, 300, 1000)[: max(args.n, 1)]:
+        model = Model(with_elements(load_scene(ROOT / "runs" / "bahgat-willmert-1976.toml"), ne), cases=("full",))
+        for case, w in (("structure", 0.0), ("full", 500.0)):
+            q = model.qep(model.pieces(np.radians(10.0)), w, case)
+            with SlepcEngine([("max_pair_error", "0.5")]) as engine:
+                sol = engine.solve(q, 4, want_vectors=True, hint=2000.0)
+            res, ratio = postprocess(sol, 4), pair_ratio(q, sol, 4)
+            t.add("points")
+            t.high("pair error / its one-ulp floor", ratio)
+            print(f"{ne:7d} {q.n:6d} {case:>9} {np.nanmax(res.residual):9.1e} {ratio:9.1e} {res.status.value}")
+    return t
+
+
 def main(argv=None) -> int:
     import stress_io
 
     commands = {"random": cmd_random, "units": cmd_units, "toggle": cmd_toggle, "conditioning": cmd_conditioning,
-                "fuzz": stress_io.cmd_fuzz, "faults": stress_io.cmd_faults}
+                "refine": cmd_refine, "fuzz": stress_io.cmd_fuzz, "faults": stress_io.cmd_faults}
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("command", choices=(*commands, "all"))
     ap.add_argument("--seed", type=int, default=2026)
@@ -198,7 +222,7 @@ def main(argv=None) -> int:
     return 1 if failed else 0
 
 
-DEFAULT_N = {"random": 150, "units": 30, "toggle": 0, "conditioning": 0, "fuzz": 40, "faults": 3}
+DEFAULT_N = {"random": 150, "units": 30, "toggle": 0, "conditioning": 0, "refine": 4, "fuzz": 40, "faults": 3}
 BAD_KEYS = ("crashes (exceptions)", "status differs", f"dense != SLEPc beyond {FLOOR_FACTOR:g}x floor",
             "NOT invariant", "tracebacks", "damaged archives", "undetected", "without a warning", "not refused",
             "differs after resume", "first writer harmed")

@@ -29,11 +29,11 @@ KINDS = (LINEAR_SYMMETRIC, LINEAR, GYROSCOPIC, GENERAL)
 MAX_PAIR_ERROR = 1e-3
 # ... and no more than this multiple of what one-ulp changes of the matrix entries explain
 # (pair_error_floor): the accuracy contract of docs/numerical-stability.md. Measured there
-# (scripts/stress.py random, conditioning; 668 points): pairs of both engines within a few times
-# their frequency floor reach 4.9e5 (heavy masses, rigid links; refined meshes stay below 10);
-# the old dense eigh(K, M) of a rhombus with a rigid crank and a 1e4 kg mass (f₁ 6.6e-6 wrong)
-# had 6.5e8.
-MAX_FLOOR_RATIO = 1e7
+# (scripts/stress.py random, conditioning, toggle, refine): pairs of both engines within a few
+# times their frequency floor reach 8.8e6 (a dense pair 1e-4° before a toggle; refined meshes
+# stay below 10); the old dense eigh(K, M) of a rhombus with a rigid crank and a 1e4 kg mass
+# (f₁ 6.6e-6 wrong) had 6.5e8.
+MAX_FLOOR_RATIO = 1e8
 
 
 @dataclass(frozen=True)
