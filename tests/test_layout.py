@@ -240,9 +240,9 @@ def test_theory_section_citations_resolve(tmp_path):
     assert _unknown_sections(tmp_path) == ["README.md: §" + "3"]
 
 
-# Cited by work in progress (issue 10's stress campaigns, the CLI notes) that is being written
-# now; drop an entry as soon as its file is in the repository.
-PENDING = {"docs/numerical-stability.md", "scripts/stress.py", "docs/cli.md"}
+# Cited by work in progress (the CLI notes) that is being written now; drop an entry as soon as
+# its file is in the repository.
+PENDING = {"docs/cli.md"}
 
 
 def test_cited_files_exist():
