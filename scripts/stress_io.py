@@ -170,8 +170,13 @@ def _data_offsets(path) -> dict:
 
 
 def _judge_damaged(t: Tally, path: Path, what: str) -> None:
-    code, _, err = _cli(["info", str(path)])
-    if code is None or "Traceback" in err:
+    # a subprocess: HDF5 reading damaged metadata may crash the process, which is what we count
+    code, _, err = _wait(_fkev("info", path))
+    if code < 0 or code > 3:
+        t.add("crashes (exceptions)")
+        t.notes.append(f"fkev info on a {what} archive: exit {code}: {err.strip().splitlines()[-1] if err.strip() else ''}")
+        shutil.copy(path, Path(tempfile.gettempdir()) / f"stress-crash-{what}-{code}.h5")
+    elif "Traceback" in err:
         t.add("tracebacks")
     elif code == 2 and err.strip().count("\n") == 0:
         t.add(f"{what} archive refused by fkev info (exit 2, one line)")

@@ -135,8 +135,9 @@ def test_verify_passes_an_intact_archive_and_catches_changed_bytes(small_archive
     assert verify(small_archive).ok and verify(small_archive).complete
     r = _fkev("verify", small_archive)
     assert r.returncode == 0 and "ok (" in r.stdout
-    with h5py.File(small_archive, "r") as f:  # where the stored values of two datasets lie
-        spots = {name: f[name].id.get_offset() for name in ("frequency_hz", "status")}
+    # "case" holds variable-length strings: flipped heap addresses crashed HDF5 (SIGSEGV) when decoded
+    with h5py.File(small_archive, "r") as f:  # where the stored values of three datasets lie
+        spots = {name: f[name].id.get_offset() for name in ("frequency_hz", "status", "case")}
     for name, offset in spots.items():
         bad = tmp_path / f"bad-{name}.h5"
         shutil.copyfile(small_archive, bad)
