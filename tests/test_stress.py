@@ -217,6 +217,14 @@ def test_point_needs_only_its_own_angle_and_check_names_the_range(tmp_path):
     import json
 
     assert json.loads(r.stdout)["transmission_angle_deg"] < 10
+    out = tmp_path / "near-toggle.h5"
+    r = _fkev("run", scene, "--angles", "100,120,130", "--speeds", "0", "-o", out)
+    assert r.returncode == 0 and "warning: transmission angle down to 6.87°" in r.stderr, r.stderr
+    import h5py
+
+    with h5py.File(out) as f:  # law of cosines at the follower joint (closed form above)
+        np.testing.assert_allclose(f["transmission_angle_deg"][()], [63.83377375, 34.42613794, 6.87346511], rtol=1e-8)
+        assert f["transmission_angle_deg"].attrs["units"] == "degree"
 
 
 # ------------------------------------------------------------- fast representatives of the campaigns
@@ -274,3 +282,26 @@ def test_acceptance_rejects_pairs_less_accurate_than_their_conditioning():
     assert f"> {MAX_FLOOR_RATIO:g}" in msg
     for engine in (DenseEngine(), SlepcEngine()):
         assert engine.solve(q, 2).converged
+
+
+def test_second_fkev_run_on_the_same_output_is_refused_and_the_first_finishes(tmp_path):
+    """Issue 10: two fkev run on one -o a second apart left an archive HDF5 could not open."""
+    import time
+
+    from fkev_slepc.archive.verify import verify
+
+    out = tmp_path / "x.h5"
+    args = [sys.executable, "-m", "fkev_slepc", "run", str(ROOT / "runs" / "turcic-midha-1984.toml"),
+            "--speeds", "0,100,200", "--cases", "structure,no_coriolis,full", "-o", str(out)]
+    first = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not (tmp_path / "x.h5.lock").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        second = subprocess.run(args, capture_output=True, text=True, timeout=300)
+    finally:
+        out1, err1 = first.communicate(timeout=600)
+    assert second.returncode == 2 and "lock" in second.stderr and "Traceback" not in second.stderr
+    assert second.stderr.strip().count("\n") == 0, second.stderr
+    assert first.returncode == 0, err1[-2000:]
+    assert verify(out).ok and not (tmp_path / "x.h5.lock").exists()

@@ -83,3 +83,26 @@ class ArchiveLock:
 
     def __exit__(self, *exc):
         self.release()
+
+
+_HELD: dict[Path, ArchiveLock] = {}
+
+
+def hold(path: str | Path) -> None:
+    """Take the lock of ``path`` for the rest of the run (released by :func:`release` or exit).
+
+    Raises
+    ------
+    ArchiveLocked
+        Another process holds it.
+    """
+    key = Path(path).resolve()
+    if key not in _HELD:
+        _HELD[key] = ArchiveLock(path).acquire()
+
+
+def release(path: str | Path) -> None:
+    """Release the lock :func:`hold` took (no-op if not held)."""
+    lock = _HELD.pop(Path(path).resolve(), None)
+    if lock is not None:
+        lock.release()

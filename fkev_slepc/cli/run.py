@@ -271,9 +271,22 @@ def run(args) -> int:
     return int(comm.bcast(code, root=0))
 
 
-def _open_or_create(args, out, part, grid, expect, model, engine, scene, n_ranks, track_dofs):
+def _open_or_create(args, out, *rest):
+    """Rank 0: the output's lock (archive/lock.py; held until _finish), then the setup below."""
+    from fkev_slepc.archive.lock import ArchiveLocked, hold
+
+    try:
+        hold(out)
+    except ArchiveLocked as exc:
+        print(f"fkev run: {exc}", file=sys.stderr, flush=True)
+        return f"2:{exc}"
+    return _open_or_create_locked(args, out, *rest)  # a refusal ends the process, and the lock with it
+
+
+def _open_or_create_locked(args, out, part, grid, expect, model, engine, scene, n_ranks, track_dofs):
     """Rank 0: a state and todo mask, or 'code:message' when refusing (message printed)."""
     from fkev_slepc.archive import store as archive
+    from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, solve_kinematics
     from fkev_slepc.sweep.parallel import software_versions
 
     if args.resume:
@@ -303,7 +316,12 @@ def _open_or_create(args, out, part, grid, expect, model, engine, scene, n_ranks
                  stability_tol=scene.analysis.stability_tol, title=scene.title, **software_versions())
     if getattr(args, "accuracy_plan", None) is not None:
         attrs["accuracy"] = args.accuracy_plan
-    archive.create(part, grid, attrs, mesh, model.n_free, scene.analysis.mode_shapes, track_dofs)
+    mu = np.degrees(solve_kinematics(mech, np.radians(grid.angles_deg)).transmission)
+    if np.nanmin(mu, initial=90.0) < TRANSMISSION_WARN_DEG:  # NaN-free: every angle assembles
+        print(f"fkev run: warning: transmission angle down to {np.nanmin(mu):.3g}° (< {TRANSMISSION_WARN_DEG:g}°): near a "
+              "toggle, the speed-dependent terms grow like 1/sin(μ) (docs/numerical-stability.md)", file=sys.stderr)
+    archive.create(part, grid, attrs, mesh, model.n_free, scene.analysis.mode_shapes, track_dofs,
+                   transmission_deg=mu)
     shape = grid.shape
     state = archive.ArchiveState(np.zeros(shape, np.uint8), np.full(shape, np.nan))
     return state, np.ones(shape, bool)
@@ -324,6 +342,7 @@ def _exit_code(status) -> int:
 def _finish(part, out, grid, n_ranks, t0, quiet, settings) -> int:
     """Rank 0: track modes, write the run attributes, rename; summary line; exit code."""
     from fkev_slepc.archive import store as archive
+    from fkev_slepc.archive.lock import release
     from fkev_slepc.sweep.runner import track
 
     freq, status, sig = archive.read_tracking_inputs(part)
@@ -332,6 +351,7 @@ def _finish(part, out, grid, n_ranks, t0, quiet, settings) -> int:
              "last_solver_settings": settings}
     wall = time.monotonic() - t0  # this run, from the checked scene to the finished archive
     archive.finalize(part, out, tracked, attrs, add_wall_time=wall)
+    release(out)  # taken by _open_or_create
     counts = archive.status_counts(status)
     if not quiet:
         summary = ", ".join(f"{k} {v}" for k, v in counts.items() if v)
