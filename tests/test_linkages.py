@@ -31,7 +31,7 @@ def test_four_bars_reproduce_the_binary_link_model(name):
     """The general path (beams, particles, planned steps) gives the operators and frequencies of
     the binary-link model it replaced, recorded in tests/data/<scene>-operators.npz (made at
     commit 4c77756 with the dense engine at 1000 rad/s): operators to 1e-12 (measured ~5e-16);
-    frequencies to 1e-10 (QZ rounding: measured 3e-13 Bahgat-Willmert, 5e-11 Turcic-Midha)."""
+    frequencies to 1e-10 (QZ rounding: measured 3e-13 Bahgat-Willmert, 6e-11 Turcic-Midha)."""
     ref = np.load(DATA / f"{name}-operators.npz")
     model = Model(load_scene(RUNS / f"{name}.toml"), cases=CASE_NAMES)
     np.testing.assert_array_equal(model.pattern.indptr, ref["indptr"])
