@@ -15,7 +15,8 @@ from builders import bahgat_willmert
 from fkev_slepc.archive import store as A
 from fkev_slepc.archive import writer as W
 from fkev_slepc.cli import main
-from fkev_slepc.cli.run import Progress, default_output
+from fkev_slepc.sweep.progress import Progress
+from fkev_slepc.sweep.session import default_output
 from fkev_slepc.solve.dense import DenseEngine
 from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.status import Status

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import tomllib
 
 import numpy as np
 
 from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError, with_elements
+from fkev_slepc.sweep.grid import RAD_S_PER_RPM, modes_problem  # noqa: F401 (re-exported to the subcommands)
 
 
 def parse_elements(text: str) -> int | tuple[int, ...]:
@@ -21,9 +21,6 @@ def parse_elements(text: str) -> int | tuple[int, ...]:
     if any(v < 1 for v in vals):
         raise argparse.ArgumentTypeError(f"--elements: every count must be >= 1 (got {text!r})")
     return vals[0] if len(vals) == 1 else vals
-
-
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 
 
 def scene_uses_rpm(scene_toml: str, command_line: str = "") -> bool:
@@ -88,16 +85,6 @@ def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
     if problems:
         raise SceneError(scene.source, problems)
     return scene
-
-
-def modes_problem(n_modes: int, n_free: int, flag: str | None) -> Problem | None:
-    """A problem when more modes are asked than the model can have: its ``n_free`` DOFs give
-    at most ``n_free`` oscillating modes (conjugate pairs of the 2·n_free eigenvalues)."""
-    if n_modes <= n_free:
-        return None
-    return Problem(flag or "analysis.modes",
-                   f"{n_modes} modes asked, but the model has {n_free} free DOFs, so at most {n_free} "
-                   "oscillating modes (refine with --elements or ask fewer)")
 
 
 def report_scene_error(err: SceneError) -> int:

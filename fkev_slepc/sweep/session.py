@@ -1,0 +1,370 @@
+"""One sweep from a checked scene to a finished archive: the code path of ``fkev run`` and of
+``Study.sweep``.
+
+A :class:`SweepSession` is collective over an MPI communicator (every rank builds it and calls
+its methods in the same order) and runs in three steps:
+
+1. :meth:`~SweepSession.open_output` -- before any solve: rank 0 checks the output (a resume
+   against the archive's scene and grid, or a new ``<name>.h5.part``) and tells the other ranks
+   what to solve, or raises :class:`RunRefused` on every rank;
+2. :meth:`~SweepSession.solve` -- every rank solves its share of the points and writes them
+   (:class:`~fkev_slepc.sweep.runner.Sweep`);
+3. :meth:`~SweepSession.finalise` -- rank 0 tracks modes, writes the run attributes and renames
+   the archive into place; every rank gets the :class:`SweepOutcome`.
+
+:meth:`~SweepSession.run` does all three. Human-readable notes (resume decisions, the number of
+points with ``progress``, the cross-check result) go to ``notify`` on rank 0; the library
+prints nothing itself.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from fkev_slepc.scene import Scene
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK, RETRYABLE, Status, codes
+
+
+class RunRefused(Exception):
+    """The sweep did not start: ``exit_code`` is what ``fkev run`` exits with (2: bad input).
+
+    Raised on every rank alike (rank 0 decides and broadcasts it), so no rank is left waiting.
+    """
+
+    def __init__(self, message: str, exit_code: int = EXIT_BAD_INPUT):
+        super().__init__(message, exit_code)
+        self.message, self.exit_code = message, exit_code
+
+    def __str__(self) -> str:
+        return self.message
+
+
+class OutputError(RunRefused):
+    """The output archive cannot be used (e.g. ``resume`` of a different scene or grid)."""
+
+
+def default_output(scene_path) -> Path:
+    """``<scene dir>/out/<scene stem>.h5``.
+
+    Examples
+    --------
+    >>> default_output("runs/four-bar.toml").as_posix()
+    'runs/out/four-bar.h5'
+    """
+    p = Path(scene_path)
+    return p.parent / "out" / (p.stem + ".h5")
+
+
+def exit_code(status: np.ndarray) -> int:
+    """``EXIT_NOT_CONVERGED`` if some point is pending, failed or not converged, else ``EXIT_OK``."""
+    bad = np.isin(status, codes((Status.PENDING, *RETRYABLE)))
+    return EXIT_NOT_CONVERGED if bad.any() else EXIT_OK
+
+
+@dataclass(frozen=True)
+class SweepRequest:
+    """What to run: a checked scene (grid overrides applied, see :func:`grid.configure`) and
+    where to write it."""
+
+    scene: Scene
+    output: Path
+    resume: bool = False
+    retry_failed: bool = False  # with resume: solve failed and not-converged points again
+    solver: str | None = None  # None: the scene's [solver] method
+    cross_check: bool = False  # also solve every point with the other engine
+    command_line: str = field(default_factory=lambda: " ".join(sys.argv))  # archived
+    accuracy: dict | None = None  # the mesh plan of plan_accuracy (archived, not a resume condition)
+
+
+@dataclass(frozen=True)
+class OutputPlan:
+    """Result of :meth:`SweepSession.open_output`, the same on every rank."""
+
+    part: Path  # the file written during the run
+    status: np.ndarray  # (angle, speed, case) archive status codes before this run
+    lam1: np.ndarray  # |λ1| of converged points already archived (continuation hints)
+    todo: np.ndarray  # (angle, speed, case) points to solve
+    complete: bool = False  # the archive is finished and there is nothing to do
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """What a sweep did (the same on every rank)."""
+
+    output: Path
+    n_points: int  # points in the grid
+    n_solved: int  # points solved by this run
+    counts: dict  # points of each status in the archive, by status name
+    exit_code: int  # EXIT_OK, or EXIT_NOT_CONVERGED when some point is flagged
+    wall_time_s: float  # this run, from the checked scene to the finished archive
+    n_ranks: int
+    cross_check: dict | None = None  # {engine, other, max_rel_diff, points, skipped}
+    already_complete: bool = False  # resume of a finished archive: nothing was solved
+
+
+class SweepSession:
+    """A sweep of ``request`` over ``comm`` (collective: build and call it on every rank).
+
+    Parameters
+    ----------
+    request : SweepRequest
+    comm : mpi4py communicator
+    notify : callable(str), optional
+        Called on rank 0 with one-line notes for the user.
+
+    Raises
+    ------
+    SceneError
+        On every rank, when the engine rejects the solver options.
+    """
+
+    def __init__(self, request: SweepRequest, comm, notify: Callable[[str], None] | None = None):
+        from fkev_slepc.archive.store import Grid
+        from fkev_slepc.model.operators import Model
+        from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
+        from fkev_slepc.solve.petsc_init import init_petsc
+        from fkev_slepc.sweep.runner import tracking_dofs
+
+        # PETSc's initialisation is collective over MPI_COMM_WORLD: do it here, on every rank,
+        # before rank 0 alone imports PETSc (software versions); a no-op after the CLI's init.
+        init_petsc()
+        self.t0 = time.monotonic()
+        self.request, self.comm = request, comm
+        self.rank0 = comm.rank == 0
+        self._notify = notify if (notify is not None and self.rank0) else (lambda _msg: None)
+        scene = request.scene
+        an = scene.analysis
+        self.grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(scene.driver.speeds, float),
+                         tuple(an.cases), int(an.modes))
+        self.model = Model(scene, cases=self.grid.cases)
+        factory = make_cross_check_engine if request.cross_check else make_engine
+        self.engine = factory(request.solver or scene.solver.method, self.model.n_free, scene.solver.petsc)
+        self.output = Path(request.output)
+        self.track_dofs = tracking_dofs(self.model.n_free, len(self.grid.angles_deg))
+        self._final_settings: dict | None = None  # set by solve (rank 0)
+        self._cross: dict | None = None
+
+    # ------------------------------------------------------------------------- 1. output
+    def open_output(self) -> OutputPlan:
+        """Collective. Check (resume) or create the output before anything is solved.
+
+        Raises :class:`RunRefused` on every rank when the run cannot go on."""
+        plan: OutputPlan | RunRefused | None = None
+        if self.rank0:
+            try:
+                plan = self._open_locked()
+            except RunRefused as exc:
+                plan = exc
+        plan = self.comm.bcast(plan, root=0)
+        if isinstance(plan, RunRefused):
+            self.engine.close()
+            raise plan
+        return plan
+
+    def _expect(self) -> dict:
+        """Root attributes a resumed archive must match (and a new one records)."""
+        scene = self.request.scene
+        elements = np.array([lk.elements for lk in scene.links], dtype="i4")
+        return {"scene_toml": scene.source_text, "elements": elements, "n_free": self.model.n_free,
+                "mode_shapes": int(scene.analysis.mode_shapes), "element": scene.analysis.element}
+
+    def _open_locked(self) -> OutputPlan:
+        """Rank 0: take the output's lock (archive/lock.py; held until :meth:`finalise`, so a
+        second writer is refused), then open the output."""
+        from fkev_slepc.archive.lock import ArchiveLocked, hold, release
+
+        try:
+            hold(self.output)
+        except ArchiveLocked as exc:
+            raise OutputError(str(exc)) from None
+        try:
+            plan = self._open_on_rank0()
+        except BaseException:
+            release(self.output)
+            raise
+        if plan.complete:  # nothing to write
+            release(self.output)
+        return plan
+
+    def _open_on_rank0(self) -> OutputPlan:
+        from fkev_slepc.archive import store
+
+        out, req, grid = self.output, self.request, self.grid
+        if req.resume:
+            try:
+                src = store.open_for_resume(out, grid, self._expect())
+            except FileNotFoundError as exc:
+                self._notify(f"--resume: {exc}; starting a new run")
+                src = None
+            except store.ArchiveMismatch as exc:
+                raise OutputError(f"--resume: {exc}") from None
+            if src is not None:
+                state = store.read_state(src)
+                todo = state.todo(req.retry_failed)
+                if src == out and not todo.any():
+                    self._notify(f"{out} is complete; nothing to do")
+                    return OutputPlan(out, state.status, state.lam1, todo, complete=True)
+                if src == out:
+                    store.reopen_finished(out)
+                return OutputPlan(store.partial_path(out), state.status, state.lam1, todo)
+        part = store.partial_path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        mech, scene = self.model.mechanism, req.scene
+        mesh = {"node_link": mech.node_link, "node_s": mech.node_s, "node_dofs": mech.node_dofs,
+                "elem_nodes": mech.elem_nodes, "link_names": list(mech.link_names)}
+        from fkev_slepc.sweep.parallel import software_versions
+
+        attrs = dict(self._expect(), scene_source=str(scene.source), command_line=req.command_line,
+                     n_ranks=self.comm.size, solver_settings=self._settings(),
+                     imag_tol=scene.analysis.imag_tol, stability_tol=scene.analysis.stability_tol,
+                     title=scene.title, **software_versions())
+        if req.accuracy is not None:
+            attrs["accuracy"] = req.accuracy
+        from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, solve_kinematics
+
+        mu = np.degrees(solve_kinematics(mech, np.radians(grid.angles_deg)).transmission)
+        if np.nanmin(mu, initial=90.0) < TRANSMISSION_WARN_DEG:  # NaN-free: every angle assembles
+            self._notify(f"warning: transmission angle down to {np.nanmin(mu):.3g}° (< {TRANSMISSION_WARN_DEG:g}°): "
+                         "near a toggle, the speed-dependent terms grow like 1/sin(μ) (docs/numerical-stability.md)")
+        store.create(part, grid, attrs, mesh, self.model.n_free, scene.analysis.mode_shapes, self.track_dofs,
+                     transmission_deg=mu)
+        shape = grid.shape
+        return OutputPlan(part, np.zeros(shape, np.uint8), np.full(shape, np.nan), np.ones(shape, bool))
+
+    def _settings(self) -> dict:
+        settings = getattr(self.engine, "settings", None)
+        return dict(settings()) if callable(settings) else {"engine": getattr(self.engine, "name", "?")}
+
+    # -------------------------------------------------------------------------- 2. solve
+    def solve(self, plan: OutputPlan, progress: bool = False) -> int:
+        """Collective. Solve the points of ``plan.todo`` into ``plan.part``; the number solved.
+
+        ``progress``: show points done, rate and ETA on rank 0 (:class:`progress.Progress`)."""
+        from fkev_slepc.archive import writer as archive_writer
+        from fkev_slepc.sweep.progress import Progress
+        from fkev_slepc.sweep.runner import Sweep, SweepOptions
+
+        an = self.request.scene.analysis
+        bar = None
+        if progress and self.rank0:
+            self._notify(f"{int(plan.todo.sum())} of {self.grid.n_points} points to solve on "
+                         f"{self.comm.size} rank(s) -> {plan.part}")
+            bar = Progress(int(plan.todo.sum()))
+        opts = SweepOptions(self.grid.n_modes, an.imag_tol, an.stability_tol, an.mode_shapes, self.track_dofs)
+        writer = archive_writer.Writer(plan.part, self.comm, parallel=archive_writer.use_mpio(self.comm))
+        try:
+            done = Sweep(self.model, self.grid, self.engine, writer, opts, plan.lam1).run(plan.todo, self.comm, bar)
+        finally:
+            writer.close()
+            if bar is not None:
+                bar.close()
+        self._final_settings = self._settings() if self.rank0 else None  # before close: reads solver objects
+        self._cross = self._reduce_cross_check()
+        if self._cross is not None and self.rank0:
+            self._final_settings["cross_check"].update(
+                {k: self._cross[k] for k in ("max_rel_diff", "points", "skipped")})
+        self.engine.close()
+        return done
+
+    def _reduce_cross_check(self) -> dict | None:
+        if not self.request.cross_check:
+            return None
+        from mpi4py import MPI
+
+        e = self.engine
+        worst = self.comm.allreduce(e.max_rel_diff, op=MPI.MAX)
+        counts = self.comm.allreduce(np.array([e.n_points, e.n_skipped]), op=MPI.SUM)
+        self._notify(f"cross-check {e.name} vs {e.other.name}: max relative frequency difference "
+                     f"{worst:.2e} over {counts[0]} points ({counts[1]} not compared: not converged)")
+        return {"engine": e.name, "other": e.other.name, "max_rel_diff": worst,
+                "points": int(counts[0]), "skipped": int(counts[1])}
+
+    # ----------------------------------------------------------------------- 3. finalise
+    def finalise(self, plan: OutputPlan, n_solved: int) -> SweepOutcome:
+        """Collective. Rank 0 tracks modes along crank angle, writes the run attributes and
+        renames ``plan.part`` to the output; every rank returns the outcome."""
+        self.comm.Barrier()
+        result = self._finalise_on_rank0(plan, n_solved) if self.rank0 else None
+        return self.comm.bcast(result, root=0)
+
+    def _finalise_on_rank0(self, plan: OutputPlan, n_solved: int) -> SweepOutcome:
+        from fkev_slepc.archive import store
+        from fkev_slepc.sweep.runner import track
+
+        freq, status, sig = store.read_tracking_inputs(plan.part)
+        tracked, open_loops = track(freq, status, sig, self.grid.angles_deg)
+        attrs = {"n_ranks": self.comm.size, "last_command_line": self.request.command_line,
+                 "tracking_open_loops": open_loops, "last_solver_settings": self._final_settings}
+        wall = time.monotonic() - self.t0
+        store.finalize(plan.part, self.output, tracked, attrs, add_wall_time=wall)
+        from fkev_slepc.archive.lock import release
+
+        release(self.output)  # taken by open_output
+        return SweepOutcome(self.output, self.grid.n_points, n_solved, store.status_counts(status),
+                            exit_code(status), wall, self.comm.size, self._cross)
+
+    # ---------------------------------------------------------------------------- all
+    def run(self, progress: bool = False) -> SweepOutcome:
+        """Collective. :meth:`open_output`, :meth:`solve`, :meth:`finalise`."""
+        plan = self.open_output()
+        if plan.complete:
+            self.engine.close()
+            from fkev_slepc.archive.store import status_counts
+
+            return SweepOutcome(self.output, self.grid.n_points, 0, status_counts(plan.status),
+                                exit_code(plan.status), time.monotonic() - self.t0, self.comm.size,
+                                already_complete=True)
+        return self.finalise(plan, self.solve(plan, progress))
+
+
+def plan_accuracy(scene: Scene, rel_error: float | None, solver: str | None, comm,
+                  notify: Callable[[str], None] | None = None, name: str = "rel_error") -> tuple[Scene, dict | None]:
+    """Collective. With ``rel_error``: rank 0 plans the element and mesh at a few sample points
+    of the grid (:mod:`fkev_slepc.solve.accuracy`), every rank gets the re-meshed scene and the
+    plan (archived as the ``accuracy`` attribute: :attr:`SweepRequest.accuracy`).
+
+    Raises ``SceneError`` (naming ``name``) on every rank when no element reaches ``rel_error``."""
+    if rel_error is None:
+        return scene, None
+    from dataclasses import replace
+
+    from fkev_slepc.scene import Problem, SceneError, with_elements
+    from fkev_slepc.solve.accuracy import planned_scene, sample_points
+
+    out: dict | Problem | None = None
+    if comm.rank == 0:
+        an = scene.analysis
+        points = sample_points(an.crank_angles_deg, scene.driver.speeds, an.cases)
+        try:
+            _, plan = planned_scene(scene, points, an.modes, rel_error, solver or scene.solver.method)
+            out = dict(plan.summary(), sample_points=points)
+        except ValueError as err:
+            out = Problem(name, str(err))
+    out = comm.bcast(out, root=0)
+    if isinstance(out, Problem):
+        raise SceneError(scene.source, [out])
+    scene = with_elements(scene, out["elements_per_link"])
+    scene = replace(scene, analysis=replace(scene.analysis, element=out["element"]))
+    if notify is not None and comm.rank == 0:
+        notify(f"rel_error {rel_error:g}: element {out['element']}, {out['elements_per_link']} elements per link, "
+               f"estimated max relative error {out['predicted_rel_error']:.1e} at {len(out['sample_points'])} "
+               "sample points")
+    return scene, out
+
+
+def run_sweep(request: SweepRequest, comm=None, notify=None, progress: bool = False) -> SweepOutcome:
+    """Run ``request`` over ``comm`` (None: this process alone, ``MPI.COMM_SELF``).
+
+    Collective; see :class:`SweepSession`. Raises ``SceneError`` (solver options) or
+    :class:`RunRefused` (output) on every rank before anything is solved."""
+    if comm is None:
+        from mpi4py import MPI
+
+        comm = MPI.COMM_SELF
+    return SweepSession(request, comm, notify).run(progress)
