@@ -2,6 +2,15 @@
 
 Finite-element model of linkages with elastic links (docs/theory.md), quadratic
 eigenproblems solved by SLEPc (dense QZ as a cross-check), MPI sweeps, HDF5 archives.
+
+The Python API (docs/api.md): :func:`load` a scene into a :class:`Study`, solve a
+:meth:`Study.point` or run a :meth:`Study.sweep`, :func:`open` an archive as
+:class:`SweepResults`. Importing the package does not import PETSc (the command line must
+initialise it with its options first) nor MPI.
 """
 
-__version__ = "0.1.0"
+from fkev_slepc._version import __version__
+from fkev_slepc.api import PointResult, Study, SweepResults, load, open
+from fkev_slepc.status import Status
+
+__all__ = ["__version__", "load", "open", "Study", "PointResult", "SweepResults", "Status"]

@@ -19,7 +19,7 @@ import json
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, NamedTuple
 
 import numpy as np
 
@@ -32,6 +32,16 @@ SUPPORTED_VERSIONS = (1,)
 # Points whose eigenvalues are trustworthy. Unstable and divergent points converged; their
 # oscillatory frequencies are real results. Pending/failed/not-converged points are masked.
 ORDERS = ("sorted", "tracked")
+
+
+class PointError(NamedTuple):
+    """A point that failed or did not converge (:meth:`SweepResults.errors`)."""
+
+    angle_deg: float
+    speed_rad_s: float
+    case: str
+    status: Status
+    message: str
 
 
 class ArchiveError(ValueError):
@@ -145,8 +155,11 @@ class SweepResults:
         """(angle, speed, case) bool: the point's eigenvalues converged (ok/unstable/divergent)."""
         return np.isin(self.status, converged_codes())
 
-    def frequency(self, order: str = "sorted") -> np.ndarray:
-        """Frequencies (Hz), (angle, speed, case, mode), NaN where the point did not converge.
+    def frequency(self, case: str | int | None = None, speed_rad_s: float | None = None,
+                  order: str = "sorted") -> np.ndarray:
+        """Frequencies (Hz), NaN where the point did not converge: (angle, speed, case, mode),
+        or (angle, speed, mode) for one ``case``, (angle, case, mode) for one speed, (angle,
+        mode) for both.
 
         ``order="sorted"``: the i-th lowest at each point (docs/theory.md §10.4);
         ``"tracked"``: modes followed along crank angle by eigenvector correlation.
@@ -154,13 +167,18 @@ class SweepResults:
         if order not in ORDERS:
             raise ArchiveError(f"--order: must be one of {', '.join(ORDERS)} (got {order!r})")
         f = self.frequency_hz if order == "sorted" else self.tracked_frequency_hz
-        return np.where(self.converged[..., None], f, np.nan)
+        f = np.where(self.converged[..., None], f, np.nan)
+        if speed_rad_s is not None:
+            f = f[:, self.speed_index(speed_rad_s)]
+        if case is not None:
+            f = f[..., self.case_index(case), :]
+        return f
 
     def structure_frequency(self, order: str = "sorted") -> np.ndarray:
         """ω_i(structure) in Hz, (angle, mode). Case ``structure`` does not depend on speed,
         so the median over the speeds where it converged is taken (they agree to round-off)."""
         c = self.case_index("structure")
-        f = self.frequency(order)[:, :, c, :]
+        f = self.frequency(order=order)[:, :, c, :]
         out = np.full((f.shape[0], f.shape[2]), np.nan)
         have = np.any(np.isfinite(f), axis=1)
         out[have] = np.nanmedian(f.transpose(0, 2, 1)[have], axis=-1)
@@ -168,7 +186,7 @@ class SweepResults:
 
     def frequency_parameter(self, order: str = "sorted") -> np.ndarray:
         """ω_i(case) / ω_i(structure), (angle, speed, case, mode) (docs/theory.md §12)."""
-        return self.frequency(order) / self.structure_frequency(order)[:, None, None, :]
+        return self.frequency(order=order) / self.structure_frequency(order)[:, None, None, :]
 
     def speed_parameter(self) -> np.ndarray:
         """α = Ω / ω_1(structure), (angle, speed), with ω_1 the lowest structure frequency in
@@ -178,7 +196,7 @@ class SweepResults:
 
     def percent_error(self, case: str | int, order: str = "sorted") -> np.ndarray:
         """Signed % error of ``case`` against ``full``, (angle, speed, mode) (docs/theory.md §12)."""
-        f = self.frequency(order)
+        f = self.frequency(order=order)
         return percent_error(f[:, :, self.case_index(case), :], f[:, :, self.case_index("full"), :])
 
     def elements_per_link(self) -> tuple[int, ...]:
@@ -190,6 +208,43 @@ class SweepResults:
             return ()
         links = self.mesh.node_link[self.mesh.elem_nodes[:, 0]]
         return tuple(int(np.sum(links == k)) for k in range(len(self.mesh.link_names)))
+
+    # ------------------------------------------------------------------- run information
+    def errors(self) -> list[PointError]:
+        """Points that failed or did not converge, with the solver's message (``/errors``)."""
+        import h5py
+
+        with h5py.File(self.path, "r") as f:
+            if "errors" not in f:
+                return []
+            index, codes = f["errors/index"][()], f["errors/status"][()]
+            msgs = [m.decode("utf-8", "replace") if isinstance(m, bytes) else str(m) for m in f["errors/message"][()]]
+        return [PointError(float(self.crank_angle_deg[a]), float(self.speed_rad_s[s]), self.cases[c],
+                           Status.from_code(code), str(m)) for (a, s, c), code, m in zip(index, codes, msgs)]
+
+    def settings(self) -> dict:
+        """How the archive was computed: effective solver settings (``solver``; ``last_solver``
+        of the latest resume), thresholds, mesh, ranks, software versions."""
+        at = self.attrs
+        out = {"solver": solver_settings(self), "elements": self.elements_per_link()}
+        last = _json(at.get("last_solver_settings"))
+        if last:
+            out["last_solver"] = last
+        for key in ("imag_tol", "stability_tol", "n_free", "mode_shapes", "n_ranks", "wall_time_s",
+                    "fkev_version", "petsc_version", "slepc_version", "h5py_version", "hdf5_version",
+                    "mpi_version"):
+            if key in at:
+                v = at[key]
+                out[key] = v.item() if isinstance(v, np.generic) else v
+        return out
+
+    def to_xarray(self):
+        """The gridded data as an ``xarray.Dataset`` (needs xarray): dimensions crank_angle_deg,
+        speed_rad_s, case, mode; ``status`` as names ("ok", ...), ``frequency_hz`` masked to
+        converged points."""
+        from fkev_slepc.archive.labelled import to_xarray
+
+        return to_xarray(self)
 
     # ------------------------------------------------------------------------ mode shapes
     def mode_shape(self, angle_index: int, speed_index: int, case_index: int) -> np.ndarray:
@@ -206,8 +261,9 @@ class SweepResults:
 
 
 # ------------------------------------------------------------------------------ loading
-def load(path: str | Path) -> SweepResults:
-    """Read a sweep archive into :class:`SweepResults` (mode shapes stay on disk).
+def load(path: str | Path, cls: type[SweepResults] = SweepResults) -> SweepResults:
+    """Read a sweep archive into :class:`SweepResults` (or the subclass ``cls``; mode shapes
+    stay on disk).
 
     Raises
     ------
@@ -237,7 +293,7 @@ def load(path: str | Path) -> SweepResults:
         has_shapes = "modes" in h5 and "shape" in h5["modes"]
         node_xy = np.asarray(h5["modes/node_xy"][()]) if has_shapes and "node_xy" in h5["modes"] else None
         scene_toml = str(attrs.get("scene_toml", ""))
-        return SweepResults(
+        return cls(
             path=path,
             crank_angle_deg=np.asarray(h5["crank_angle_deg"][()], dtype=float),
             speed_rad_s=np.asarray(h5["speed_rad_s"][()], dtype=float),
@@ -314,7 +370,10 @@ def _declared(link: dict, default):
 
 def solver_settings(res: SweepResults) -> dict:
     """The archived effective solver settings (root attribute ``solver_settings``, JSON)."""
-    raw = res.attrs.get("solver_settings")
+    return _json(res.attrs.get("solver_settings"))
+
+
+def _json(raw) -> dict:
     try:
         return json.loads(raw) if raw else {}
     except (TypeError, json.JSONDecodeError):

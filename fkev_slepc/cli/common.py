@@ -6,8 +6,6 @@ import argparse
 import sys
 import tomllib
 
-import numpy as np
-
 from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError, with_elements
 from fkev_slepc.sweep.grid import RAD_S_PER_RPM, modes_problem  # noqa: F401 (re-exported to the subcommands)
 
@@ -92,14 +90,12 @@ def report_scene_error(err: SceneError) -> int:
     return 2
 
 
-def transmission_warning(model, theta: float) -> float:
-    """Transmission angle (deg) at crank angle ``theta`` (rad); a warning on stderr below
-    ``kinematics.TRANSMISSION_WARN_DEG`` (near a toggle, docs/numerical-stability.md)."""
+def transmission_warning(mu: float, angle_deg: float) -> None:
+    """A warning on stderr when the transmission angle ``mu`` (deg) at crank angle ``angle_deg``
+    is below ``kinematics.TRANSMISSION_WARN_DEG`` (near a toggle, docs/numerical-stability.md)."""
     from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG
 
-    mu = float(np.degrees(model.kinematics(theta).transmission[0]))
     if mu < TRANSMISSION_WARN_DEG:
-        print(f"warning: transmission angle {mu:.3g}° < {TRANSMISSION_WARN_DEG:g}° at θ = {np.degrees(theta):g}°: "
+        print(f"warning: transmission angle {mu:.3g}° < {TRANSMISSION_WARN_DEG:g}° at θ = {angle_deg:g}°: "
               "near a toggle position, where link speeds and the speed-dependent terms grow like "
               "1/sin(μ) (docs/numerical-stability.md)", file=sys.stderr)
-    return mu

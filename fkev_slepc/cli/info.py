@@ -202,14 +202,9 @@ def crossing_lines(res, angle: float | None = None, orders: int | None = None) -
 
 
 def _errors(res, n: int) -> list[str]:
-    import h5py
-
-    with h5py.File(res.path, "r") as f:
-        if "errors" not in f or f["errors/index"].shape[0] == 0:
-            return ["  errors      none"]
-        index = f["errors/index"][()]
-        msgs = [m.decode("utf-8", "replace") if isinstance(m, bytes) else str(m) for m in f["errors/message"][()]]
-    out = [f"  errors      {len(msgs)} point(s) failed or did not converge; first {min(n, len(msgs))}:"]
-    for (a, s, c), m in list(zip(index, msgs))[:n]:
-        out.append(f"    {res.crank_angle_deg[a]:g} deg, {res.speed_rad_s[s]:g} rad/s, {res.cases[c]}: {m}")
+    errs = res.errors()
+    if not errs:
+        return ["  errors      none"]
+    out = [f"  errors      {len(errs)} point(s) failed or did not converge; first {min(n, len(errs))}:"]
+    out += [f"    {e.angle_deg:g} deg, {e.speed_rad_s:g} rad/s, {e.case}: {e.message}" for e in errs[:n]]
     return out

@@ -1,19 +1,19 @@
-"""``fkev point``: frequencies, eigenvalues and stability at one operating point."""
+"""``fkev point``: frequencies, eigenvalues and stability at one operating point (``Study.point``)."""
 
 from __future__ import annotations
 
 import json
 import sys
 
-import numpy as np
-
-from fkev_slepc.scene.cases import case_name
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import (
-    RAD_S_PER_RPM, add_accuracy_arguments, add_elements_argument, apply_element, load_checked, modes_problem,
+    RAD_S_PER_RPM, add_accuracy_arguments, add_elements_argument, apply_element, load_checked,
     report_scene_error, scene_uses_rpm, transmission_warning, with_rpm,
 )
+
+FLAGS = {"angle_deg": "--angle", "speed_rad_s": "--speed", "case": "--case", "modes": "--modes",
+         "rel_error": "--rel-error"}
 
 
 def add_parser(sub) -> None:
@@ -35,78 +35,26 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from fkev_slepc.solve.engines import cross_check, make_engine
-    from fkev_slepc.solve.modes import postprocess
-    from fkev_slepc.model.operators import Model
+    from fkev_slepc.api import Study
 
+    flags = dict(FLAGS, speed_rad_s="--speed-rpm" if args.speed_rpm is not None else "--speed")
     try:
         scene = load_checked(args.scene, args.elements, check_angles=False)  # only --angle matters
-        case = case_name(args.case) if args.case is not None else scene.analysis.cases[0]
-    except SceneError as err:
-        return report_scene_error(err)
-    except ValueError as err:
-        return report_scene_error(SceneError(args.scene, [Problem("--case", str(err))]))
-    angle = scene.analysis.crank_angles_deg[0] if args.angle is None else args.angle
-    speed = scene.driver.speeds[0] if args.speed is None else args.speed
-    if args.speed_rpm is not None:
-        speed = args.speed_rpm * RAD_S_PER_RPM
+        an = scene.analysis
+        speed = scene.driver.speeds[0] if args.speed is None else args.speed
+        if args.speed_rpm is not None:
+            speed = args.speed_rpm * RAD_S_PER_RPM
+        res = Study(apply_element(scene, args.element)).point(
+            an.crank_angles_deg[0] if args.angle is None else args.angle, speed,
+            an.cases[0] if args.case is None else args.case,
+            modes=args.modes, solver=args.solver, cross_check=args.cross_check, rel_error=args.rel_error)
+    except SceneError as err:  # argument names -> the flags that set them
+        return report_scene_error(SceneError(err.source, [Problem(flags.get(p.path, p.path), p.message)
+                                                          for p in err.problems]))
+    transmission_warning(res.transmission_angle_deg, res.angle_deg)
     rpm = args.speed_rpm is not None or (args.speed is None and scene_uses_rpm(scene.source_text))
-    n_modes = scene.analysis.modes if args.modes is None else args.modes
-    bad = []
-    if n_modes < 1:
-        bad.append(Problem("--modes", f"must be >= 1 (got {n_modes})"))
-    if not np.isfinite(angle):
-        bad.append(Problem("--angle", f"must be finite (got {angle})"))
-    if not np.isfinite(speed):
-        bad.append(Problem("--speed-rpm" if args.speed_rpm is not None else "--speed", f"must be finite (got {speed})"))
-    if bad:
-        return report_scene_error(SceneError(args.scene, bad))
-    scene = apply_element(scene, args.element)
-    model = Model(scene, cases=(case,))
-    too_many = modes_problem(n_modes, model.n_free, "--modes" if args.modes is not None else None)
-    if too_many:
-        return report_scene_error(SceneError(args.scene, [too_many]))
-    try:
-        pieces = model.pieces(np.radians(angle))
-    except ValueError as err:
-        return report_scene_error(SceneError(args.scene, [Problem("--angle", f"{err} (got {angle:g})")]))
-    rel_error = scene.analysis.rel_error if args.rel_error is None else args.rel_error
-    plan = None
-    if rel_error is not None:  # re-mesh for the requested accuracy (solve/accuracy.py)
-        from fkev_slepc.solve.accuracy import planned_scene
-
-        try:
-            scene, plan = planned_scene(scene, [(angle, speed, case)], n_modes, rel_error, args.solver or scene.solver.method)
-        except ValueError as err:
-            return report_scene_error(SceneError(args.scene, [Problem("--rel-error", str(err))]))
-        model = Model(scene, cases=(case,))
-        pieces = model.pieces(np.radians(angle))
-    qep = model.qep(pieces, speed, case)
-    mu = transmission_warning(model, np.radians(angle))
-    method = args.solver or scene.solver.method
-    try:
-        engine = make_engine(method, model.n_free, scene.solver.petsc)
-    except SceneError as err:  # e.g. a PETSc option the solver rejects
-        return report_scene_error(err)
-    sol = engine.solve(qep, n_modes)
-    res = postprocess(sol, n_modes, scene.analysis.imag_tol, scene.analysis.stability_tol)
-    out = {
-        "scene": scene.title, "angle_deg": angle, "speed_rad_s": speed,
-        "speed_rpm": speed / RAD_S_PER_RPM if rpm else None, "case": case,
-        "n_free": model.n_free, "kind": qep.kind, "solver": sol.solver,
-        "frequency_hz": _nan_to_none(res.frequency_hz),
-        "eigenvalue": [[_f(z.real), _f(z.imag)] for z in res.eigenvalue],
-        "residual": _nan_to_none(res.residual),
-        "max_real": _f(res.max_real), "divergent": [float(v) for v in res.divergent],
-        "status": res.status.value, "message": res.message, "transmission_angle_deg": _f(mu),
-        "element": scene.analysis.element, "elements": [lk.elements for lk in scene.links],
-    }  # fmt: skip
-    if plan is not None:
-        out["rel_error_estimate"] = plan.predicted_error
-        out["accuracy"] = plan.summary()
-    if args.cross_check:
-        out["cross_check_max_rel_diff"] = cross_check(qep, n_modes, scene.solver.petsc)
-    engine.close()
+    out = res.as_dict()
+    out["speed_rpm"] = res.speed_rad_s / RAD_S_PER_RPM if rpm else None
     if args.json:
         json.dump(out, sys.stdout, indent=1)
         print()
@@ -115,18 +63,9 @@ def run(args) -> int:
     return EXIT_OK if res.status in CONVERGED else EXIT_NOT_CONVERGED
 
 
-def _f(v):
-    return None if not np.isfinite(v) else float(v)
-
-
-def _nan_to_none(a):
-    return [_f(v) for v in np.asarray(a, dtype=float)]
-
-
 def _print_table(o: dict) -> None:
     print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {with_rpm(o['speed_rad_s'], o['speed_rpm'] is not None)}, "
-          f"case {o['case']}, "
-          f"{o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
+          f"case {o['case']}, {o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
     print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'residual':>10}")
     for i, (f, (re, im), r) in enumerate(zip(o["frequency_hz"], o["eigenvalue"], o["residual"]), 1):
         fmt = lambda v, w: f"{v:{w}.6g}" if v is not None else f"{'—':>{w}}"  # noqa: E731

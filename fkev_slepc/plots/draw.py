@@ -71,7 +71,7 @@ def freq_angle(
     for r_i, res in enumerate(runs):
         c_idx = pick_cases(res, cases, [default_case(res)])
         s_idx = [res.speed_index(s) for s in speeds] if speeds else list(range(res.speed_rad_s.size))
-        f = res.frequency(order)
+        f = res.frequency(order=order)
         for ax, m in zip(axes, mode_idx):
             for c_n, c in enumerate(c_idx):
                 for s_n, s in enumerate(s_idx):

@@ -106,7 +106,7 @@ def campbell(
     c_idx = pick_cases(res, cases, [default_case(res)])
     mode_idx = pick_modes(res, modes)
     om = res.speed_rad_s
-    f = res.frequency(order)[a]
+    f = res.frequency(order=order)[a]
     shown = f[:, c_idx][:, :, mode_idx]
     fmax = float(np.nanmax(shown)) if np.any(np.isfinite(shown)) else 1.0
     if orders is None:

@@ -58,6 +58,18 @@ def node_axes(mesh: Mesh, node_xy: np.ndarray, lines) -> np.ndarray:
     return axes
 
 
+def node_displacement(mesh: Mesh, q: np.ndarray, axes: np.ndarray | None = None) -> np.ndarray:
+    """Global (x, y, rotation) displacement (n_node, 3) of every node from the free-DOF values
+    ``q`` (real or complex); a constrained DOF is 0; ``axes`` as in :func:`element_displacement`."""
+    q = np.asarray(q)
+    vals = np.append(q, np.zeros(1, q.dtype))[mesh.node_dofs]  # index -1 -> the appended 0
+    if axes is not None:  # (a, n) in the node's frame -> (U, V)
+        a, n = vals[:, 0].copy(), vals[:, 1].copy()
+        vals[:, 0] = a * axes[:, 0] - n * axes[:, 1]
+        vals[:, 1] = a * axes[:, 1] + n * axes[:, 0]
+    return vals
+
+
 def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.ndarray,
                          axes: np.ndarray | None = None) -> np.ndarray:
     """Global displacement (n_el, n_xi, 2) of every element at stations ``xi`` ∈ [0, 1].
@@ -75,11 +87,7 @@ def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.
     axes : (n_node, 2) array, optional
         Direction of each node's first translational DOF (:func:`node_axes`; default x).
     """
-    vals = np.append(np.asarray(q, dtype=float), 0.0)[mesh.node_dofs]  # index -1 -> the appended 0
-    if axes is not None:  # (a, n) in the node's frame -> (U, V)
-        a, n = vals[:, 0].copy(), vals[:, 1].copy()
-        vals[:, 0] = a * axes[:, 0] - n * axes[:, 1]
-        vals[:, 1] = a * axes[:, 1] + n * axes[:, 0]
+    vals = node_displacement(mesh, np.asarray(q, dtype=float), axes)
     n1, n2 = mesh.elem_nodes[:, 0], mesh.elem_nodes[:, 1]
     d = node_xy[n2] - node_xy[n1]
     ln = np.linalg.norm(d, axis=1)
@@ -181,49 +189,55 @@ def mode_shape(
     s = pick_speed(res, speed)
     c_idx = pick_cases(res, cases, res.cases)
     mode_idx = pick_modes(res, modes)
-    xy = np.asarray(res.node_xy[a], dtype=float)
+    f = res.frequency(order="sorted")
+    lines = [(res.cases[c], res.mode_shape(a, s, c), f[a, s, c]) for c in c_idx]
+    where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s])}"
+    heading = f"{scene_heading(res)}\nmode shapes at {where}"
+    return shapes_figure(res.mesh, np.asarray(res.node_xy[a], dtype=float), lines, mode_idx, heading,
+                         [int(m) for m in res.modes], guides(res.scene_toml))
+
+
+def shapes_figure(mesh: Mesh, xy: np.ndarray, lines, mode_idx: Sequence[int], heading: str,
+                  mode_numbers: Sequence[int] | None = None, guide_lines=()) -> Figure:
+    """Draw mode shapes: one axes per mode (column ``mode_idx`` of the shapes), one deformed
+    line per entry of ``lines``, a list of ``(case name, shapes (n_free, n_mode) complex,
+    frequencies (n_mode,) Hz)``, on the undeformed linkage ``xy`` (n_node, 2), with the
+    prismatic guides ``guide_lines`` (:func:`guides`)."""
     xi = np.linspace(0.0, 1.0, N_SUB)
     extent = float(np.max(np.ptp(xy, axis=0)))
-    base = linkage_polyline(res.mesh, xy, None, xi)
-    lines = guides(res.scene_toml)
-    axes_dof = node_axes(res.mesh, xy, lines)
-    f = res.frequency("sorted")
-    shapes = {c: res.mode_shape(a, s, c) for c in c_idx}
+    base = linkage_polyline(mesh, xy, None, xi)
+    axes_dof = node_axes(mesh, xy, guide_lines)
     fig, axes = mode_grid(len(mode_idx), width=10.0, height=3.6)
-    ground = np.all(res.mesh.node_dofs[:, :2] < 0, axis=1)
+    ground = np.all(mesh.node_dofs[:, :2] < 0, axis=1)
     for ax, m in zip(axes, mode_idx):
         ax.plot(base[:, 0], base[:, 1], color="0.6", lw=2.5, ls="-", label="undeformed", zorder=1)
         ax.plot(xy[ground, 0], xy[ground, 1], "k^", ms=8, label="_ground", zorder=2)
-        draw_guides(ax, xy, res.mesh, lines, extent)
+        draw_guides(ax, xy, mesh, guide_lines, extent)
         ref = None
-        for c_n, c in enumerate(c_idx):
-            x = shapes[c][:, m]
-            name = case_label(res.cases[c])
+        for c_n, (case, shapes, freq) in enumerate(lines):
+            x = shapes[:, m]
+            name = case_label(case)
             if not np.all(np.isfinite(x)):
                 ax.plot([], [], label=f"{name}: no shape")
                 continue
             z = align_phase(x, ref)
             ref = z if ref is None else ref
-            disp = element_displacement(res.mesh, xy, z.real, xi, axes_dof)
+            disp = element_displacement(mesh, xy, z.real, xi, axes_dof)
             peak = float(np.max(np.linalg.norm(disp, axis=-1)))
             k = AMPLITUDE * extent / peak if peak > 0 else 0.0
-            line = linkage_polyline(res.mesh, xy, k * disp, xi)
-            style = case_style(res.cases[c]) or dict(color=f"C{c_n}")
+            line = linkage_polyline(mesh, xy, k * disp, xi)
+            style = case_style(case) or dict(color=f"C{c_n}")
             style["lw"] = min(style.get("lw", 1.3), 1.8)
-            ax.plot(line[:, 0], line[:, 1], label=f"{name}: {f[a, s, c, m]:.1f} Hz", zorder=3, **style)
-        ax.set_title(f"mode {res.modes[m]}")
+            ax.plot(line[:, 0], line[:, 1], label=f"{name}: {freq[m]:.1f} Hz", zorder=3, **style)
+        ax.set_title(f"mode {mode_numbers[m] if mode_numbers is not None else m + 1}")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best")
-    where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s])}"
-    fig.suptitle(
-        f"{scene_heading(res)}\nmode shapes at {where} "
-        f"(peak drawn displacement {AMPLITUDE:.0%} of the linkage's extent)",
-        fontsize=11,
-    )
+    fig.suptitle(f"{heading} (peak drawn displacement {AMPLITUDE:.0%} of the linkage's extent)", fontsize=11)
     return fig
 
 
-__all__ = ["element_displacement", "guides", "node_axes", "linkage_polyline", "align_phase", "mode_shape"]
+__all__ = ["node_displacement", "element_displacement", "guides", "node_axes", "linkage_polyline", "align_phase", "mode_shape",
+           "shapes_figure"]

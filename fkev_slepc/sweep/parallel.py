@@ -52,7 +52,7 @@ def software_versions() -> dict:
     import h5py
     from mpi4py import MPI
 
-    from fkev_slepc import __version__
+    from fkev_slepc._version import __version__
     out = {
         "fkev_version": __version__,
         "h5py_version": h5py.version.version,

@@ -1,0 +1,225 @@
+"""The Python API (fkev_slepc.load/open, Study, PointResult, SweepResults) and its documentation:
+the docstring examples of the package and the README's "Python API" example are executed here."""
+
+from __future__ import annotations
+
+import doctest
+import importlib
+import json
+import re
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import fkev_slepc as fk
+from fkev_slepc.cli import main
+from fkev_slepc.scene import SceneError
+from fkev_slepc.status import STATUS_CODES, Status
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNS = ROOT / "runs"
+BW = RUNS / "bahgat-willmert-1976.toml"
+PKG = ROOT / "fkev_slepc"
+DOCTEST_MODULES = sorted(
+    ".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
+    for p in PKG.rglob("*.py") if ">>>" in p.read_text()
+)
+
+
+# ----------------------------------------------------------------------------- doctests
+@pytest.mark.parametrize("name", DOCTEST_MODULES)
+def test_docstring_examples(name):
+    """numpydoc Examples run as doctests (``RUNS`` is the repository's runs/ folder)."""
+    mod = importlib.import_module(name)
+    finder = doctest.DocTestFinder()
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    for t in finder.find(mod, name, globs={**vars(mod), "RUNS": RUNS}):
+        runner.run(t)
+    result = runner.summarize(verbose=False)
+    assert result.failed == 0, f"{result.failed} of {result.attempted} examples failed"
+    if result.attempted == 0:
+        pytest.skip("every example of this module is marked +SKIP (needs a large model)")
+
+
+def test_doctests_are_collected():
+    assert {"fkev_slepc.api", "fkev_slepc.status", "fkev_slepc.sweep.grid"} <= set(DOCTEST_MODULES)
+
+
+def readme_api_example() -> str:
+    text = (ROOT / "README.md").read_text()
+    section = re.search(r"^## Python API\n(.*?)(?=^## )", text, re.S | re.M)
+    assert section, "README.md has no '## Python API' section"
+    blocks = re.findall(r"```python\n(.*?)```", section.group(1), re.S)
+    assert blocks, "README's Python API section has no ```python block"
+    return "\n".join(blocks)
+
+
+def test_readme_python_api_example_runs(tmp_path, monkeypatch):
+    """The README example as a user runs it from the repository root (here: its scene paths made
+    absolute, its outputs written in a temporary directory)."""
+    code = readme_api_example().replace('"runs/', f'"{RUNS}/')
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    res = namespace["res"]
+    assert (tmp_path / "out" / "bw.h5").exists() and (tmp_path / "bw-freq.png").stat().st_size > 0
+    assert res.status.shape == (36, 2, 2) and np.all(res.converged)
+    # 10° is on the swept grid: the sweep's point equals the single point solved above
+    np.testing.assert_allclose(res.frequency("full", 1000)[1], namespace["r"].frequency_hz, rtol=1e-12)
+
+
+# ----------------------------------------------------------------------------- Status
+def test_status_is_a_string_with_fixed_archive_codes():
+    assert Status.UNSTABLE == "unstable" and f"{Status.NOT_CONVERGED}" == "not_converged"
+    assert {s.value: s.code for s in Status} == {"pending": 0, "ok": 1, "not_converged": 2, "unstable": 3,
+                                                  "divergent": 4, "failed": 5}
+    assert all(Status.from_code(c) is s for s, c in STATUS_CODES.items())
+    assert json.dumps({"s": Status.OK}) == '{"s": "ok"}'
+
+
+# ------------------------------------------------------------------------------- point
+def test_point_matches_fkev_point_and_the_thesis_values(capsys):
+    r = fk.load(BW).point(10, 1000, "full")
+    assert main(["point", str(BW), "--angle", "10", "--speed", "1000", "--case", "full", "--json"]) == 0
+    cli = json.loads(capsys.readouterr().out)
+    assert cli["frequency_hz"] == r.frequency_hz.tolist() and cli["status"] == r.status == "unstable"
+    np.testing.assert_allclose(r.frequency_hz, [362.71, 652.08, 1078.94, 2898.89], atol=0.01)  # runs/README.md
+    lam = r.eigenvalues
+    np.testing.assert_allclose(r.damping_ratio, -lam.real / np.abs(lam), rtol=1e-15)
+    assert r.max_real == pytest.approx(lam.real.max()) and np.all(r.pair_error < 1e-10)
+    assert "unstable" in repr(r) and "362.708" in repr(r) and len(repr(r)) < 200
+
+
+def test_point_bad_arguments_are_named():
+    s = fk.load(BW)
+    with pytest.raises(SceneError, match="modes: must be >= 1 .got 0."):
+        s.point(10, 0, modes=0)
+    with pytest.raises(SceneError, match="case: unknown case 'nope'"):
+        s.point(10, 0, "nope")
+    with pytest.raises(SceneError, match="speed_rad_s: must be finite"):
+        s.point(10, float("nan"))
+
+
+def test_mode_shape_is_the_eigenvector_at_the_nodes():
+    """Node displacements satisfy the QEP: the free-DOF vector gathered back from the nodes is
+    an eigenvector with a pair error at round-off (docs/theory.md §10)."""
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.model.qep import pair_error
+
+    study = fk.load(BW)
+    r = study.point(30, 500, "full", shapes=True, solver="dense")
+    model = Model(study.scene, cases=("full",))
+    qep = model.qep(model.pieces(np.radians(30)), 500.0, "full")
+    dofs = model.mechanism.node_dofs
+    for k in (1, 2, 3, 4):
+        m = r.mode_shape(k)
+        assert m.frequency_hz == r.frequency_hz[k - 1] and m.node_xy.shape == (dofs.shape[0], 2)
+        q = np.zeros(model.n_free, complex)
+        q[dofs[dofs >= 0]] = m.displacement[dofs >= 0]
+        assert np.all(m.displacement[dofs < 0] == 0) and np.abs(m.displacement).max() == pytest.approx(1.0)
+        assert pair_error(qep, np.array([m.eigenvalue]), q[:, None])[0] < 1e-10
+    np.testing.assert_allclose(m.node_xy, model.node_positions(np.radians(30)))
+    fig = r.plot()
+    assert len(fig.axes) == 4 and "θ = 30°" in fig._suptitle.get_text()
+    with pytest.raises(ValueError, match="shapes=True"):
+        study.point(30, 500).mode_shape(1)
+
+
+# ------------------------------------------------------------------------------- sweep
+GRID = dict(angles="0:90:30", speeds="0,1000", cases="full,structure,no_coriolis")
+VARYING_ATTRS = {"created", "wall_time_s", "command_line", "last_command_line"}  # times and command lines
+
+
+def archive_contents(path) -> tuple[dict, dict]:
+    """Every dataset (by path) and every attribute (root, groups, datasets) of an archive."""
+    data, attrs = {}, {}
+
+    def plain(v, f):  # HDF5 object references (dimension scales) -> the referenced object's name
+        if isinstance(v, h5py.Reference):
+            return f[v].name
+        if isinstance(v, (np.ndarray, np.void, tuple, list)) and np.asarray(v, dtype=object).dtype == object:
+            return repr([plain(x, f) for x in (v.tolist() if isinstance(v, np.ndarray) else list(v))])
+        return v
+
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            attrs.update({f"{name}@{k}": plain(v, f) for k, v in obj.attrs.items()})
+            if isinstance(obj, h5py.Dataset):
+                data[name] = obj[()]
+
+        attrs.update({f"@{k}": v for k, v in f.attrs.items() if k not in VARYING_ATTRS})
+        f.visititems(visit)
+    return data, attrs
+
+
+def assert_same_archive(a, b) -> None:
+    (da, aa), (db, ab) = archive_contents(a), archive_contents(b)
+    assert sorted(da) == sorted(db) and sorted(aa) == sorted(ab)
+    for k in da:
+        x, y = np.asarray(da[k]), np.asarray(db[k])
+        assert x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind in "fc"), k
+    for k in aa:
+        assert np.array_equal(np.asarray(aa[k]), np.asarray(ab[k])), k
+
+
+def test_study_sweep_writes_the_archive_fkev_run_writes(tmp_path, capsys):
+    """In-process, one rank: Study.sweep and `fkev run` (same grid) give identical archives."""
+    cli, api = tmp_path / "cli.h5", tmp_path / "api.h5"
+    assert main(["run", str(BW), "-o", str(cli), "--quiet", "--angles", GRID["angles"], "--speeds", GRID["speeds"],
+                 "--cases", GRID["cases"]]) == 0
+    res = fk.load(BW).sweep(GRID["angles"], [0, 1000], GRID["cases"].split(","), output=api)
+    assert isinstance(res, fk.SweepResults) and res.path == api
+    assert_same_archive(cli, api)
+    f = res.frequency("full", 1000)
+    assert f.shape == (4, 4) and np.all(np.isfinite(f)) and res.errors() == []
+    s = res.settings()
+    assert s["solver"]["engine"] == "dense" and s["elements"] == (1, 2, 2) and s["n_ranks"] == 1
+    ds = res.to_xarray()
+    assert set(ds.status.values.ravel()) <= {"ok", "unstable", "divergent"}
+    np.testing.assert_array_equal(ds.frequency_hz.sel(case="full", speed_rad_s=1000).values, f)
+
+
+def test_sweep_refusals_are_exceptions(tmp_path):
+    study = fk.load(BW)
+    out = tmp_path / "a.h5"
+    study.sweep([0, 10], [0], ["structure"], output=out)
+    from fkev_slepc.sweep.session import RunRefused
+
+    with pytest.raises(RunRefused, match="archive has 0,10, this run 0,10,20") as err:
+        study.sweep([0, 10, 20], [0], ["structure"], output=out, resume=True)
+    assert err.value.exit_code == 2
+    with pytest.raises(SceneError, match="angles_deg: a value is listed twice"):
+        study.sweep([0, 0], output=out)
+    with pytest.raises(SceneError, match="output: required"):
+        fk.Study.from_text(BW.read_text()).sweep([0])
+
+
+@pytest.mark.mpi
+def test_two_rank_study_sweep_equals_fkev_run(tmp_path):
+    """`mpirun -n 2 python -c "...Study.sweep(..., comm=MPI.COMM_WORLD)"` and `mpirun -n 2 fkev run`
+    write identical archives (datasets equal; attributes equal but times and command lines)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    if shutil.which("mpiexec") is None:  # pragma: no cover - part of the stack
+        pytest.skip("mpiexec not found")
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    cli, api = tmp_path / "cli.h5", tmp_path / "api.h5"
+    mpi = ["mpiexec", "-n", "2", sys.executable]
+    r = subprocess.run([*mpi, "-m", "fkev_slepc", "run", str(BW), "-o", str(cli), "--quiet",
+                        "--angles", GRID["angles"], "--speeds", GRID["speeds"], "--cases", GRID["cases"]],
+                       env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    code = ("from mpi4py import MPI; import fkev_slepc as fk; "
+            f"res = fk.load({str(BW)!r}).sweep({GRID['angles']!r}, [0, 1000], {GRID['cases'].split(',')!r}, "
+            f"output={str(api)!r}, comm=MPI.COMM_WORLD); "
+            "print(MPI.COMM_WORLD.rank, res.status.shape, int(res.converged.sum()))")
+    r = subprocess.run([*mpi, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert sorted(r.stdout.split("\n")[:2]) == ["0 (4, 2, 3) 24", "1 (4, 2, 3) 24"]  # every rank gets the results
+    assert_same_archive(cli, api)
