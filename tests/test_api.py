@@ -129,7 +129,8 @@ def test_mode_shape_is_the_eigenvector_at_the_nodes():
 
 # ------------------------------------------------------------------------------- sweep
 GRID = dict(angles="0:90:30", speeds="0,1000", cases="full,structure,no_coriolis")
-VARYING_ATTRS = {"created", "wall_time_s", "command_line", "last_command_line"}  # times and command lines
+# times, command lines, and the digest of the root attributes (which include them)
+VARYING_ATTRS = {"created", "wall_time_s", "command_line", "last_command_line", "attrs_sha256"}
 
 
 def archive_contents(path) -> tuple[dict, dict]:
