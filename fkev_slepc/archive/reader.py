@@ -15,11 +15,10 @@ Derived quantities follow docs/theory.md §12:
 
 from __future__ import annotations
 
-import json
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, NamedTuple
+from typing import Iterable
 
 import numpy as np
 
@@ -32,16 +31,6 @@ SUPPORTED_VERSIONS = (1,)
 # Points whose eigenvalues are trustworthy. Unstable and divergent points converged; their
 # oscillatory frequencies are real results. Pending/failed/not-converged points are masked.
 ORDERS = ("sorted", "tracked")
-
-
-class PointError(NamedTuple):
-    """A point that failed or did not converge (:meth:`SweepResults.errors`)."""
-
-    angle_deg: float
-    speed_rad_s: float
-    case: str
-    status: Status
-    message: str
 
 
 class ArchiveError(ValueError):
@@ -210,39 +199,25 @@ class SweepResults:
         return tuple(int(np.sum(links == k)) for k in range(len(self.mesh.link_names)))
 
     # ------------------------------------------------------------------- run information
-    def errors(self) -> list[PointError]:
-        """Points that failed or did not converge, with the solver's message (``/errors``)."""
-        import h5py
+    def errors(self) -> list:
+        """Points that failed or did not converge: ``PointError(angle_deg, speed_rad_s, case,
+        status, message)`` rows from ``/errors`` (:func:`fkev_slepc.archive.views.errors`)."""
+        from fkev_slepc.archive.views import errors
 
-        with h5py.File(self.path, "r") as f:
-            if "errors" not in f:
-                return []
-            index, codes = f["errors/index"][()], f["errors/status"][()]
-            msgs = [m.decode("utf-8", "replace") if isinstance(m, bytes) else str(m) for m in f["errors/message"][()]]
-        return [PointError(float(self.crank_angle_deg[a]), float(self.speed_rad_s[s]), self.cases[c],
-                           Status.from_code(code), str(m)) for (a, s, c), code, m in zip(index, codes, msgs)]
+        return errors(self)
 
     def settings(self) -> dict:
-        """How the archive was computed: effective solver settings (``solver``; ``last_solver``
-        of the latest resume), thresholds, mesh, ranks, software versions."""
-        at = self.attrs
-        out = {"solver": solver_settings(self), "elements": self.elements_per_link()}
-        last = _json(at.get("last_solver_settings"))
-        if last:
-            out["last_solver"] = last
-        for key in ("imag_tol", "stability_tol", "n_free", "mode_shapes", "n_ranks", "wall_time_s",
-                    "fkev_version", "petsc_version", "slepc_version", "h5py_version", "hdf5_version",
-                    "mpi_version"):
-            if key in at:
-                v = at[key]
-                out[key] = v.item() if isinstance(v, np.generic) else v
-        return out
+        """How the archive was computed: effective solver settings, thresholds, mesh, ranks,
+        software versions (:func:`fkev_slepc.archive.views.settings`)."""
+        from fkev_slepc.archive.views import settings
+
+        return settings(self)
 
     def to_xarray(self):
         """The gridded data as an ``xarray.Dataset`` (needs xarray): dimensions crank_angle_deg,
         speed_rad_s, case, mode; ``status`` as names ("ok", ...), ``frequency_hz`` masked to
         converged points."""
-        from fkev_slepc.archive.labelled import to_xarray
+        from fkev_slepc.archive.views import to_xarray
 
         return to_xarray(self)
 
@@ -370,14 +345,9 @@ def _declared(link: dict, default):
 
 def solver_settings(res: SweepResults) -> dict:
     """The archived effective solver settings (root attribute ``solver_settings``, JSON)."""
-    return _json(res.attrs.get("solver_settings"))
+    from fkev_slepc.archive.views import json_attr
 
-
-def _json(raw) -> dict:
-    try:
-        return json.loads(raw) if raw else {}
-    except (TypeError, json.JSONDecodeError):
-        return {}
+    return json_attr(res.attrs.get("solver_settings"))
 
 
 def _flags(attrs) -> dict[int, str]:

@@ -182,7 +182,7 @@ def crossing_lines(res, angle: float | None = None, orders: int | None = None) -
     if orders is not None and orders < 1:
         raise ArchiveError(f"--orders: must be >= 1 (got {orders})")
     a = pick_angle(res, angle)
-    f = res.frequency("sorted")[a]  # (speed, case, mode), NaN where not converged
+    f = res.frequency(order="sorted")[a]  # (speed, case, mode), NaN where not converged
     om = res.speed_rad_s
     if orders is None:
         top = om.max() / (2 * np.pi)

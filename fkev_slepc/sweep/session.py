@@ -54,8 +54,8 @@ def default_output(scene_path) -> Path:
 
     Examples
     --------
-    >>> default_output("runs/four-bar.toml").as_posix()
-    'runs/out/four-bar.h5'
+    >>> default_output("study/four-bar.toml").as_posix()
+    'study/out/four-bar.h5'
     """
     p = Path(scene_path)
     return p.parent / "out" / (p.stem + ".h5")

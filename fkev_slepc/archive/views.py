@@ -1,0 +1,91 @@
+"""Views of a sweep archive (:class:`~fkev_slepc.archive.reader.SweepResults`): a labelled
+``xarray.Dataset`` (xarray is optional: imported on use), the failed points, the run settings."""
+
+from __future__ import annotations
+
+import json
+from typing import NamedTuple
+
+import numpy as np
+
+from fkev_slepc.status import Status
+
+_UNITS = {"frequency_hz": "Hz", "tracked_frequency_hz": "Hz", "eigenvalue": "1/s", "residual": "1",
+          "max_real": "1/s", "damping_ratio": "1"}
+_RUN_ATTRS = ("imag_tol", "stability_tol", "n_free", "mode_shapes", "n_ranks", "wall_time_s", "fkev_version",
+              "petsc_version", "slepc_version", "h5py_version", "hdf5_version", "mpi_version")
+
+
+class PointError(NamedTuple):
+    """A point that failed or did not converge, with the solver's message."""
+
+    angle_deg: float
+    speed_rad_s: float
+    case: str
+    status: Status
+    message: str
+
+
+def errors(res) -> list[PointError]:
+    """The ``/errors`` rows of ``res`` (one per point that is still failed or not converged)."""
+    import h5py
+
+    with h5py.File(res.path, "r") as f:
+        if "errors" not in f:
+            return []
+        index, codes = f["errors/index"][()], f["errors/status"][()]
+        msgs = [m.decode("utf-8", "replace") if isinstance(m, bytes) else str(m) for m in f["errors/message"][()]]
+    return [PointError(float(res.crank_angle_deg[a]), float(res.speed_rad_s[s]), res.cases[c],
+                       Status.from_code(code), m) for (a, s, c), code, m in zip(index, codes, msgs)]
+
+
+def settings(res) -> dict:
+    """Effective solver settings (``solver``; ``last_solver``: those of the latest resumed run),
+    elements per link, thresholds, size, ranks, wall time and software versions."""
+    out = {"solver": json_attr(res.attrs.get("solver_settings")), "elements": res.elements_per_link()}
+    last = json_attr(res.attrs.get("last_solver_settings"))
+    if last:
+        out["last_solver"] = last
+    for key in _RUN_ATTRS:
+        if key in res.attrs:
+            v = res.attrs[key]
+            out[key] = v.item() if isinstance(v, np.generic) else v
+    return out
+
+
+def json_attr(raw) -> dict:
+    """A JSON-valued archive attribute as a dict (empty when absent or unreadable)."""
+    try:
+        return json.loads(raw) if raw else {}
+    except (TypeError, json.JSONDecodeError):
+        return {}
+
+
+def to_xarray(res):
+    """``res`` as an ``xarray.Dataset`` on (crank_angle_deg, speed_rad_s, case, mode).
+
+    Frequencies, eigenvalues and residuals are masked (NaN) where the point did not converge;
+    ``status`` holds the status names; ``damping_ratio`` is -Re λ / |λ|.
+    """
+    import xarray as xr
+
+    dims3 = ("crank_angle_deg", "speed_rad_s", "case")
+    dims4 = dims3 + ("mode",)
+    conv = res.converged
+    lam = np.where(conv[..., None], res.eigenvalue, complex(np.nan, np.nan))
+    data = {
+        "frequency_hz": (dims4, res.frequency(order="sorted")),
+        "tracked_frequency_hz": (dims4, res.frequency(order="tracked")),
+        "eigenvalue": (dims4, lam),
+        "damping_ratio": (dims4, -lam.real / np.abs(lam)),
+        "residual": (dims4, np.where(conv[..., None], res.residual, np.nan)),
+        "max_real": (dims3, res.max_real),
+        "status": (dims3, res.status_names.astype(str)),
+    }
+    ds = xr.Dataset(
+        {k: xr.Variable(d, v, attrs={"units": _UNITS[k]} if k in _UNITS else {}) for k, (d, v) in data.items()},
+        coords={"crank_angle_deg": res.crank_angle_deg, "speed_rad_s": res.speed_rad_s,
+                "case": list(res.cases), "mode": res.modes},
+    )
+    ds.attrs.update(title=res.title, source=str(res.path))
+    return ds
