@@ -44,7 +44,7 @@ def test_docstring_examples(name):
 
 
 def test_doctests_are_collected():
-    assert {"fkev_slepc.api", "fkev_slepc.status", "fkev_slepc.sweep.grid"} <= set(DOCTEST_MODULES)
+    assert {"fkev_slepc.api.study", "fkev_slepc.api.results", "fkev_slepc.status", "fkev_slepc.sweep.grid"} <= set(DOCTEST_MODULES)
 
 
 def readme_api_example() -> str:

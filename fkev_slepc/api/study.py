@@ -25,13 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.api.results import PointResult
 from fkev_slepc.archive import reader
 from fkev_slepc.scene import Problem, Scene, SceneError, load_scene, parse_scene, with_elements
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.solve import modes as _modes
-from fkev_slepc.status import CONVERGED, Status
 
-__all__ = ["load", "open", "Study", "PointResult", "ModeShape", "SweepResults", "Status"]
+__all__ = ["load", "open", "Study", "SweepResults"]
 log = logging.getLogger(__name__)
 
 
@@ -257,139 +257,6 @@ class Study:
 
 
 @dataclass(frozen=True)
-class ModeShape:
-    """One mode at one operating point, node by node.
-
-    ``displacement[i]`` is the (x, y, rotation) displacement of node ``i`` in the global frame
-    (m, m, rad), complex, scaled to unit largest modulus and phase-aligned so that its real
-    part is the shape to draw (gyroscopic modes are complex). Constrained DOFs are 0. Pin
-    joints are two nodes (one per link) sharing x, y.
-    """
-
-    mode: int  # 1-based
-    frequency_hz: float
-    eigenvalue: complex
-    node_xy: np.ndarray  # (n_node, 2) undeformed positions, m
-    displacement: np.ndarray  # (n_node, 3) complex
-    node_link: np.ndarray  # (n_node,) link index
-    link_names: tuple[str, ...]
-
-
-@dataclass(frozen=True, repr=False)
-class PointResult:
-    """The outcome of :meth:`Study.point` at one (crank angle, speed, case).
-
-    Arrays have one entry per mode (NaN where fewer modes were found): ``eigenvalues`` λ
-    (1/s, the Im λ > 0 member of each pair), ``frequency_hz`` = Im λ / 2π, ``pair_error`` the
-    relative residual of each eigenpair (docs/theory.md §10). ``max_real`` is the largest
-    Re λ over every computed eigenvalue (stability indicator), ``divergent`` the positive real
-    eigenvalues (divergence, never frequencies).
-    """
-
-    angle_deg: float
-    speed_rad_s: float
-    case: str
-    raw: _modes.PointResult
-    title: str
-    n_free: int
-    kind: str  # the QEP's structure (see model/operators.classify)
-    transmission_angle_deg: float  # smallest transmission angle of the dyads (90 ideal, 0 toggle; NaN: none)
-    _model: object = None  # the Model solved (mesh, node positions)
-    _theta: float = 0.0
-    cross_check: float | None = None  # largest relative frequency difference vs the other engine
-    accuracy: dict | None = None  # with rel_error: the planned element and mesh, and its estimate
-
-    eigenvalues = property(lambda self: self.raw.eigenvalue)
-    frequency_hz = property(lambda self: self.raw.frequency_hz)
-    pair_error = property(lambda self: self.raw.residual)
-    max_real = property(lambda self: self.raw.max_real)
-    divergent = property(lambda self: self.raw.divergent)
-    status = property(lambda self: self.raw.status)
-    message = property(lambda self: self.raw.message)
-    solver = property(lambda self: self.raw.solver)
-
-    @property
-    def damping_ratio(self) -> np.ndarray:
-        """-Re λ / |λ| per mode (negative: the mode grows)."""
-        lam = self.raw.eigenvalue
-        return -lam.real / np.abs(lam)
-
-    @property
-    def converged(self) -> bool:
-        return self.status in CONVERGED
-
-    def __repr__(self) -> str:
-        f = ", ".join("—" if not np.isfinite(v) else f"{v:.6g}" for v in self.frequency_hz)
-        msg = f" ({self.message})" if self.message else ""
-        return (f"PointResult(θ={self.angle_deg:g}°, Ω={self.speed_rad_s:g} rad/s, case {self.case}: "
-                f"{self.status.value}{msg}; f = [{f}] Hz; max Re λ = {self.max_real:.3g} 1/s)")
-
-    def mode_shape(self, k: int) -> ModeShape:
-        """Mode ``k`` (1-based) at every node; needs ``shapes=True`` in :meth:`Study.point`.
-
-        Examples
-        --------
-        >>> r = load(RUNS / "rotating-cantilever.toml").point(0, 0, "structure", modes=1, shapes=True)
-        >>> m = r.mode_shape(1)
-        >>> m.node_xy.shape, m.displacement.shape      # 16 elements: 17 nodes, (x, y, rotation)
-        ((17, 2), (17, 3))
-        >>> tip = m.node_xy[:, 0].argmax()             # the strip lies along x: bending moves y,
-        >>> abs(m.displacement[:, 1]).argmax() == tip  # most at the free tip
-        True
-        """
-        if self.raw.shapes is None:
-            raise ValueError("no mode shapes: solve the point with shapes=True")
-        n = self.raw.shapes.shape[1]
-        if not 1 <= k <= n:
-            raise ValueError(f"mode: must be 1..{n} (got {k})")
-        from fkev_slepc.plots.shapes import align_phase
-
-        mech = self._model.mechanism
-        q = align_phase(self.raw.shapes[:, k - 1], None)
-        disp = np.append(q, 0.0)[mech.node_dofs]  # DOF -1 (constrained) -> the appended 0
-        return ModeShape(k, float(self.frequency_hz[k - 1]), complex(self.eigenvalues[k - 1]),
-                         self._model.node_positions(self._theta), disp, np.asarray(mech.node_link),
-                         tuple(mech.link_names))
-
-    def plot(self, modes=None):
-        """Mode shapes on the undeformed linkage (a matplotlib Figure; needs ``shapes=True``)."""
-        if self.raw.shapes is None:
-            raise ValueError("no mode shapes to plot: solve the point with shapes=True")
-        from fkev_slepc.plots.shapes import shapes_figure
-
-        mech = self._model.mechanism
-        mesh = reader.Mesh(mech.node_link, mech.node_s, mech.node_dofs, mech.elem_nodes, tuple(mech.link_names))
-        picked = list(range(len(self.frequency_hz))) if modes is None else [int(m) - 1 for m in modes]
-        heading = (f"{self.title}\nmode shapes at θ = {self.angle_deg:g}°, Ω = {self.speed_rad_s:g} rad/s, "
-                   f"case {self.case}")
-        return shapes_figure(mesh, self._model.node_positions(self._theta),
-                             [(self.case, self.raw.shapes, self.frequency_hz)], picked, heading)
-
-    def as_dict(self) -> dict:
-        """JSON-ready summary (None for missing values), as ``fkev point --json`` prints it."""
-        def num(v):
-            return None if not np.isfinite(v) else float(v)
-
-        out = {"scene": self.title, "angle_deg": self.angle_deg, "speed_rad_s": self.speed_rad_s,
-               "case": self.case, "n_free": self.n_free, "kind": self.kind, "solver": self.solver,
-               "frequency_hz": [num(v) for v in self.frequency_hz],
-               "eigenvalue": [[num(z.real), num(z.imag)] for z in self.eigenvalues],
-               "residual": [num(v) for v in self.pair_error],
-               "damping_ratio": [num(v) for v in self.damping_ratio],
-               "max_real": num(self.max_real), "divergent": [float(v) for v in self.divergent],
-               "status": self.status.value, "message": self.message,
-               "transmission_angle_deg": num(self.transmission_angle_deg),
-               "element": self._model.scene.analysis.element,
-               "elements": [lk.elements for lk in self._model.scene.links]}
-        if self.accuracy is not None:
-            out["rel_error_estimate"] = self.accuracy["predicted_rel_error"]
-            out["accuracy"] = self.accuracy
-        if self.cross_check is not None:
-            out["cross_check_max_rel_diff"] = self.cross_check
-        return out
-
-
-@dataclass(frozen=True)
 class SweepResults(reader.SweepResults):
     """:class:`fkev_slepc.archive.reader.SweepResults` with :meth:`plot` (matplotlib)."""
 
@@ -403,4 +270,3 @@ class SweepResults(reader.SweepResults):
         from fkev_slepc.plots.draw import draw
 
         return draw(self, kind, **options)
-
