@@ -1,27 +1,25 @@
 """`--cross-check`: every point solved by both engines, the largest difference reported and archived."""
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import h5py
 
+from fkev_slepc.cli import main
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_run_cross_check_compares_every_solved_point(tmp_path):
+def test_run_cross_check_compares_every_solved_point(tmp_path, capsys):
     out = tmp_path / "bw.h5"
-    r = subprocess.run(
-        [sys.executable, "-m", "fkev_slepc", "run", str(ROOT / "runs/bahgat-willmert-1976.toml"), "-o", str(out),
-         "--angles", "0:90:45", "--speeds", "0,1000", "--cases", "all", "--quiet", "--cross-check"],
-        capture_output=True, text=True, timeout=300,
-    )
-    assert r.returncode == 0, r.stderr
+    code = main(["run", str(ROOT / "runs/bahgat-willmert-1976.toml"), "-o", str(out), "--angles", "0:90:45",
+                 "--speeds", "0,1000", "--cases", "all", "--quiet", "--cross-check"])
+    err = capsys.readouterr().err
+    assert code == 0, err
     with h5py.File(out, "r") as f:
         cc = json.loads(f.attrs["last_solver_settings"])["cross_check"]
     # 3 angles x (structure once + 5 moving cases x 2 speeds): structure is not re-solved per speed
     assert cc["points"] == 3 * (1 + 5 * 2) and cc["skipped"] == 0
     assert cc["other_engine"] == "slepc"  # 15 DOFs: auto picks dense, checked against SLEPc
     assert cc["max_rel_diff"] < 1e-9
-    assert "cross-check dense vs slepc" in r.stderr
+    assert "cross-check dense vs slepc" in err

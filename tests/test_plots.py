@@ -1,6 +1,6 @@
 """Figures from real archives: the plotted data must be the archive's data.
 
-The archives are produced once per session by the real sweep (`fkev run`, in a subprocess,
+The archives are produced once per session by the real sweep (`fkev run`, in this process,
 dense engine on small thesis models). Expected values are read straight from the HDF5 file
 with h5py, independently of :mod:`fkev_slepc.archive.reader`, and compared with what the returned
 ``Figure`` holds (line data, labels, units), never with pixels. A few assertions are physical
@@ -10,9 +10,6 @@ falls while the full one rises, neglecting the tangential term is the smallest e
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import h5py
@@ -30,32 +27,34 @@ ANGLES = "0,10," + ",".join(str(a) for a in range(30, 360, 30))
 SIMPLIFIED = ["no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal"]
 
 
-def fkev(*args, check=True):
-    """Run the real CLI in a fresh interpreter (PETSc initialised per process)."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.run([sys.executable, "-m", "fkev_slepc", *map(str, args)], capture_output=True,
-                          text=True, env=env, cwd=ROOT, timeout=300)
-    if check and proc.returncode != 0:
-        cmd = " ".join(map(str, args))
-        raise AssertionError(f"fkev {cmd} -> {proc.returncode}\n{proc.stdout}\n{proc.stderr}")
-    return proc
-
-
-def fkev_plot(capsys, *args):
-    """`fkev plot ...` in this process (plotting needs no PETSc state): (exit code, out, err).
-    The CLI configures the package logger; it is restored so other tests' caplog still works."""
+def cli(*args) -> int:
+    """``fkev ARGS`` in this process. The CLI configures the package logger; it is restored so
+    other tests' caplog still works."""
     import logging
 
     from fkev_slepc.cli import main
 
     log = logging.getLogger("fkev_slepc")
     saved = (list(log.handlers), log.level, log.propagate)
-    capsys.readouterr()
     try:
-        code = main(["plot", *map(str, args)])
+        return main([str(a) for a in args])
     finally:
         log.handlers[:], log.propagate = saved[0], saved[2]
         log.setLevel(saved[1])
+
+
+def fkev(*args, check=True) -> int:
+    """``fkev run ...`` in this process (the sweep code path of ``fkev run``); its exit code."""
+    code = cli(*args)
+    if check and code != 0:
+        raise AssertionError(f"fkev {' '.join(map(str, args))} -> {code}")
+    return code
+
+
+def fkev_plot(capsys, *args):
+    """`fkev plot ...` in this process: (exit code, out, err)."""
+    capsys.readouterr()
+    code = cli("plot", *args)
     out = capsys.readouterr()
     return code, out.out, out.err
 

@@ -161,6 +161,9 @@ class SweepSession:
                 plan = self._open_locked()
             except RunRefused as exc:
                 plan = exc
+            except OSError as exc:  # refused on every rank, not raised on rank 0 alone (others would wait)
+                where = f": {exc.filename}" if exc.filename else ""
+                plan = OutputError(f"{self.output}: cannot write the archive ({exc.strerror or exc}{where})")
         plan = self.comm.bcast(plan, root=0)
         if isinstance(plan, RunRefused):
             self.engine.close()
