@@ -229,3 +229,21 @@ def test_two_rank_study_sweep_equals_fkev_run(tmp_path):
     for rank in (0, 1):  # every rank gets the results
         assert (tmp_path / f"rank{rank}").read_text() == "(4, 2, 3) 24"
     assert_same_archive(cli, api)
+
+
+def test_slider_node_moves_along_its_inclined_guide():
+    """On a prismatic joint the slider node's one translational DOF runs along the guide: its
+    (x, y) displacement in mode_shape is parallel to the guide (here inclined at 30°)."""
+    text = (RUNS / "slider-crank.toml").read_text().replace("guide_angle_deg = 0.0", "guide_angle_deg = 30.0")
+    study = fk.Study.from_text(text)
+    r = study.point(40, 0, "structure", shapes=True, solver="dense")
+    dofs = r.mode_shape(1).displacement, study._model("structure").mechanism.node_dofs
+    slider = np.flatnonzero((dofs[1][:, 0] >= 0) & (dofs[1][:, 1] < 0))
+    assert slider.size == 1
+    t = np.array([np.cos(np.radians(30)), np.sin(np.radians(30))])
+    moved = 0.0
+    for k in range(1, len(r.frequency_hz) + 1):
+        d = r.mode_shape(k).displacement[slider[0], :2]
+        assert abs(t[0] * d[1] - t[1] * d[0]) <= 1e-12 * max(abs(d).max(), 1e-300)
+        moved = max(moved, abs(d).max())
+    assert moved > 1e-3  # some mode moves the slider

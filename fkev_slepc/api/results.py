@@ -101,20 +101,20 @@ class PointResult:
         n = self.raw.shapes.shape[1]
         if not 1 <= k <= n:
             raise ValueError(f"mode: must be 1..{n} (got {k})")
-        from fkev_slepc.plots.shapes import align_phase
+        from fkev_slepc.plots.shapes import align_phase, guides, node_axes, node_displacement
 
-        mech = self._model.mechanism
+        mech, xy = self._model.mechanism, self._model.node_positions(self._theta)
         q = align_phase(self.raw.shapes[:, k - 1], None)
-        disp = np.append(q, 0.0)[mech.node_dofs]  # DOF -1 (constrained) -> the appended 0
-        return ModeShape(k, float(self.frequency_hz[k - 1]), complex(self.eigenvalues[k - 1]),
-                         self._model.node_positions(self._theta), disp, np.asarray(mech.node_link),
-                         tuple(mech.link_names))
+        # a slider node's translational DOF runs along its guide: node_axes turns it into x, y
+        disp = node_displacement(mech, q, node_axes(mech, xy, guides(self._model.scene.source_text)))
+        return ModeShape(k, float(self.frequency_hz[k - 1]), complex(self.eigenvalues[k - 1]), xy, disp,
+                         np.asarray(mech.node_link), tuple(mech.link_names))
 
     def plot(self, modes=None):
         """Mode shapes on the undeformed linkage (a matplotlib Figure; needs ``shapes=True``)."""
         if self.raw.shapes is None:
             raise ValueError("no mode shapes to plot: solve the point with shapes=True")
-        from fkev_slepc.plots.shapes import shapes_figure
+        from fkev_slepc.plots.shapes import guides, shapes_figure
 
         mech = self._model.mechanism
         mesh = reader.Mesh(mech.node_link, mech.node_s, mech.node_dofs, mech.elem_nodes, tuple(mech.link_names))
@@ -122,7 +122,8 @@ class PointResult:
         heading = (f"{self.title}\nmode shapes at θ = {self.angle_deg:g}°, Ω = {self.speed_rad_s:g} rad/s, "
                    f"case {self.case}")
         return shapes_figure(mesh, self._model.node_positions(self._theta),
-                             [(self.case, self.raw.shapes, self.frequency_hz)], picked, heading)
+                             [(self.case, self.raw.shapes, self.frequency_hz)], picked, heading,
+                             guide_lines=guides(self._model.scene.source_text))
 
     def as_dict(self) -> dict:
         """JSON-ready summary (None for missing values), as ``fkev point --json`` prints it."""
