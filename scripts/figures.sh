@@ -52,6 +52,9 @@ sweep "$OUT/bw.h5" "$BW"                                   # 73 angles x 0/500/1
 sweep "$OUT/bw-refined.h5" "$BW" --elements 8              # C1: 24 elements instead of 5
 sweep "$OUT/bw-speed.h5" runs/bahgat-willmert-speed-sweep.toml --mode-shapes   # θ = 10°, 41 speeds
 sweep "$OUT/bw-stability.h5" "$BW" --angles 0:360:10 --speeds "$(speeds 0 50 1000)" --cases full
+# the same with Rayleigh structural damping, ζ ≈ 1 % at modes 1 and 4 (docs/stability.md)
+{ cat "$BW"; printf '\n[damping]\nmass_proportional_1_s = 40.0\nstiffness_proportional_s = 1.0e-6\n'; } > "$OUT/bw-damped.toml"
+sweep "$OUT/bw-damped-stability.h5" "$OUT/bw-damped.toml" --angles 0:360:10 --speeds "$(speeds 0 50 1000)" --cases full
 for n in 1 2 3 12; do                                      # Turcic-Midha 3, 6, 9 and 36 elements
     sweep "$OUT/tm-$((3 * n)).h5" "$TM" --elements "$n"
 done
@@ -66,6 +69,7 @@ plot bw-param-speed-10deg.png "$OUT/bw-speed.h5" --kind param-speed --angle 10
 plot bw-mode-shapes-10deg-1000.png "$OUT/bw-speed.h5" --kind mode-shape --angle 10 --speed 1000
 plot bw-campbell-10deg.png "$OUT/bw-speed.h5" --kind campbell --angle 10
 plot bw-stability-full.png "$OUT/bw-stability.h5" --kind stability --case full
+plot bw-stability-full-damped.png "$OUT/bw-damped-stability.h5" --kind stability --case full
 plot tm-freq-angle-3-6-9.png "$OUT/tm-3.h5" "$OUT/tm-6.h5" "$OUT/tm-9.h5" --kind freq-angle --order sorted
 plot tm-stability-full.png "$OUT/tm-stability.h5" --kind stability --case full
 

@@ -51,7 +51,7 @@ def block(ia, mask=None, status=Status.OK, failed_at=()):
 def new_archive(tmp_path, mode_shapes=True):
     part = A.partial_path(tmp_path / "a.h5")
     attrs = dict(scene_toml=SCENE, elements=np.array([1, 1], "i4"), n_free=N_FREE, mode_shapes=int(mode_shapes),
-                 solver_settings={"engine": "dense"}, imag_tol=1e-9, stability_tol=1e-9)
+                 solver_settings={"engine": "dense"}, imag_tol=1e-9, damping_tol=1e-9)
     A.create(part, GRID, attrs, MESH, N_FREE, mode_shapes, np.arange(N_FREE))
     return part
 

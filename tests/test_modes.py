@@ -22,7 +22,7 @@ def test_modes_are_positive_imaginary_parts_sorted_real_pairs_are_divergence():
 
 def test_stability_is_classified_after_convergence():
     assert postprocess(_sol([1e-3 + 10j, 1e-3 - 10j]), 1).status == Status.UNSTABLE
-    assert postprocess(_sol([1e-12 + 10j, 1e-12 - 10j]), 1).status == Status.OK  # below stability_tol·|λ|
+    assert postprocess(_sol([1e-12 + 10j, 1e-12 - 10j]), 1).status == Status.OK  # ζ = -1e-13 > -damping_tol
     assert postprocess(_sol([1 + 10j, 1 - 10j], converged=False), 1).status == Status.NOT_CONVERGED
 
 

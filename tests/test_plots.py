@@ -80,7 +80,7 @@ def raw(path):
     """The archive's arrays read directly with h5py."""
     with h5py.File(path, "r") as f:
         out = {k: f[k][()] for k in ("crank_angle_deg", "speed_rad_s", "mode", "frequency_hz",
-                                     "tracked_frequency_hz", "status", "max_real")}
+                                     "tracked_frequency_hz", "status", "max_real", "damping_ratio")}
         out["case"] = [c.decode() if isinstance(c, bytes) else c for c in f["case"][()]]
         out["title"] = load(path).title
         if "modes" in f:
@@ -279,23 +279,26 @@ def test_mode_shape_without_shapes_is_a_clear_error(archives, capsys):
     assert "no mode shapes" in err and "fkev run SCENE --mode-shapes" in err
 
 
-def test_stability_map_holds_max_real_and_marks_status(archives):
+def test_stability_map_holds_min_damping_ratio_and_marks_divergence(archives):
     r = raw(archives["tm1"])
     c = r["case"].index("full")
     st = r["status"][:, :, c]
     assert np.any(st == 3) and np.any(st == 4)  # this light linkage flutters and diverges
     fig = plots.stability(load(archives["tm1"]))
     ax = fig.axes[0]
-    (mesh,) = [ch for ch in ax.get_children() if isinstance(ch, QuadMesh)]
-    drawn = np.asarray(mesh.get_array()).reshape(st.shape[::-1])
-    np.testing.assert_array_equal(drawn, r["max_real"][:, :, c].T)
+    meshes = [ch for ch in ax.get_children() if isinstance(ch, QuadMesh)]
+    drawn = np.asarray(meshes[-1].get_array()).reshape(st.shape[::-1])  # the ζ layer (grey divergence below)
+    want = np.where(np.isin(st, (1, 3)), np.nanmin(r["damping_ratio"][:, :, c], axis=-1), np.nan)
+    np.testing.assert_array_equal(np.ma.filled(drawn, np.nan), want.T)
+    assert np.all(want[st == 3] < -1e-6) and np.all(want[st == 1] >= -1e-6)  # the colour's sign is the verdict
+    norm = meshes[-1].norm
+    assert norm.vmin == -norm.vmax and meshes[-1].get_cmap().name == "RdBu"  # diverging, centred on ζ = 0
     assert "(deg)" in ax.get_xlabel() and "(rad/s)" in ax.get_ylabel()
-    assert "1/s" in fig.axes[1].get_ylabel()  # colour bar
+    assert "damping ratio" in fig.axes[-1].get_ylabel()  # colour bar
     marks = {col.get_label().split(":")[0]: col for col in ax.collections if isinstance(col, PathCollection)}
-    for code, key in ((3, "unstable (Re λ > 0)"), (4, "divergent (real λ > 0)")):
-        ia, i_s = np.nonzero(st == code)
-        got = marks[key].get_offsets()
-        np.testing.assert_array_equal(np.asarray(got), np.c_[r["crank_angle_deg"][ia], r["speed_rad_s"][i_s]])
+    ia, i_s = np.nonzero(st == 4)
+    got = marks["divergent (real λ > 0 in the spectrum)"].get_offsets()
+    np.testing.assert_array_equal(np.asarray(got), np.c_[r["crank_angle_deg"][ia], r["speed_rad_s"][i_s]])
     assert "full" in fig._suptitle.get_text() and r["title"] in fig._suptitle.get_text()
 
 

@@ -171,7 +171,7 @@ def test_defaults_and_overrides():
     assert s.title == "fb"  # default title: the file's stem
     assert s.analysis.crank_angles_deg == (0.0,) and s.analysis.cases == ("full",)
     assert (s.analysis.modes, s.analysis.mode_shapes) == (4, False)
-    assert (s.analysis.imag_tol, s.analysis.stability_tol) == (1e-9, 1e-9)
+    assert (s.analysis.imag_tol, s.analysis.damping_tol) == (1e-9, 1e-6)
     assert (s.solver.method, s.solver.petsc) == ("auto", ())
     assert s.driver.acceleration == 0.0
     s = parse_scene(FOURBAR.replace('name = "B"', 'name = "B"\nassembly = "right"'))
@@ -358,7 +358,7 @@ def test_rule(edit, expected):
         ("modes = 2.5", "analysis.modes: must be an integer (got 2.5)"),
         ("mode_shapes = 1", "analysis.mode_shapes: must be true or false (got 1)"),
         ("imag_tol = -1e-3", "analysis.imag_tol: must be >= 0.0 (got -0.001)"),
-        ("stability_tol = 2", "analysis.stability_tol: must be < 1.0 (got 2)"),
+        ("damping_tol = 2", "analysis.damping_tol: must be < 1.0 (got 2)"),
         ("cases = []", "analysis.cases: must not be empty"),
         ("cases = 1.0", "analysis.cases: must be a case name or a Table 3.1 number 0-5 (got 1.0)"),
         ("cases = [true]", "analysis.cases[0]: must be a case name or a Table 3.1 number 0-5 (got true)"),

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.solve.stability import growth_per_revolution
+
 from fkev_slepc.archive import reader
 from fkev_slepc.solve import modes as _modes
 from fkev_slepc.status import CONVERGED
@@ -68,9 +70,8 @@ class PointResult:
 
     @property
     def damping_ratio(self) -> np.ndarray:
-        """-Re λ / |λ| per mode (negative: the mode grows)."""
-        lam = self.raw.eigenvalue
-        return -lam.real / np.abs(lam)
+        """-Re λ / |λ| per mode (negative: the mode grows): the engine's value (solve/stability.py)."""
+        return self.raw.damping_ratio
 
     @property
     def converged(self) -> bool:
@@ -137,6 +138,11 @@ class PointResult:
                "residual": [num(v) for v in self.pair_error],
                "damping_ratio": [num(v) for v in self.damping_ratio],
                "max_real": num(self.max_real), "divergent": [float(v) for v in self.divergent],
+               "growth_per_revolution": num(growth_per_revolution(float(np.nanmax(self.eigenvalues.real))
+                                                                  if np.any(np.isfinite(self.eigenvalues)) else np.nan,
+                                                                  self.speed_rad_s)),
+               "stability_scope": {"divergence": self.raw.divergence_check,
+                                   "flutter": f"modes 1-{len(self.frequency_hz)} (damping ratio of the reported modes)"},
                "status": self.status.value, "message": self.message,
                "transmission_angle_deg": num(self.transmission_angle_deg),
                "element": self._model.scene.analysis.element,

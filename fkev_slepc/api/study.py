@@ -183,7 +183,7 @@ class Study:
         engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc)
         try:
             sol = engine.solve(qep, int(modes), want_vectors=shapes)
-            res = _modes.postprocess(sol, int(modes), an.imag_tol, an.stability_tol, want_shapes=shapes)
+            res = _modes.postprocess(sol, int(modes), an.imag_tol, an.damping_tol, want_shapes=shapes)
         except recoverable_errors() as exc:
             res = _modes.failed(int(modes), f"{type(exc).__name__}: {exc}", engine.name)
         finally:

@@ -76,6 +76,7 @@ class SweepResults:
     frequency_hz: np.ndarray  # same shape, sorted by frequency
     tracked_frequency_hz: np.ndarray  # same shape, modes followed along crank angle
     residual: np.ndarray  # same shape
+    damping_ratio: np.ndarray  # same shape, -Re λ/|λ| (computed from eigenvalue for archives without it)
     max_real: np.ndarray  # (n_angle, n_speed, n_case) 1/s
     title: str
     scene_toml: str
@@ -279,6 +280,7 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults) -> SweepResul
             frequency_hz=np.asarray(h5["frequency_hz"][()], dtype=float),
             tracked_frequency_hz=np.asarray(h5["tracked_frequency_hz"][()], dtype=float),
             residual=np.asarray(h5["residual"][()], dtype=float),
+            damping_ratio=_damping_ratio(h5),
             max_real=np.asarray(h5["max_real"][()], dtype=float),
             title=scene_title(scene_toml, attrs.get("scene_source", path.stem)),
             scene_toml=scene_toml,
@@ -302,6 +304,14 @@ _REQUIRED = (
     "residual",
     "max_real",
 )
+
+
+def _damping_ratio(h5) -> np.ndarray:
+    if "damping_ratio" in h5:
+        return np.asarray(h5["damping_ratio"][()], dtype=float)
+    from fkev_slepc.solve.stability import damping_ratio
+
+    return damping_ratio(h5["eigenvalue"][()])
 
 
 def scene_title(scene_toml: str, fallback: str) -> str:

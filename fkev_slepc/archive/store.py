@@ -51,10 +51,15 @@ _GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, cas
     "tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank angle (MAC)"),
     "eigenvalue": ("c16", complex(np.nan, np.nan), "1/s", "eigenvalue lambda of the mode (Im > 0 member)"),
     "residual": ("f8", np.nan, "1", "relative residual |P(lambda)x| / (|Kx| + |lambda||Cx| + |lambda|^2|Mx|)"),
+    "damping_ratio": ("f8", np.nan, "1", "damping ratio zeta = -Re(lambda)/|lambda| of the mode (< 0: growing)"),
 }
 _TRANSMISSION = ("smallest transmission angle of the linkage's dyads, folded to [0, 90] (90 ideal, 0 a toggle "
                  "position; NaN without dyads or where the linkage cannot be assembled)")
-_MAX_REAL = ("f8", np.nan, "1/s", "max Re(lambda) over every computed eigenvalue (stability indicator)")
+_MAX_REAL = ("f8", np.nan, "1/s", "max Re(lambda) over the reported modes and the positive real eigenvalues "
+             "located in the whole spectrum")
+# What each verdict covers (root attribute): the archive never implies the whole spectrum from the lowest modes.
+STABILITY_SCOPE = ("divergent: whole spectrum (a real eigenvalue > 0 anywhere; solve/stability.py); "
+                   "unstable and damping_ratio: the reported modes only")
 
 
 class ArchiveMismatch(ValueError):
@@ -99,7 +104,7 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
     path : path of the file to write (normally :func:`partial_path` of the output).
     grid : the sweep grid.
     attrs : root attributes (scene_toml, scene_source, command_line, solver_settings (dict or
-        JSON string), elements, imag_tol, stability_tol, n_ranks, versions, ...).
+        JSON string), elements, imag_tol, damping_tol, n_ranks, versions, ...).
     mesh : ``node_link, node_s, node_dofs, elem_nodes`` arrays and ``link_names``.
     n_free : number of free DOFs (size of a mode shape).
     mode_shapes : create ``/modes/shape`` and ``/modes/node_xy``.
@@ -128,8 +133,9 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
         st.attrs["description"] = (
             "convergence first: pending (not solved yet), failed (the solver raised), not_converged "
             "(fewer modes than asked or the solver stopped short); a converged point is divergent if "
-            "it has a positive real eigenvalue, else unstable if some Re(lambda) > stability_tol*|lambda|, "
-            "else ok. max_real holds the stability number of every point.")
+            "its spectrum has a positive real eigenvalue anywhere, else unstable if a reported mode has "
+            "damping_ratio < -damping_tol, else ok.")
+        st.attrs["stability_scope"] = STABILITY_SCOPE
 
         create_groups(f, grid, mesh, n_free, mode_shapes, tracking_dofs)
         now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")

@@ -12,7 +12,7 @@ from fkev_slepc.status import Status
 
 _UNITS = {"frequency_hz": "Hz", "tracked_frequency_hz": "Hz", "eigenvalue": "1/s", "residual": "1",
           "max_real": "1/s", "damping_ratio": "1"}
-_RUN_ATTRS = ("imag_tol", "stability_tol", "n_free", "mode_shapes", "n_ranks", "wall_time_s", "fkev_version",
+_RUN_ATTRS = ("imag_tol", "damping_tol", "n_free", "mode_shapes", "n_ranks", "wall_time_s", "fkev_version",
               "petsc_version", "slepc_version", "h5py_version", "hdf5_version", "mpi_version")
 
 

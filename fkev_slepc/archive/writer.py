@@ -159,7 +159,7 @@ class Writer:
             self.f = None
 
 
-_DATA = ("frequency_hz", "eigenvalue", "residual", "max_real", "status", "tracking/signature",
+_DATA = ("frequency_hz", "eigenvalue", "residual", "damping_ratio", "max_real", "status", "tracking/signature",
          "modes/shape", "modes/node_xy")
 
 

@@ -68,6 +68,12 @@ def apply_element(scene: Scene, element: str | None) -> Scene:
     return scene if element is None else replace(scene, analysis=replace(scene.analysis, element=element))
 
 
+def add_model_arguments(p: argparse.ArgumentParser) -> None:
+    """``--elements`` and ``--solver``: how a single-point command meshes and solves."""
+    add_elements_argument(p)
+    p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default: the scene's)")
+
+
 def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
     """Load a scene, apply ``--elements``, and check that it assembles at its crank angles
     (not with ``check_angles=False``: ``fkev point`` needs only its own angle).
@@ -83,6 +89,33 @@ def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
     if problems:
         raise SceneError(scene.source, problems)
     return scene
+
+
+def modes_problem(n_modes: int, n_free: int, flag: str | None) -> Problem | None:
+    """A problem when more modes are asked than the model can have: its ``n_free`` DOFs give
+    at most ``n_free`` oscillating modes (conjugate pairs of the 2·n_free eigenvalues)."""
+    if n_modes <= n_free:
+        return None
+    return Problem(flag or "analysis.modes",
+                   f"{n_modes} modes asked, but the model has {n_free} free DOFs, so at most {n_free} "
+                   "oscillating modes (refine with --elements or ask fewer)")
+
+
+def scene_case_modes(args, check_angles: bool = True) -> tuple[Scene, str, int]:
+    """``args.scene`` loaded and checked (with ``--elements``; ``check_angles`` as in
+    :func:`load_checked`), ``--case`` resolved and ``--modes`` checked (defaults: the scene's
+    first case, its modes); SceneError names the bad file or flag."""
+    from fkev_slepc.scene.cases import case_name
+
+    scene = load_checked(args.scene, args.elements, check_angles)
+    try:
+        case = case_name(args.case) if args.case is not None else scene.analysis.cases[0]
+    except ValueError as err:
+        raise SceneError(args.scene, [Problem("--case", str(err))]) from None
+    n_modes = scene.analysis.modes if args.modes is None else args.modes
+    if n_modes < 1:
+        raise SceneError(args.scene, [Problem("--modes", f"must be >= 1 (got {n_modes})")])
+    return scene, case, n_modes
 
 
 def report_scene_error(err: SceneError) -> int:

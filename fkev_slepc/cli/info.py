@@ -118,22 +118,26 @@ def report(res, n_errors: int = 5) -> list[str]:
         lo[have], hi[have] = np.nanmin(f[:, have], axis=0), np.nanmax(f[:, have], axis=0)
         cells = [f"{m}: {a:.6g}-{b:.6g}" if np.isfinite(a) else f"{m}: -" for m, a, b in zip(res.modes, lo, hi)]
         lines.append(f"    {case:<17} " + "; ".join(cells))
+    lines.append("  damping ratio, smallest over the reported modes of converged points (< 0: growing):")
+    zeta = np.where(conv[..., None], res.damping_ratio, np.nan)
+    for jc, case in enumerate(res.cases):
+        z = zeta[:, :, jc]
+        lines.append(f"    {case:<17} " + (f"{np.nanmin(z):.4g}" if np.any(np.isfinite(z)) else "-"))
     regions = []
     for status in (Status.UNSTABLE, Status.DIVERGENT):
         for js, speed in enumerate(res.speed_rad_s):
             for jc, case in enumerate(res.cases):
                 mask = res.status[:, js, jc] == status.code
                 if mask.any():
-                    mr = np.nanmax(res.max_real[:, js, jc][mask])
                     regions.append(f"    {status.value:<9} {case} at {speed:g} rad/s: "
                                    f"{intervals(res.crank_angle_deg, mask)} ({int(mask.sum())} points, "
-                                   f"max Re lambda {mr:.4g} 1/s)")
+                                   f"{_severity(res, status, mask, js, jc, speed)})")
     lines.append("  unstable/divergent regions:" + ("" if regions else " none"))
     lines.extend(regions)
     lines.extend(_errors(res, n_errors))
     settings = solver_settings(res)
     lines.extend(settings_table(settings))
-    lines.append(f"  thresholds  imag_tol {at.get('imag_tol')}, stability_tol {at.get('stability_tol')}")
+    lines.append(f"  thresholds  imag_tol {at.get('imag_tol')}, damping_tol {at.get('damping_tol')}")
     if "tracking_open_loops" in at:
         lines.append(f"  tracking    MAC along crank angle; {int(at['tracking_open_loops'])} (speed, case) "
                      "line(s) whose modes come back permuted after a revolution")
@@ -199,6 +203,18 @@ def crossing_lines(res, angle: float | None = None, orders: int | None = None) -
     if len(lines) == 1:
         lines.append("    none in the archived speed range")
     return lines
+
+
+def _severity(res, status, mask, js, jc, speed) -> str:
+    """Unstable: smallest ζ and the worst mode's growth per crank revolution; divergent: max Re λ."""
+    from fkev_slepc.solve.stability import growth_per_revolution
+    from fkev_slepc.status import Status
+
+    if status == Status.DIVERGENT:
+        return f"largest real eigenvalue {np.nanmax(res.max_real[:, js, jc][mask]):.4g} 1/s"
+    zmin = np.nanmin(res.damping_ratio[:, js, jc][mask])
+    worst = np.nanmax(res.eigenvalue[:, js, jc][mask].real)
+    return f"min damping ratio {zmin:.3g}, worst mode x{growth_per_revolution(worst, speed):.6g} per revolution"
 
 
 def _errors(res, n: int) -> list[str]:

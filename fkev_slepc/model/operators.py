@@ -3,7 +3,8 @@
 At a fixed crank angle, with crank speed Ω and crank acceleration α (docs/theory.md §6-7):
 
     M                       (angle only)
-    C = Ω · G,              G  = Σ 2φ'_j m_a                     (Coriolis)
+    C = Ω · G               G  = Σ 2φ'_j m_a                     (Coriolis)
+      + α_d M + β_d K_s                                          (Rayleigh structural damping)
     K = K_s                                                     (structural)
       + Ω² T₂ + α T₁,       T₂ = Σ φ''_j m_a, T₁ = Σ φ'_j m_a    (tangential)
       + Ω² N₂,              N₂ = -Σ φ'_j² m                      (normal)
@@ -49,11 +50,14 @@ class OperatorPieces:
     staged: StagedStiffness | None = None  # K_s kept factored (model/energy.py)
 
 
-def classify(has_damping: bool, k_symmetric: bool) -> str:
-    """Problem kind from the structure of the terms present (see qep.KINDS)."""
+def classify(has_damping: bool, k_symmetric: bool, c_skew: bool = True) -> str:
+    """Problem kind from the structure of the terms present (see qep.KINDS).
+
+    ``has_damping``: a C matrix is present; ``c_skew``: it is Coriolis only (structural damping
+    makes C non-skew, and the problem is then ``general`` whatever K is)."""
     if not has_damping:
         return LINEAR_SYMMETRIC if k_symmetric else LINEAR
-    return GYROSCOPIC if k_symmetric else GENERAL
+    return GYROSCOPIC if k_symmetric and c_skew else GENERAL
 
 
 def node_frames(mech, n_dof: int = 6) -> np.ndarray | None:
@@ -140,9 +144,38 @@ class Model:
         return OperatorPieces(float(theta), mass, structural, coriolis, tangential, normal, pseudo, staged)
 
     # -- per speed and case ----------------------------------------------------------------
+    def stiffness_terms(self, p: OperatorPieces, case: str, accel: float | None = None):
+        """(K₀, K₂, symmetric) CSR data with K(Ω) = K₀ + Ω² K₂ at the crank acceleration
+        ``accel`` (default the scene's), held fixed while Ω varies.
+
+        K₀ = K_s + α (T₁ + P₁) and K₂ = T₂ + N₂ + P₂ with the terms the case keeps; the
+        ``structure`` case has K₂ = 0. ``symmetric`` is False when a tangential part is present
+        (T₁, T₂ are skew). :meth:`qep` sums the same terms (in its own order).
+        """
+        if case not in CASES:
+            raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
+        t = CASES[case]
+        acc = self.scene.driver.acceleration if accel is None else float(accel)
+        K0, K2 = p.structural.copy(), np.zeros_like(p.structural)
+        k_sym = True
+        for name, piece in (("tangential", p.tangential), ("pseudo_normal", p.pseudo_normal)):
+            if t.keeps(name):
+                self._require(name, piece)
+                K2 += piece[0]
+                K0 += acc * piece[1]
+                k_sym &= name != "tangential" or not (np.any(piece[0]) or (acc != 0.0 and np.any(piece[1])))
+        if t.keeps("normal"):
+            self._require("normal", p.normal)
+            K2 += p.normal
+        return K0, K2, k_sym
+
     def qep(self, p: OperatorPieces, omega: float, case: str, accel: float | None = None) -> QEP:
         """The QEP at crank speed ``omega`` (rad/s), crank acceleration ``accel`` (rad/s²;
-        default the scene's) for the named case (Table 3.1)."""
+        default the scene's) for the named case (Table 3.1).
+
+        C = Ω G + α_d M + β_d K_s: the Coriolis term (if kept) plus the scene's Rayleigh
+        structural damping, which every case keeps (a property of the links, not a motion term).
+        """
         if case not in CASES:
             raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
         t = CASES[case]
@@ -161,12 +194,18 @@ class Model:
         if moving and t.keeps("normal") and w2 != 0.0:
             self._require("normal", p.normal)
             rest += w2 * p.normal
-        C = None
+        data = None
         if t.keeps("coriolis") and omega != 0.0:
             self._require("coriolis", p.coriolis)
-            C = self.pattern.matrix(omega * p.coriolis)
+            data = omega * p.coriolis
+        d = self.scene.damping
+        if d.active:  # Rayleigh damping: symmetric positive semi-definite (α, β >= 0)
+            rayleigh = d.mass_proportional * p.mass + d.stiffness_proportional * p.structural
+            data = rayleigh if data is None else data + rayleigh
         pat = self.pattern
-        return QEP(pat.matrix(p.mass), C, pat.matrix(p.structural + rest), classify(C is not None, k_sym),
+        C = None if data is None else pat.matrix(data)
+        kind = classify(C is not None, k_sym, c_skew=not d.active)
+        return QEP(pat.matrix(p.mass), C, pat.matrix(p.structural + rest), kind,
                    staged=p.staged, stiffness_rest=pat.matrix(rest))
 
     def _require(self, name, piece):

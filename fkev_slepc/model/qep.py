@@ -55,6 +55,24 @@ class QEP:
 
 
 @dataclass(frozen=True)
+class Divergence:
+    """Whole-spectrum divergence verdict of one QEP (solve/stability.py, docs/stability.md).
+
+    ``divergent``: the QEP has a real eigenvalue λ > 0 somewhere in its spectrum.
+    ``proven``: decided by a certificate (a Cholesky factorization or a determinant sign),
+    not by locating eigenvalues. ``real_eigenvalues``: the positive real eigenvalues located
+    (1/s, ascending; may be empty for a proven divergence whose values were not located).
+    ``method`` says how, ``scope`` which part of the spectrum the verdict covers.
+    """
+
+    divergent: bool
+    proven: bool
+    real_eigenvalues: np.ndarray
+    method: str
+    scope: str = "whole spectrum"
+
+
+@dataclass(frozen=True)
 class EigenSolution:
     """Eigenpairs of a QEP as a solver returned them (unsorted, unfiltered).
 
@@ -68,6 +86,7 @@ class EigenSolution:
     converged: bool
     solver: str
     message: str = ""
+    divergence: Divergence | None = None  # None: no whole-spectrum check was made
 
 
 def pair_error(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:

@@ -25,40 +25,45 @@ from fkev_slepc.archive.reader import SweepResults
 
 MAX_DEFAULT_ORDERS = 8
 STATUS_MARKS = (  # status, marker, colour, legend text
-    (Status.UNSTABLE, "^", "k", "unstable (Re λ > 0)"),
-    (Status.DIVERGENT, "x", "k", "divergent (real λ > 0)"),
+    (Status.DIVERGENT, "x", "k", "divergent (real λ > 0 in the spectrum)"),
     (Status.NOT_CONVERGED, "s", "0.4", "not converged"),
     (Status.FAILED, "D", "m", "failed"),
 )
 
 
 def stability(res: SweepResults, case: str | int | None = None) -> Figure:
-    """Map of max Re λ (1/s) over (crank angle, speed) for one case, with unstable, divergent
-    and unconverged points marked (default case ``full``).
+    """Map of the smallest damping ratio ζ = -Re λ/|λ| of the reported modes over (crank angle,
+    speed) for one case (default ``full``), divergent and unconverged points marked.
 
-    Colour: a symmetric log scale, red for growth; blue (decay) appears only if some point has
-    every Re λ < 0, which an undamped model never has. Values within 1e-6 of the largest
-    |max Re λ| are white.
+    Colour: a diverging, symmetric-log scale centred on ζ = 0: red is growth (unstable), blue
+    decay; ±damping_tol (the ``unstable`` threshold) is the linear core, so round-off is
+    white. Divergent points (a real eigenvalue anywhere in the spectrum) are grey with a cross:
+    their ζ says nothing about the real eigenvalue.
     """
     c = res.case_index(case) if case is not None else res.case_index(default_case(res))
-    mr = res.max_real[:, :, c]
     st = res.status[:, :, c]
+    conv = np.isin(st, [Status.OK.code, Status.UNSTABLE.code])
+    z = res.damping_ratio[:, :, c, :]
+    zmin = np.full(st.shape, np.nan)
+    have = conv & np.any(np.isfinite(z), axis=-1)
+    zmin[have] = np.nanmin(z[have], axis=-1)
+    tol = float(res.attrs.get("damping_tol", 1e-6)) or 1e-6
+    finite = np.abs(zmin[np.isfinite(zmin)])
+    vmax = max(float(finite.max()) if finite.size else 0.0, 10 * tol)
+    norm = SymLogNorm(linthresh=tol, vmin=-vmax, vmax=vmax, base=10)
     fig = Figure(figsize=(8.0, 4.6), layout="constrained")
     ax = fig.subplots()
-    finite = np.abs(mr[np.isfinite(mr)])
-    vmax = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
-    # Growth rates span decades (flutter ~0.1/s, divergence ~1e3/s) above round-off (~1e-12/s);
-    # a log scale shows both.
-    two_sided = bool(np.any(mr < -1e-6 * vmax))
-    norm = SymLogNorm(linthresh=1e-6 * vmax, vmin=-vmax if two_sided else 0.0, vmax=vmax, base=10)
     speed_edges = edges(res.speed_rad_s)
     if res.speed_rad_s.min() >= 0 and res.speed_rad_s.size > 1:  # no negative speeds on the axis
         speed_edges = np.maximum(speed_edges, 0.0)
-    mesh = ax.pcolormesh(
-        edges(res.crank_angle_deg), speed_edges, mr.T, norm=norm, shading="flat",
-        cmap="RdBu_r" if two_sided else "Reds",
-    )
-    fig.colorbar(mesh, ax=ax, label="max Re λ (1/s)")
+    a_edges = edges(res.crank_angle_deg)
+    div = (st == Status.DIVERGENT.code).astype(float)
+    if div.any():  # grey under the divergent points
+        ax.pcolormesh(a_edges, speed_edges, np.where(div > 0, 1.0, np.nan).T, cmap="Greys", vmin=0, vmax=2.5,
+                      shading="flat")
+    mesh = ax.pcolormesh(a_edges, speed_edges, zmin.T, norm=norm, shading="flat", cmap="RdBu")
+    cb = fig.colorbar(mesh, ax=ax, label="min damping ratio ζ of the reported modes")
+    cb.ax.axhline(-tol, color="k", lw=0.8)
     for status, marker, color, label in STATUS_MARKS:
         ia, i_s = np.nonzero(st == status.code)
         if ia.size:
@@ -66,13 +71,26 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
                 res.crank_angle_deg[ia], res.speed_rad_s[i_s], marker=marker, c=color,
                 s=16 if st.size <= 300 else 7, linewidths=0.8, label=f"{label}: {ia.size}",
             )
-    n_ok = int(np.sum(st == Status.OK.code))
+    n_unst = int(np.sum(st == Status.UNSTABLE.code))
     ax.set_xlabel(ANGLE_LABEL)
     ax.set_ylabel(SPEED_LABEL)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=8, loc="upper right", framealpha=0.85)
-    set_title(fig, res, f"stability map, case {res.cases[c]} ({n_ok} of {st.size} points ok)")
+    set_title(fig, res, f"stability map, case {res.cases[c]}{_damping_label(res)}\n{n_unst} unstable "
+                        f"(ζ < -{tol:g}), {int(div.sum())} divergent of {st.size} points")
     return fig
+
+
+def _damping_label(res: SweepResults) -> str:
+    """``, Rayleigh damping α = 40 1/s, β = 1e-06 s`` when the archived scene declares any."""
+    import tomllib
+
+    try:
+        table = tomllib.loads(res.scene_toml).get("damping", {}) if res.scene_toml else {}
+    except tomllib.TOMLDecodeError:
+        return ""
+    a, b = table.get("mass_proportional_1_s", 0.0), table.get("stiffness_proportional_s", 0.0)
+    return f", Rayleigh damping α = {a:g} 1/s, β = {b:g} s" if (a or b) else ""
 
 
 def crossings(speed: np.ndarray, freq: np.ndarray, k: float) -> tuple[np.ndarray, np.ndarray]:

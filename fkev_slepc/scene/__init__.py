@@ -7,9 +7,11 @@ PETSc, MPI or h5py.
 
 from fkev_slepc.scene.model import (
     END_NAMES,
+    DAMPING_TOL,
     ELEMENT_NAMES,
     THIRD,
     Analysis,
+    Damping,
     Driver,
     Joint,
     Link,
@@ -25,6 +27,6 @@ from fkev_slepc.scene.model import (
 from fkev_slepc.scene.reader import load_scene, parse_scene
 
 __all__ = [
-    "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Driver", "Joint", "Link", "LinkEnd", "LumpedMass",
-    "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene", "parse_scene",
+    "DAMPING_TOL", "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Damping", "Driver", "Joint", "Link", "LinkEnd",
+    "LumpedMass", "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene", "parse_scene",
 ]

@@ -17,6 +17,10 @@ END_NAMES = ("root", "tip")
 # frame element with cubic axial interpolation (docs/accuracy.md §1).
 ELEMENT_NAMES = ("thesis", "cubic")
 THIRD = "third"  # the third joint point of a ternary link (docs/linkages.md)
+# Default analysis.damping_tol. Round-off leaves |ζ| ~ 1e-10..1e-8 on undamped modes (pair
+# errors 1e-14..1e-8, docs/stability.md); ζ = -1e-6 means an amplitude growth of e only after
+# 1/(2π·1e-6) ≈ 160,000 cycles of the mode, far below any structural damping (ζ ~ 1e-3..1e-1).
+DAMPING_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -133,11 +137,26 @@ class Analysis:
     modes: int = 4
     mode_shapes: bool = False
     # Named thresholds (recorded in archives): |Im λ| <= imag_tol*|λ| is a real eigenvalue;
-    # Re λ > stability_tol*|λ| marks a pair unstable.
+    # a reported mode with damping ratio ζ = -Re λ/|λ| < -damping_tol is unstable.
     imag_tol: float = 1e-9
-    stability_tol: float = 1e-9
+    damping_tol: float = DAMPING_TOL
     element: str = "thesis"  # one of ELEMENT_NAMES
     rel_error: float | None = None  # requested relative frequency error (solve/accuracy.py)
+
+
+@dataclass(frozen=True)
+class Damping:
+    """Rayleigh structural damping C_d = α M + β K_s of the links (docs/stability.md).
+
+    A property of the material, not of the motion: kept in every case, ``structure`` included.
+    """
+
+    mass_proportional: float = 0.0  # α, 1/s
+    stiffness_proportional: float = 0.0  # β, s
+
+    @property
+    def active(self) -> bool:
+        return self.mass_proportional > 0.0 or self.stiffness_proportional > 0.0
 
 
 @dataclass(frozen=True)
@@ -155,6 +174,7 @@ class Scene:
     masses: tuple[LumpedMass, ...] = ()
     analysis: Analysis = field(default_factory=lambda: Analysis((0.0,), ("full",)))
     solver: Solver = field(default_factory=Solver)
+    damping: Damping = field(default_factory=Damping)
     source_text: str = ""  # the TOML text, verbatim (archived)
     source: str = "<scene>"  # file name, for messages
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from fkev_slepc.scene import parts
 from fkev_slepc.scene import sections as sec
+from fkev_slepc.scene.damping import read_damping
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.schema import Reader
 
@@ -81,6 +82,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     masses = parts.read_masses(r, doc, joints, joint_names, links, link_names)
     analysis = sec.read_analysis(r, doc)
     solver = sec.read_solver(r, doc)
+    damping = read_damping(r, doc)
     if topology_ok and links:
         sec.check_topology(r, links, joints)
     if r.problems:
@@ -93,6 +95,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
         masses=tuple(masses),
         analysis=analysis,
         solver=solver,
+        damping=damping,
         source_text=text,
         source=source,
     )

@@ -15,7 +15,10 @@ import re
 
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
 from fkev_slepc.scene import parts
-from fkev_slepc.scene.model import ELEMENT_NAMES, END_NAMES, THIRD, Analysis, Driver, Joint, Link, LinkEnd, Solver
+from fkev_slepc.scene.damping import DAMPING_KEYS
+from fkev_slepc.scene.model import (
+    DAMPING_TOL, ELEMENT_NAMES, END_NAMES, THIRD, Analysis, Driver, Joint, Link, LinkEnd, Solver,
+)
 from fkev_slepc.scene.schema import REQUIRED, Reader, is_number, join, show
 
 # --------------------------------------------------------------------------------------------
@@ -34,11 +37,11 @@ JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISM
 JOINT_TYPES = ("revolute", "prismatic")
 ASSEMBLIES = ("left", "right")
 DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
-ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "stability_tol", "element",
+ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "damping_tol", "element",
                  "rel_error")
 SOLVER_KEYS = ("method", "petsc")
 SOLVER_METHODS = ("auto", "slepc", "dense")
-TOP_KEYS = ("title", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver")
+TOP_KEYS = ("title", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver", "damping")
 GROUND = "ground"
 # Where a misplaced key belongs (``modes`` under [solver] -> analysis.modes).
 SECTIONS = {
@@ -46,6 +49,7 @@ SECTIONS = {
     "driver": DRIVER_KEYS,
     "analysis": ANALYSIS_KEYS,
     "solver": SOLVER_KEYS,
+    "damping": DAMPING_KEYS,
 }
 _PETSC_PREFIXES = ("pep_", "eps_", "st_", "ksp_", "pc_", "bv_", "ds_", "rg_", "fn_", "mat_", "log_")
 _OPTION_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
@@ -259,14 +263,15 @@ def read_analysis(r: Reader, doc) -> Analysis | None:
     table = r.table(doc, "analysis", "")
     if table is None:
         return None
-    r.check_keys(table, "analysis", ANALYSIS_KEYS)
+    renamed = {"stability_tol": "renamed damping_tol (a threshold on the damping ratio -Re λ/|λ|)"}
+    r.check_keys(table, "analysis", ANALYSIS_KEYS, hint=renamed.get)
     values = dict(
         crank_angles_deg=r.values(table, "crank_angles_deg", "analysis", default=(0.0,)),
         cases=_read_cases(r, table),
         modes=r.integer(table, "modes", "analysis", default=4, minimum=1),
         mode_shapes=r.boolean(table, "mode_shapes", "analysis", default=False),
         imag_tol=r.number(table, "imag_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
-        stability_tol=r.number(table, "stability_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
+        damping_tol=r.number(table, "damping_tol", "analysis", default=DAMPING_TOL, minimum=0.0, below=1.0),
         element=r.string(table, "element", "analysis", default="thesis", choices=ELEMENT_NAMES),
     )
     rel_error = None

@@ -1,7 +1,9 @@
 """From raw eigenpairs to what users read: frequencies, stability, status; MAC tracking.
 
 docs/theory.md §10.3-10.4: modes are the eigenvalues with Im λ > 0 sorted by Im λ;
-real eigenvalues are divergence and never frequencies; max Re λ is the stability indicator.
+real eigenvalues are divergence and never frequencies. Stability (docs/stability.md): each
+reported mode has a damping ratio ζ = -Re λ/|λ| (flutter verdicts cover the reported modes
+only); divergence is the engine's whole-spectrum verdict (solve/stability.py).
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.model.qep import MAX_FLOOR_RATIO, EigenSolution, pair_error_floor
+from fkev_slepc.scene import DAMPING_TOL
 from fkev_slepc.status import Status
 
 
@@ -19,12 +22,20 @@ class PointResult:
     eigenvalue: np.ndarray  # complex (n_modes,), NaN where fewer modes were found
     frequency_hz: np.ndarray  # (n_modes,)
     residual: np.ndarray  # (n_modes,) qep.pair_error of each mode
-    max_real: float  # max Re λ over every computed eigenvalue (NaN if none)
-    divergent: np.ndarray  # the positive real eigenvalues found (1/s)
+    max_real: float  # max Re λ over the reported modes and the located real eigenvalues (NaN if none)
+    divergent: np.ndarray  # the positive real eigenvalues located (1/s)
     status: Status
     message: str = ""
     shapes: np.ndarray | None = None  # complex (n_free, n_modes)
     solver: str = ""
+    damping_ratio: np.ndarray | None = None  # (n_modes,) ζ = -Re λ/|λ| of each reported mode
+    divergence_check: str = ""  # how divergence was decided, and over which part of the spectrum
+
+    @property
+    def min_damping_ratio(self) -> float:
+        """Smallest ζ of the reported modes (NaN if none): the flutter indicator."""
+        z = self.damping_ratio
+        return float(np.nanmin(z)) if z is not None and np.any(np.isfinite(z)) else float("nan")
 
 
 CNAN = complex(np.nan, np.nan)  # a missing eigenvalue: NaN in both parts (NaN + 0j has Im = 0)
@@ -32,21 +43,28 @@ CNAN = complex(np.nan, np.nan)  # a missing eigenvalue: NaN in both parts (NaN +
 
 def failed(n_modes: int, message: str, solver: str = "") -> PointResult:
     nan = np.full(n_modes, np.nan)
-    return PointResult(np.full(n_modes, CNAN), nan, nan, np.nan, np.zeros(0), Status.FAILED, message, None, solver)
+    return PointResult(np.full(n_modes, CNAN), nan, nan, np.nan, np.zeros(0), Status.FAILED, message, None, solver,
+                       nan.copy())
 
 
 def postprocess(
     sol: EigenSolution,
     n_modes: int,
     imag_tol: float = 1e-9,
-    stability_tol: float = 1e-9,
+    damping_tol: float = DAMPING_TOL,
     want_shapes: bool = False,
 ) -> PointResult:
-    """Select, sort and classify the eigenpairs of one point (docs/theory.md §10.4)."""
+    """Select, sort and classify the eigenpairs of one point (docs/theory.md §10.4).
+
+    Status: convergence first; then ``divergent`` from the whole-spectrum verdict
+    (``sol.divergence``; without one, from the real eigenvalues among those computed);
+    then ``unstable`` if a reported mode has ζ < -damping_tol; else ``ok``.
+    """
+    from fkev_slepc.solve.stability import damping_ratio, real_positive
+
     lam = np.asarray(sol.eigenvalues, dtype=complex)
     err = np.asarray(sol.errors, dtype=float)
-    mag = np.abs(lam)
-    osc, is_real = reported(lam, n_modes, imag_tol)
+    osc, _ = reported(lam, n_modes, imag_tol)
     k = osc.size
 
     eig = np.full(n_modes, CNAN)
@@ -54,25 +72,32 @@ def postprocess(
     eig[:k] = lam[osc]
     res[:k] = err[osc]
     freq = eig.imag / (2 * np.pi)
+    zeta = damping_ratio(eig)
     shapes = None
     if want_shapes and sol.vectors is not None:
         shapes = np.full((sol.vectors.shape[0], n_modes), CNAN)
         shapes[:, :k] = normalize_shapes(sol.vectors[:, osc])
 
-    real_pos = np.sort(lam.real[is_real & (lam.real > 0)])
-    max_real = float(lam.real.max()) if lam.size else np.nan
-    unstable = bool(np.any(lam.real[~is_real] > stability_tol * mag[~is_real]))
+    v = sol.divergence
+    if v is not None:
+        real_pos, divergent, check = v.real_eigenvalues, v.divergent, f"{v.method} [{v.scope}]"
+    else:
+        real_pos = real_positive(lam, imag_tol)
+        divergent, check = bool(real_pos.size), f"located among the {lam.size} eigenvalues computed"
+    parts = np.concatenate([eig.real[:k], real_pos])
+    max_real = float(parts.max()) if parts.size else np.nan
+    unstable = bool(np.any(zeta[:k] < -damping_tol))
 
     if not sol.converged or k < n_modes:
         status = Status.NOT_CONVERGED
         msg = sol.message or f"{k} of {n_modes} modes found"
-    elif real_pos.size:
+    elif divergent:
         status, msg = Status.DIVERGENT, sol.message
     elif unstable:
         status, msg = Status.UNSTABLE, sol.message
     else:
         status, msg = Status.OK, sol.message
-    return PointResult(eig, freq, res, max_real, real_pos, status, msg, shapes, sol.solver)
+    return PointResult(eig, freq, res, max_real, real_pos, status, msg, shapes, sol.solver, zeta, check)
 
 
 def reported(lam: np.ndarray, n_modes: int, imag_tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:

@@ -38,8 +38,9 @@ from fkev_slepc.solve.petsc_backend import (
 )
 from fkev_slepc.solve.petsc_init import command_line_options
 from fkev_slepc.solve.refine import polish_reported
-from fkev_slepc.solve.dense import balanced
+from fkev_slepc.solve.dense import all_eigenpairs, balanced
 from fkev_slepc.solve.modes import check_pairs
+from fkev_slepc.solve.stability import check_divergence
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
 from slepc4py import SLEPc  # noqa: E402  (PETSc is initialised by backend)
@@ -196,7 +197,9 @@ class SlepcEngine:
             # QEP (measured: qarnoldi at divergent points; any method on over-refined models)
             ok, msg = False, bad
         self._last["max_pair_error"] = float(worst)
-        return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg)
+        # Divergence is decided on the whole spectrum, not on the pairs nearest 0 (stability.py).
+        verdict = check_divergence(qep, computed=lam, dense_spectrum=lambda q: all_eigenpairs(q, False)[0])
+        return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg, verdict)
 
     def settings(self) -> dict:
         """Effective settings (archived): solver objects, options and where each came from."""

@@ -38,6 +38,7 @@ import numpy as np
 from fkev_slepc.archive.store import Grid, modulus
 from fkev_slepc.archive.writer import Block, Writer
 from fkev_slepc.solve.modes import CNAN, PointResult, failed, match_modes, postprocess
+from fkev_slepc.scene import DAMPING_TOL
 from fkev_slepc.status import CONVERGED, RETRYABLE, converged_codes
 
 log = logging.getLogger(__name__)
@@ -50,7 +51,7 @@ class SweepOptions:
 
     n_modes: int
     imag_tol: float = 1e-9
-    stability_tol: float = 1e-9
+    damping_tol: float = DAMPING_TOL
     mode_shapes: bool = False
     tracking_dofs: np.ndarray | None = None  # None: no tracking (a single angle)
 
@@ -152,7 +153,7 @@ class Sweep:
         o = self.opts
         try:
             sol = self.engine.solve(qep, o.n_modes, want_vectors=o.want_vectors, hint=hint)
-            return postprocess(sol, o.n_modes, o.imag_tol, o.stability_tol, want_shapes=o.want_vectors)
+            return postprocess(sol, o.n_modes, o.imag_tol, o.damping_tol, want_shapes=o.want_vectors)
         except self._errors as exc:
             a, s, c = where
             log.warning("point (%g deg, %g rad/s, %s) failed: %s: %s", self.grid.angles_deg[a],
@@ -170,6 +171,7 @@ class Sweep:
         data = {"frequency_hz": np.full((ns, nc, nm), np.nan),
                 "eigenvalue": np.full((ns, nc, nm), CNAN),
                 "residual": np.full((ns, nc, nm), np.nan),
+                "damping_ratio": np.full((ns, nc, nm), np.nan),
                 "max_real": np.full((ns, nc), np.nan)}
         status = np.zeros((ns, nc), dtype=np.uint8)
         if o.tracking_dofs is not None:
@@ -181,6 +183,7 @@ class Sweep:
             data["frequency_hz"][js, jc] = r.frequency_hz
             data["eigenvalue"][js, jc] = r.eigenvalue
             data["residual"][js, jc] = r.residual
+            data["damping_ratio"][js, jc] = r.damping_ratio
             data["max_real"][js, jc] = r.max_real
             status[js, jc] = r.status.code
             if r.shapes is not None:

@@ -225,7 +225,7 @@ class SweepSession:
 
         attrs = dict(self._expect(), scene_source=str(scene.source), command_line=req.command_line,
                      n_ranks=self.comm.size, solver_settings=self._settings(),
-                     imag_tol=scene.analysis.imag_tol, stability_tol=scene.analysis.stability_tol,
+                     imag_tol=scene.analysis.imag_tol, damping_tol=scene.analysis.damping_tol,
                      title=scene.title, **software_versions())
         if req.accuracy is not None:
             attrs["accuracy"] = req.accuracy
@@ -259,7 +259,7 @@ class SweepSession:
             self._notify(f"{int(plan.todo.sum())} of {self.grid.n_points} points to solve on "
                          f"{self.comm.size} rank(s) -> {plan.part}")
             bar = Progress(int(plan.todo.sum()))
-        opts = SweepOptions(self.grid.n_modes, an.imag_tol, an.stability_tol, an.mode_shapes, self.track_dofs)
+        opts = SweepOptions(self.grid.n_modes, an.imag_tol, an.damping_tol, an.mode_shapes, self.track_dofs)
         writer = archive_writer.Writer(plan.part, self.comm, parallel=archive_writer.use_mpio(self.comm))
         try:
             done = Sweep(self.model, self.grid, self.engine, writer, opts, plan.lam1).run(plan.todo, self.comm, bar)

@@ -1,0 +1,92 @@
+"""``fkev critical``: from what crank speed does the linkage buckle (divergence) or flutter?
+
+Wiring only; the physics is in fkev_slepc/solve/critical.py (docs/stability.md).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+
+from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.status import EXIT_OK
+from .common import add_model_arguments, modes_problem, report_scene_error, scene_case_modes
+
+
+def add_parser(sub) -> None:
+    from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR
+
+    p = sub.add_parser(
+        "critical", help="divergence (buckling) and flutter onset speeds",
+        description="Lowest crank speed at which K(Ω) = K₀ + Ω²K₂ becomes singular (divergence, an "
+        "eigenproblem in Ω²) and lowest speed at which a reported mode's damping ratio falls below "
+        "-damping_tol (flutter), at one crank angle or the lowest over the scene's angles.")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--case", help="case name or Table 3.1 number (default: the scene's first)")
+    p.add_argument("--angle", type=float, help="crank angle, deg (default: every angle of the scene)")
+    p.add_argument("--max-speed", type=float, metavar="W",
+                   help="highest crank speed considered, rad/s (default: divergence unbounded; flutter "
+                   f"searched up to the divergence speed, else {DEFAULT_MAX_FACTOR:g}x the scene's top speed)")
+    p.add_argument("--modes", type=int, help="modes whose damping is watched (default: the scene's)")
+    add_model_arguments(p)
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=run)
+
+
+def _check_flags(args) -> None:
+    bad = []
+    if args.angle is not None and not np.isfinite(args.angle):
+        bad.append(Problem("--angle", f"must be finite (got {args.angle})"))
+    if args.max_speed is not None and not (np.isfinite(args.max_speed) and args.max_speed > 0):
+        bad.append(Problem("--max-speed", f"must be a finite speed > 0 rad/s (got {args.max_speed})"))
+    if bad:
+        raise SceneError(args.scene, bad)
+
+
+def run(args) -> int:
+    try:
+        _check_flags(args)
+        scene, case, n_modes = scene_case_modes(args, check_angles=args.angle is None)
+    except SceneError as err:
+        return report_scene_error(err)
+    from fkev_slepc.model.operators import AssemblyError, Model
+    from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
+    from fkev_slepc.solve.engines import make_engine
+
+    angles = scene.analysis.crank_angles_deg if args.angle is None else (args.angle,)
+    model = Model(scene, cases=(case,))
+    too_many = modes_problem(n_modes, model.n_free, "--modes" if args.modes is not None else None)
+    if too_many:
+        return report_scene_error(SceneError(args.scene, [too_many]))
+    try:
+        engine = make_engine(args.solver or scene.solver.method, model.n_free, scene.solver.petsc)
+    except SceneError as err:
+        return report_scene_error(err)
+    try:
+        found = scan(engine, model, angles, case, n_modes, scene.analysis.damping_tol, args.max_speed,
+                     DEFAULT_MAX_FACTOR * max(abs(s) for s in scene.driver.speeds))
+    except AssemblyError as err:
+        return report_scene_error(SceneError(args.scene, [Problem("--angle", f"{err} (got {args.angle:g})")]))
+    finally:
+        engine.close()
+    out = {"scene": scene.title, "n_free": model.n_free, **found.as_dict(), "max_speed_rad_s": args.max_speed}
+    if args.json:
+        json.dump(out, sys.stdout, indent=1)
+        print()
+    else:
+        _print(out)
+    return EXIT_OK
+
+
+def _print(o: dict) -> None:
+    def speed(v, a):
+        return "none" if v is None else f"{v:.10g} rad/s ({v * 30 / np.pi:.6g} rpm) at θ = {a:g}°"
+
+    print(f"{o['scene']}: case {o['case']}, {o['n_free']} DOFs, {len(o['per_angle'])} crank angle(s)")
+    print(f"  divergence (K singular) from {speed(o['divergence_speed_rad_s'], o['divergence_angle_deg'])}")
+    print(f"  flutter (min ζ of {o['modes']} modes < -{o['damping_tol']:g}) from "
+          f"{speed(o['flutter_speed_rad_s'], o['flutter_angle_deg'])}")
+    for note in sorted({n for r in o["per_angle"] for n in r["notes"]}):
+        print(f"  note: {note}")

@@ -1,0 +1,181 @@
+"""Critical crank speeds at a crank angle: divergence (buckling) onset and flutter onset.
+
+At a fixed crank angle and crank acceleration (the scene's, held fixed while the speed varies)
+the stiffness of every case is K(Ω) = K₀ + Ω² K₂ (:meth:`Model.stiffness_terms`): K₀ = K_s +
+α(T₁ + P₁), K₂ = T₂ + N₂ + P₂ with the terms the case keeps (K₂ = 0 for ``structure``).
+
+* **Divergence speed**: the lowest Ω with K(Ω) singular, i.e. the smallest real ν = Ω² > 0 of
+  the generalized eigenproblem K₀ x = -ν K₂ x, solved as -K₂ x = η K₀ x with η = 1/ν (K₀ is
+  invertible: K_s is positive definite). No bisection. Above it det K < 0 for a simple root,
+  and solve/stability.py proves the point divergent.
+* **Flutter speed**: the lowest Ω at which the smallest damping ratio of the reported modes
+  crosses -``damping_tol`` (the threshold at which a point is classified ``unstable``):
+  bracketed on a grid of speeds, then refined by Brent's method to ``rtol`` relative.
+
+docs/stability.md explains what the two speeds mean.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse.linalg as spla
+from scipy.optimize import brentq
+
+from fkev_slepc.scene.cases import CASES
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.solve.stability import DENSE_LIMIT
+from fkev_slepc.status import CONVERGED
+
+FLUTTER_RTOL = 1e-8
+SCAN_POINTS = 64  # speeds on which the flutter onset is bracketed
+DEFAULT_MAX_FACTOR = 10.0  # no max speed, no divergence speed: flutter searched up to 10x the scene's top speed
+
+
+@dataclass(frozen=True)
+class CriticalSpeeds:
+    """Critical speeds (rad/s; NaN when none at or below ``max_speed``) at one crank angle."""
+
+    angle_deg: float
+    divergence_speed: float
+    flutter_speed: float
+    max_speed: float  # upper end of the flutter search (inf: divergence unbounded, no flutter search)
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def divergence_speed(model, pieces, case: str, accel: float | None = None, max_speed: float = np.inf) -> float:
+    """Lowest Ω > 0 (rad/s) at which K(Ω) = K₀ + Ω² K₂ is singular; NaN if none <= ``max_speed``.
+
+    Dense generalized eigenvalues up to :data:`~fkev_slepc.solve.stability.DENSE_LIMIT` free
+    DOFs (every η); above it ARPACK's 24 largest-real η of K₀⁻¹(-K₂) (computed, not exhaustive).
+    """
+    if not CASES[case].motion:
+        return float("nan")
+    K0d, K2d, _ = model.stiffness_terms(pieces, case, accel)
+    K0, K2 = model.pattern.matrix(K0d), model.pattern.matrix(K2d)
+    if K2.count_nonzero() == 0:
+        return float("nan")
+    n = K0.shape[0]
+    if n <= DENSE_LIMIT:
+        eta = la.eig(-K2.toarray(), K0.toarray(), right=False)
+    else:
+        lu = spla.splu(K0.tocsc())
+        op = spla.LinearOperator((n, n), matvec=lambda x: lu.solve(-(K2 @ x)), dtype=float)
+        eta = spla.eigs(op, k=min(24, n - 2), which="LR", return_eigenvectors=False)
+    eta = np.asarray(eta, dtype=complex)
+    eta = eta[np.isfinite(eta)]
+    real = eta.real[(np.abs(eta.imag) <= 1e-9 * np.abs(eta)) & (eta.real > 0)]
+    if not real.size:
+        return float("nan")
+    speed = float(np.sqrt(1.0 / real.max()))
+    return speed if speed <= max_speed else float("nan")
+
+
+def min_damping_ratio(engine, model, pieces, case: str, omega: float, n_modes: int, accel=None,
+                      imag_tol: float = 1e-9) -> float:
+    """Smallest damping ratio ζ of the ``n_modes`` reported modes at speed ``omega`` (NaN if
+    the point did not converge)."""
+    res = postprocess(engine.solve(model.qep(pieces, omega, case, accel), n_modes), n_modes, imag_tol)
+    return res.min_damping_ratio if res.status in CONVERGED else float("nan")
+
+
+def flutter_speed(engine, model, pieces, case: str, max_speed: float, n_modes: int, damping_tol: float,
+                  accel=None, n_scan: int = SCAN_POINTS, rtol: float = FLUTTER_RTOL) -> tuple[float, list[str]]:
+    """Lowest Ω in (0, ``max_speed``] where min ζ crosses -``damping_tol``, and notes.
+
+    The speeds Ω_k = k·max_speed/n_scan are scanned upwards; the first k whose min ζ is below
+    -damping_tol brackets the onset with Ω_{k-1}, which Brent's method refines to ``rtol``.
+    A crossing and return between two scan speeds is not seen (the notes give the spacing).
+    """
+    notes = [f"flutter bracketed on {n_scan} speeds up to {max_speed:g} rad/s (spacing {max_speed / n_scan:g}),"
+             f" refined to {rtol:g} relative"]
+    if not CASES[case].motion or not np.isfinite(max_speed) or max_speed <= 0:
+        return float("nan"), notes
+
+    def f(w):
+        z = min_damping_ratio(engine, model, pieces, case, w, n_modes, accel)
+        return z + damping_tol
+
+    lo, f_lo = 0.0, f(0.0)
+    if not f_lo > 0:
+        notes.append("already unstable (or not converged) at rest")
+        return (0.0 if np.isfinite(f_lo) else float("nan")), notes
+    for k in range(1, n_scan + 1):
+        hi = max_speed * k / n_scan
+        f_hi = f(hi)
+        if not np.isfinite(f_hi):
+            notes.append(f"not converged at {hi:g} rad/s: search stopped there")
+            return float("nan"), notes
+        if f_hi < 0:
+            return float(brentq(f, lo, hi, xtol=1e-3 * rtol * hi, rtol=rtol)), notes
+        lo = hi
+    return float("nan"), notes
+
+
+def critical_speeds(engine, model, angle_deg: float, case: str, n_modes: int, damping_tol: float,
+                    max_speed: float | None = None, default_max: float = 0.0, accel=None,
+                    n_scan: int = SCAN_POINTS) -> CriticalSpeeds:
+    """Divergence and flutter speeds at one crank angle.
+
+    ``max_speed`` bounds both; without it the divergence speed is unbounded and flutter is
+    searched up to the divergence speed (beyond which the linkage buckles anyway) or, when
+    there is none, up to ``default_max`` (no flutter search if that is 0).
+    """
+    pieces = model.pieces(np.radians(angle_deg))
+    bound = np.inf if max_speed is None else float(max_speed)
+    div = divergence_speed(model, pieces, case, accel, bound)
+    top = bound if max_speed is not None else (div if np.isfinite(div) else float(default_max))
+    notes = []
+    if top > 0 and np.isfinite(top):
+        flut, notes = flutter_speed(engine, model, pieces, case, top, n_modes, damping_tol, accel, n_scan)
+    else:
+        flut = float("nan")
+        if CASES[case].motion:
+            notes = ["flutter not searched: no divergence speed and no speed range (give --max-speed)"]
+    return CriticalSpeeds(float(angle_deg), div, flut, float(top), tuple(notes))
+
+
+@dataclass(frozen=True)
+class CriticalScan:
+    """Critical speeds of one case at each crank angle examined, and the lowest over them."""
+
+    case: str
+    damping_tol: float
+    n_modes: int
+    results: tuple[CriticalSpeeds, ...]
+
+    def lowest(self, key: str) -> tuple[float, float]:
+        """(speed, angle) of the lowest ``"divergence_speed"`` or ``"flutter_speed"`` (NaNs if none)."""
+        vals = np.array([getattr(r, key) for r in self.results], dtype=float)
+        if not np.any(np.isfinite(vals)):
+            return float("nan"), float("nan")
+        i = int(np.nanargmin(vals))
+        return float(vals[i]), self.results[i].angle_deg
+
+    def as_dict(self) -> dict:
+        """JSON-ready (None for none), the keys of ``fkev critical --json``."""
+        (div, a_div), (flut, a_flut) = self.lowest("divergence_speed"), self.lowest("flutter_speed")
+        finite = [(v, a) for v, a in ((div, a_div), (flut, a_flut)) if np.isfinite(v)]
+        first = min(finite)[1] if finite else (self.results[0].angle_deg if len(self.results) == 1 else None)
+        return {
+            "case": self.case, "modes": self.n_modes, "damping_tol": self.damping_tol, "angle_deg": _num(first),
+            "divergence_speed_rad_s": _num(div), "divergence_angle_deg": _num(a_div),
+            "flutter_speed_rad_s": _num(flut), "flutter_angle_deg": _num(a_flut),
+            "per_angle": [{"angle_deg": r.angle_deg, "divergence_speed_rad_s": _num(r.divergence_speed),
+                           "flutter_speed_rad_s": _num(r.flutter_speed), "flutter_search_max_rad_s": _num(r.max_speed),
+                           "notes": list(r.notes)} for r in self.results],
+        }  # fmt: skip
+
+
+def scan(engine, model, angles_deg, case: str, n_modes: int, damping_tol: float, max_speed: float | None = None,
+         default_max: float = 0.0, accel=None, n_scan: int = SCAN_POINTS) -> CriticalScan:
+    """:func:`critical_speeds` at each of ``angles_deg`` (deg); the lowest is :meth:`CriticalScan.lowest`."""
+    res = tuple(critical_speeds(engine, model, float(a), case, n_modes, damping_tol, max_speed, default_max, accel,
+                                n_scan) for a in angles_deg)
+    return CriticalScan(case, float(damping_tol), int(n_modes), res)
+
+
+def _num(v):
+    return None if v is None or not np.isfinite(v) else float(v)
