@@ -91,16 +91,6 @@ def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
     return scene
 
 
-def modes_problem(n_modes: int, n_free: int, flag: str | None) -> Problem | None:
-    """A problem when more modes are asked than the model can have: its ``n_free`` DOFs give
-    at most ``n_free`` oscillating modes (conjugate pairs of the 2·n_free eigenvalues)."""
-    if n_modes <= n_free:
-        return None
-    return Problem(flag or "analysis.modes",
-                   f"{n_modes} modes asked, but the model has {n_free} free DOFs, so at most {n_free} "
-                   "oscillating modes (refine with --elements or ask fewer)")
-
-
 def scene_case_modes(args, check_angles: bool = True) -> tuple[Scene, str, int]:
     """``args.scene`` loaded and checked (with ``--elements``; ``check_angles`` as in
     :func:`load_checked`), ``--case`` resolved and ``--modes`` checked (defaults: the scene's
