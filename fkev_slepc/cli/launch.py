@@ -1,8 +1,8 @@
 """``fkev run --np N``: start the N ranks ourselves (``mpiexec -n N python -m fkev_slepc ...``
 as a child process whose exit code we return), so that MPI runs do not depend on the Makefile
-or on remembering the launcher's flags. While it runs, this process ignores SIGINT: Ctrl-C
-reaches mpiexec, which forwards it to every rank (they stop cleanly and keep the archive
-resumable).
+or on remembering the launcher's flags. Ctrl-C reaches only this process (mpiexec runs in its
+own session); it is passed on as SIGUSR1, which mpiexec forwards to every rank: they stop at
+their next sync and keep the archive resumable.
 
 With Open MPI, ``--oversubscribe`` is added when N exceeds the CPUs this process may use
 (Open MPI otherwise refuses with "not enough slots"). The variables that let Open MPI run as
@@ -84,9 +84,27 @@ def relaunch(n: int, argv: list[str], environ: dict | None = None) -> int:
         return EXIT_BAD_INPUT
     sys.stdout.flush()
     sys.stderr.flush()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # the ranks handle Ctrl-C
+    return _supervise(cmd, environ)
+
+
+def _supervise(cmd: list[str], environ: dict | None) -> int:
+    """Run the launcher in its own session and turn Ctrl-C/SIGTERM into SIGUSR1 for it.
+
+    Open MPI's mpiexec answers SIGINT by killing the ranks one second later, but forwards
+    SIGUSR1 to them: they then stop at their next sync, cleanly (fkev_slepc.sweep.interrupt).
+    A second Ctrl-C is passed on as SIGINT (hard stop; the archive stays resumable)."""
+    proc = subprocess.Popen(cmd, env=environ, start_new_session=True)
+    count = 0
+
+    def forward(signum, frame):
+        nonlocal count
+        count += 1
+        proc.send_signal(signal.SIGUSR1 if count == 1 else signal.SIGINT)
+
+    previous = {sig: signal.signal(sig, forward) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        code = subprocess.run(cmd, env=environ).returncode
+        code = proc.wait()
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for sig, prev in previous.items():
+            signal.signal(sig, prev)
     return code if code >= 0 else 128 - code  # killed by a signal: the shell's convention

@@ -5,14 +5,17 @@ where the ranks agree with one collective OR whether any of them was interrupted
 leave the loop together: the points written so far stay in the ``.part`` archive (statuses
 flushed after their data, as at every sync), so ``--resume`` continues from there. Raising
 KeyboardInterrupt on one rank instead would leave the others waiting in a collective.
-Open MPI's ``mpirun`` answers Ctrl-C by sending SIGTERM to the ranks, hence both signals.
+Open MPI's ``mpirun`` answers Ctrl-C by sending SIGTERM to the ranks (and SIGKILL one second
+later: the archive is then as after ``kill -9``, consistent and resumable); it forwards SIGUSR1,
+which ``fkev run --np N`` sends instead, so that the ranks reach their next sync. Hence three
+signals. The first rank-0 notice is printed from the handler, before any SIGKILL can come.
 """
 
 from __future__ import annotations
 
 import signal
 
-SIGNALS = (signal.SIGINT, signal.SIGTERM)
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
 
 
 class StopRequest:
@@ -22,8 +25,10 @@ class StopRequest:
     second Ctrl-C still ends a rank that is stuck).
     """
 
-    def __init__(self):
+    def __init__(self, notify=None):
         self.requested: int | None = None  # the signal number received, if any
+        self.stopped = False  # the ranks agreed to stop (set by :meth:`agreed`)
+        self._notify = notify  # called once, with the signal's name, on the rank that has it
         self._previous: dict = {}
 
     def _handle(self, signum, frame) -> None:
@@ -32,12 +37,21 @@ class StopRequest:
             signal.raise_signal(signum)
             return
         self.requested = signum
+        self._tell(signal.Signals(signum).name)
+
+    def _tell(self, what: str) -> None:
+        if self._notify is not None:
+            notify, self._notify = self._notify, None
+            notify(what)
 
     def agreed(self, comm) -> bool:
         """Collective: True on every rank when any rank received a signal."""
         from mpi4py import MPI
 
-        return bool(comm.allreduce(self.requested is not None, op=MPI.LOR))
+        self.stopped = bool(comm.allreduce(self.requested is not None, op=MPI.LOR))
+        if self.stopped:
+            self._tell("a signal on another rank")
+        return self.stopped
 
     def __enter__(self):
         for sig in SIGNALS:

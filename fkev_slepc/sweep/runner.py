@@ -106,8 +106,12 @@ class Sweep:
         self.lam1 = np.array(lam1, dtype=float, copy=True)
         self._errors = recoverable_errors()
 
-    def run(self, todo: np.ndarray, comm, progress=None) -> int:
-        """Collective over ``comm``. Returns the number of points solved by all ranks."""
+    def run(self, todo: np.ndarray, comm, progress=None, stop=None) -> int:
+        """Collective over ``comm``. Returns the number of points solved by all ranks.
+
+        ``stop`` (:class:`~fkev_slepc.sweep.interrupt.StopRequest`): polled at every sync; when
+        any rank was signalled, every rank leaves after that sync (the points synced so far
+        are in the archive) and ``stop.stopped`` is set."""
         mine, n_rounds = assign(todo, comm.rank, comm.size)
         total, done = int(np.count_nonzero(todo)), 0
         log.info("%d points to solve on %d rank(s): %d angle(s) here, %d rounds",
@@ -119,6 +123,8 @@ class Sweep:
                 done += self.writer.sync()
                 if progress is not None and comm.rank == 0:
                     progress(done, total)
+                if stop is not None and rnd < n_rounds - 1 and stop.agreed(comm):
+                    break
         return done
 
     def solve_angle(self, ia: int, todo: np.ndarray) -> Block:
