@@ -1,0 +1,117 @@
+"""Ctrl-C during ``fkev run`` (issue 12, Deliver 1): every rank stops cleanly, the partial
+archive stays resumable, the ``--resume`` command is printed, and resuming gives the archive an
+uninterrupted run gives."""
+
+import os
+import shlex
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from clitools import BW, ROOT, fkev
+
+pytestmark = pytest.mark.slow
+GRID = ("--angles", "0:358:2", "--cases", "structure,full", "--solver", "dense", "--modes", "3")
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}  # only so that the tests run as root on 2 cores
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref") / "ref.h5"
+    r = fkev("run", BW, *GRID, "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def start(argv, env_extra=None):
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **(env_extra or {})}
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+
+
+def interrupt_after_start(proc, pid=None, sig=signal.SIGINT):
+    """Wait for the 'points to solve' line, let it work a little, then signal ``pid``."""
+    lines = []
+    while True:
+        line = proc.stderr.readline()
+        assert line, "the run ended before it started solving: " + "".join(lines)
+        lines.append(line)
+        if "points to solve" in line:
+            break
+    time.sleep(1.5)
+    assert proc.poll() is None, "the run finished before it was interrupted"
+    os.kill(pid or proc.pid, sig)
+    out, err = proc.communicate(timeout=300)
+    return proc.returncode, "".join(lines) + err
+
+
+def resume_command(stderr: str) -> list[str]:
+    line = next(ln for ln in stderr.splitlines() if "continue with: " in ln)
+    cmd = shlex.split(line.split("continue with: ", 1)[1])
+    assert cmd[0] == "fkev" and "--resume" in cmd
+    return cmd[1:]
+
+
+def assert_same_archive(got, ref):
+    with h5py.File(got) as f, h5py.File(ref) as g:
+        assert f.attrs["complete"] == 1
+        assert np.array_equal(f["status"][()], g["status"][()])
+        for name in ("frequency_hz", "tracked_frequency_hz", "eigenvalue", "max_real"):
+            np.testing.assert_array_equal(f[name][()], g[name][()])
+
+
+def check_interrupted(code, stderr, out):
+    part = out.with_name(out.name + ".part")
+    assert code == 130, stderr
+    assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr
+    assert part.exists() and not out.exists()
+    with h5py.File(part) as f:
+        assert f.attrs["complete"] == 0
+        done = int(np.count_nonzero(f["status"][()]))
+        assert done < f["status"].size  # stopped early: something is left for --resume
+    return resume_command(stderr)
+
+
+def test_ctrl_c_one_process_then_resume_equals_uninterrupted(tmp_path, reference):
+    out = tmp_path / "bw.h5"
+    proc = start([sys.executable, "-m", "fkev_slepc", "run", str(BW), *GRID, "-o", str(out)])
+    code, stderr = interrupt_after_start(proc)
+    args = check_interrupted(code, stderr, out)
+    r = fkev(*args)
+    assert r.returncode == 0, r.stderr
+    assert_same_archive(out, reference)
+
+
+def test_ctrl_c_with_np_2_stops_both_ranks_cleanly(tmp_path, reference):
+    """``fkev run --np 2``: Ctrl-C on the launcher reaches both ranks (as SIGUSR1 through
+    mpiexec); they stop at the same sync, the launcher exits 130 with the resume command."""
+    out = tmp_path / "bw.h5"
+    proc = start([sys.executable, "-m", "fkev_slepc", "run", str(BW), *GRID, "-o", str(out), "--np", "2"],
+                 MPI_ENV)
+    code, stderr = interrupt_after_start(proc)
+    args = check_interrupted(code, stderr, out)
+    assert "--np" in args  # resumes on 2 ranks too
+    r = fkev(*args)
+    assert r.returncode == 0, r.stderr
+    assert_same_archive(out, reference)
+
+
+def test_sigint_under_mpirun_keeps_the_archive_resumable(tmp_path, reference):
+    """Under a bare ``mpirun -n 2`` Open MPI turns Ctrl-C into SIGTERM for the ranks and kills
+    them a second later; rank 0 prints the resume command at once and the archive (consistent
+    as after kill -9) resumes to the uninterrupted result."""
+    out = tmp_path / "bw.h5"
+    proc = start(["mpirun", "-n", "2", sys.executable, "-m", "fkev_slepc", "run", str(BW), *GRID, "-o", str(out)],
+                 MPI_ENV)
+    code, stderr = interrupt_after_start(proc)
+    assert code != 0 and "continue with: fkev run" in stderr
+    part = out.with_name(out.name + ".part")
+    assert part.exists() and not out.exists()
+    r = fkev(*resume_command(stderr))
+    assert r.returncode == 0, r.stderr
+    assert_same_archive(out, reference)
