@@ -63,6 +63,7 @@ RETRYABLE: tuple[Status, ...] = (Status.FAILED, Status.NOT_CONVERGED)
 EXIT_OK = 0  # every point converged (unstable/divergent points included)
 EXIT_BAD_INPUT = 2  # bad scene, options, archive or path; nothing was solved
 EXIT_NOT_CONVERGED = 3  # some points failed or did not converge (they are flagged, not guessed)
+EXIT_INTERRUPTED = 130  # Ctrl-C/SIGTERM: every rank stopped cleanly, the partial archive is resumable
 
 
 def codes(statuses) -> list[int]:

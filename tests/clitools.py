@@ -11,9 +11,9 @@ BW = ROOT / "runs/bahgat-willmert-1976.toml"
 SMALL = ("--angles", "0,10", "--speeds", "0", "--cases", "structure")  # 2 points, dense, < 1 s
 
 
-def fkev(*args, cwd=None, timeout=300):
-    """``python -m fkev_slepc ARGS`` with this checkout first on the path."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+def fkev(*args, cwd=None, timeout=300, env_extra=None):
+    """``python -m fkev_slepc ARGS`` with this checkout first on the path (and ``env_extra``)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **(env_extra or {})}
     return subprocess.run([sys.executable, "-m", "fkev_slepc", *map(str, args)], capture_output=True, text=True,
                           timeout=timeout, env=env, cwd=cwd)
 

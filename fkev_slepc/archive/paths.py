@@ -65,3 +65,44 @@ def _alts(suffixes) -> str:
 
 def _why(exc: OSError) -> str:
     return exc.strerror or type(exc).__name__
+
+
+def check_archive_output(out: str | Path, *, resume: bool, force: bool, flag: str = "-o",
+                         make_parent: bool = False) -> Path:
+    """:func:`check_output` for an archive, and no silent replacement of earlier work.
+
+    Without ``resume`` or ``force``, an existing archive ``out`` (finished) or ``out.part``
+    (an interrupted run) is refused, naming the way to continue it (``--resume``) or to
+    replace it (``--force``). With ``force`` an existing output is replaced only when the new
+    run finishes (it writes ``out.part`` meanwhile; an unfinished run is started over).
+
+    Raises
+    ------
+    PathProblem
+    """
+    p = check_output(out, (".h5",), flag, make_parent=make_parent)
+    part = p.with_name(p.name + ".part")
+    if resume or force:
+        if part.is_dir():
+            raise PathProblem(f"{flag} {p}: {part} is a directory")
+        return p
+    if p.exists():
+        raise PathProblem(f"{flag} {p}: an archive already exists ({_points(p)}); continue it with --resume "
+                          "(with --retry-failed to solve its failed points again) or replace it with --force")
+    if part.exists():
+        raise PathProblem(f"{flag} {p}: an unfinished run exists ({part.name}, {_points(part)}); continue it with "
+                          "--resume or start over with --force")
+    return p
+
+
+def _points(path: Path) -> str:
+    """``1314 points, 1314 done`` for an fkev archive, ``not an fkev archive`` otherwise."""
+    try:
+        import h5py
+        import numpy as np
+
+        with h5py.File(path, "r") as f:
+            status = f["status"][()]
+            return f"{status.size} points, {int(np.count_nonzero(status))} done"
+    except (OSError, KeyError):
+        return "not an fkev archive"

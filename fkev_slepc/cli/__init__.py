@@ -14,7 +14,7 @@ import logging
 import os
 import sys
 
-from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
 SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical")
 GLOBAL_FLAGS = {"-v": ("verbose", 1), "--verbose": ("verbose", 1), "-q": ("quiet", 1), "--quiet": ("quiet", 1)}
 
@@ -137,4 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     from fkev_slepc.sweep.parallel import configure_logging
 
     configure_logging(level)
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:  # outside a sweep's solve loop (which stops cleanly by itself)
+        print(f"fkev {args.command}: interrupted", file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED

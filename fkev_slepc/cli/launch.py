@@ -5,7 +5,8 @@ own session); it is passed on as SIGUSR1, which mpiexec forwards to every rank: 
 their next sync and keep the archive resumable.
 
 With Open MPI, ``--oversubscribe`` is added when N exceeds the CPUs this process may use
-(Open MPI otherwise refuses with "not enough slots"). The variables that let Open MPI run as
+(Open MPI otherwise refuses with "not enough slots"), and ``--quiet`` (fkev's own one-line
+messages say what went wrong; mpiexec's banner about non-zero exit codes would bury them). The variables that let Open MPI run as
 root (``OMPI_ALLOW_RUN_AS_ROOT``...) are never set here: running as root is the user's
 decision; without them Open MPI refuses, and we say so in one line before launching.
 """
@@ -21,6 +22,7 @@ import sys
 from fkev_slepc.status import EXIT_BAD_INPUT
 
 ROOT_VARS = ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM")
+NP_VARIABLE = "FKEV_NP"  # set for the launched ranks: their resume hint repeats --np N
 
 
 def strip_np(argv: list[str]) -> list[str]:
@@ -42,8 +44,10 @@ def mpiexec_command(n: int, argv: list[str], library: str, cpus: int) -> list[st
     if exe is None:
         raise LaunchError("--np: no mpiexec or mpirun on PATH (install Open MPI or MPICH, or run without --np)")
     cmd = [exe, "-n", str(n)]
-    if "Open MPI" in library and n > cpus:
-        cmd.append("--oversubscribe")
+    if "Open MPI" in library:
+        cmd.append("--quiet")  # no "N processes returned a non-zero exit code" banner: ours says why
+        if n > cpus:
+            cmd.append("--oversubscribe")
     return cmd + [sys.executable, "-m", "fkev_slepc", *strip_np(argv)]
 
 
@@ -84,7 +88,7 @@ def relaunch(n: int, argv: list[str], environ: dict | None = None) -> int:
         return EXIT_BAD_INPUT
     sys.stdout.flush()
     sys.stderr.flush()
-    return _supervise(cmd, environ)
+    return _supervise(cmd, {**(os.environ if environ is None else environ), NP_VARIABLE: str(n)})
 
 
 def _supervise(cmd: list[str], environ: dict | None) -> int:

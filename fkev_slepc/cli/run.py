@@ -10,6 +10,8 @@ options, 3 some points failed or did not converge.
 
 from __future__ import annotations
 
+import os
+import shlex
 import sys
 from pathlib import Path
 
@@ -17,6 +19,7 @@ from fkev_slepc.scene import SceneError, load_scene, with_elements
 from fkev_slepc.status import EXIT_BAD_INPUT
 from fkev_slepc.sweep.session import default_output
 from .common import add_accuracy_arguments, add_elements_argument, apply_element
+from .launch import NP_VARIABLE
 
 
 def add_parser(sub) -> None:
@@ -44,7 +47,10 @@ def add_parser(sub) -> None:
                    help="also solve every point with the other engine (dense <-> SLEPc) and report the "
                         "largest relative frequency difference (archived in the solver settings)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run of the same scene")
-    p.add_argument("--retry-failed", action="store_true", help="with --resume: solve failed and not-converged points again")
+    p.add_argument("--retry-failed", action="store_true",
+                   help="solve failed and not-converged points again (implies --resume)")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing archive or unfinished run (refused otherwise)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--np", type=int, metavar="N", help="start N MPI ranks (runs mpiexec itself; with Open MPI "
                    "adds --oversubscribe when N exceeds the CPUs)")
@@ -55,7 +61,7 @@ def run(args) -> int:
     """Parse, run the sweep (:mod:`fkev_slepc.sweep.session`, as ``Study.sweep``), print, exit code."""
     from fkev_slepc.sweep.grid import CLI_NAMES, configure
     from fkev_slepc.sweep.parallel import install_abort_hook, world
-    from fkev_slepc.sweep.session import RunRefused, SweepRequest, plan_accuracy, run_sweep
+    from fkev_slepc.sweep.session import RunRefused, SweepInterrupted, SweepRequest, plan_accuracy, run_sweep
 
     comm = world()
     install_abort_hook()
@@ -71,8 +77,11 @@ def run(args) -> int:
         scene, plan = plan_accuracy(scene, rel_error, args.solver, comm, None if args.quiet else _note, "--rel-error")
         request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene),
                                resume=args.resume, retry_failed=args.retry_failed, solver=args.solver,
-                               cross_check=args.cross_check, accuracy=plan)
+                               cross_check=args.cross_check, accuracy=plan, force=args.force,
+                               make_dirs=args.output is None, resume_command=resume_command(sys.argv[1:]))
         outcome = run_sweep(request, comm, notify=_note, progress=not args.quiet)
+    except SweepInterrupted as err:  # the notice with the resume command is already printed
+        return err.exit_code
     except SceneError as err:
         if rank0:
             print(str(err), file=sys.stderr, flush=True)
@@ -86,6 +95,18 @@ def run(args) -> int:
         print(f"fkev run: wrote {outcome.output}: {outcome.n_points} points ({summary}) in "
               f"{outcome.wall_time_s:.1f} s on {outcome.n_ranks} rank(s)", flush=True)
     return outcome.exit_code
+
+
+def resume_command(argv: list[str]) -> str:
+    """The command that continues this run: the same arguments with ``--resume`` (without
+    ``--force``), and ``--np N`` again when ``fkev run --np N`` launched this rank."""
+    args = [a for a in argv if a != "--force"]
+    if "--resume" not in args:
+        args.append("--resume")
+    n = os.environ.get(NP_VARIABLE)
+    if n and "--np" not in args:
+        args += ["--np", n]
+    return shlex.join(["fkev", *args])
 
 
 def _note(message: str) -> None:

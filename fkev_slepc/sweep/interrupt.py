@@ -14,6 +14,9 @@ signals. The first rank-0 notice is printed from the handler, before any SIGKILL
 from __future__ import annotations
 
 import signal
+from pathlib import Path
+
+from fkev_slepc.status import EXIT_INTERRUPTED
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
 
@@ -66,3 +69,14 @@ class StopRequest:
             signal.signal(sig, prev)
         self._previous = {}
         return False
+
+
+class SweepInterrupted(Exception):
+    """Every rank stopped after a signal (Ctrl-C, SIGTERM): ``part`` holds the points finished
+    so far and is resumable; ``exit_code`` is 130 (the shell's code for SIGINT)."""
+
+    exit_code = EXIT_INTERRUPTED
+
+    def __init__(self, part: Path, n_solved: int):
+        super().__init__(f"interrupted after {n_solved} points; {part} is kept for a resume")
+        self.part, self.n_solved = part, n_solved

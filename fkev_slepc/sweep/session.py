@@ -29,6 +29,7 @@ import numpy as np
 
 from fkev_slepc.scene import Scene
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK, RETRYABLE, Status, codes
+from fkev_slepc.sweep.interrupt import StopRequest, SweepInterrupted  # noqa: F401 (raised by solve)
 
 
 class RunRefused(Exception):
@@ -80,6 +81,9 @@ class SweepRequest:
     cross_check: bool = False  # also solve every point with the other engine
     command_line: str = field(default_factory=lambda: " ".join(sys.argv))  # archived
     accuracy: dict | None = None  # the mesh plan of plan_accuracy (archived, not a resume condition)
+    force: bool = False  # replace an existing archive (or unfinished run) instead of refusing
+    make_dirs: bool = True  # create a missing output directory (fkev run: only for its default <scene dir>/out/)
+    resume_command: str | None = None  # how the user continues after an interruption (printed)
 
 
 @dataclass(frozen=True)
@@ -181,10 +185,13 @@ class SweepSession:
         """Rank 0: take the output's lock (archive/lock.py; held until :meth:`finalise`, so a
         second writer is refused), then open the output."""
         from fkev_slepc.archive.lock import ArchiveLocked, hold, release
+        from fkev_slepc.archive.paths import PathProblem, check_output
 
-        try:
+        req = self.request
+        try:  # a path that cannot be written is one line naming it, before the lock file is made
+            check_output(self.output, (".h5",), "output" if req.make_dirs else "-o", make_parent=req.make_dirs)
             hold(self.output)
-        except ArchiveLocked as exc:
+        except (ArchiveLocked, PathProblem) as exc:
             raise OutputError(str(exc)) from None
         try:
             plan = self._open_on_rank0()
@@ -198,8 +205,16 @@ class SweepSession:
     def _open_on_rank0(self) -> OutputPlan:
         from fkev_slepc.archive import store
 
+        from fkev_slepc.archive.paths import PathProblem, check_archive_output
+
         out, req, grid = self.output, self.request, self.grid
-        if req.resume:
+        resume = req.resume or req.retry_failed  # retrying failed points means continuing an archive
+        try:  # before anything is created or solved: one line naming the path
+            check_archive_output(out, resume=resume, force=req.force, make_parent=req.make_dirs,
+                                 flag="output" if req.make_dirs else "-o")
+        except PathProblem as exc:
+            raise OutputError(str(exc)) from None
+        if resume:
             try:
                 src = store.open_for_resume(out, grid, self._expect())
             except FileNotFoundError as exc:
@@ -217,7 +232,6 @@ class SweepSession:
                     store.reopen_finished(out)
                 return OutputPlan(store.partial_path(out), state.status, state.lam1, todo)
         part = store.partial_path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
         mech, scene = self.model.mechanism, req.scene
         mesh = {"node_link": mech.node_link, "node_s": mech.node_s, "node_dofs": mech.node_dofs,
                 "elem_nodes": mech.elem_nodes, "link_names": list(mech.link_names)}
@@ -261,12 +275,18 @@ class SweepSession:
             bar = Progress(int(plan.todo.sum()))
         opts = SweepOptions(self.grid.n_modes, an.imag_tol, an.damping_tol, an.mode_shapes, self.track_dofs)
         writer = archive_writer.Writer(plan.part, self.comm, parallel=archive_writer.use_mpio(self.comm))
+        stop = StopRequest(notify=lambda what: self._notify(self._interrupt_note(what, plan.part)))
         try:
-            done = Sweep(self.model, self.grid, self.engine, writer, opts, plan.lam1).run(plan.todo, self.comm, bar)
+            with stop:  # Ctrl-C/SIGTERM: every rank leaves after the same sync (sweep.interrupt)
+                sweep = Sweep(self.model, self.grid, self.engine, writer, opts, plan.lam1)
+                done = sweep.run(plan.todo, self.comm, bar, stop=stop)
         finally:
             writer.close()
             if bar is not None:
                 bar.close()
+        if stop.stopped:
+            self.engine.close()
+            raise SweepInterrupted(plan.part, done)
         self._final_settings = self._settings() if self.rank0 else None  # before close: reads solver objects
         self._cross = self._reduce_cross_check()
         if self._cross is not None and self.rank0:
@@ -274,6 +294,11 @@ class SweepSession:
                 {k: self._cross[k] for k in ("max_rel_diff", "points", "skipped")})
         self.engine.close()
         return done
+
+    def _interrupt_note(self, what: str, part: Path) -> str:
+        how = self.request.resume_command or "the same sweep with resume=True"
+        return (f"interrupted by {what}: stopping at the next sync; the points finished so far stay in {part}; "
+                f"continue with: {how}")
 
     def _reduce_cross_check(self) -> dict | None:
         if not self.request.cross_check:
