@@ -1,4 +1,4 @@
-"""Sweep logic: indexing, distribution, continuation hints, failure capture, tracking, `fkev run`.
+"""Sweep logic: indexing, distribution, continuation hints, failure capture, `fkev run` (tracking: test_tracking.py).
 
 In-process on one rank (``COMM_SELF``) with the real model, the dense engine and real HDF5
 files; the multi-rank behaviour is in test_mpi.py.
@@ -21,7 +21,8 @@ from fkev_slepc.solve.dense import DenseEngine
 from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.status import Status
 from fkev_slepc.model.operators import Model
-from fkev_slepc.sweep.runner import Sweep, SweepOptions, assign, chain_order, track, tracking_dofs
+from fkev_slepc.sweep.runner import Sweep, SweepOptions, assign
+from fkev_slepc.sweep.tracking import tracking_dofs
 
 SCENE_TOML = "runs/bahgat-willmert-1976.toml"
 
@@ -48,77 +49,6 @@ def test_assign_is_cyclic_complete_and_in_equal_rounds(size):
     assert max(len(p) for p, _ in parts) - min(len(p) for p, _ in parts) <= 1
     assert rounds.pop() == -(-63 // size)
     assert np.array_equal(parts[0][0][:3], got[[0, size, 2 * size]])  # cyclic
-
-
-def test_tracking_dofs():
-    assert tracking_dofs(15, 1) is None
-    assert np.array_equal(tracking_dofs(15, 5), np.arange(15))
-    big = tracking_dofs(1000, 5)
-    assert len(big) == 64 and big[0] == 0 and big[-1] == 999 and set(np.diff(big)) <= {15, 16}
-
-
-# --------------------------------------------------------------------------- tracking
-@pytest.mark.parametrize("angles, walk, closed", [
-    (np.arange(0, 361, 30.0), np.arange(0, 361, 30.0), True),
-    (np.arange(0, 331, 30.0), np.arange(0, 331, 30.0), True),
-    ([0.0, 30.0, 300.0, 330.0], [300.0, 330.0, 0.0, 30.0], False),  # walk across 360 -> 0
-    ([90.0, 0.0, 45.0], [0.0, 45.0, 90.0], False),
-    ([10.0], [10.0], False),
-])
-def test_chain_order_wraps(angles, walk, closed):
-    order, is_closed = chain_order(angles)
-    assert np.array_equal(np.asarray(angles)[order], walk) and is_closed == closed
-
-
-def _crossing(n=13):
-    """Two modes whose frequencies cross at mid-range; each keeps its shape (e1 or e2)."""
-    t = np.linspace(0.0, 1.0, n)
-    fa, fb = 100.0 + 50.0 * t, 140.0 - 30.0 * t  # cross at t = 0.5
-    lo = fa < fb
-    freq = np.stack([np.minimum(fa, fb), np.maximum(fa, fb)], axis=-1)[:, None, None, :]
-    e1, e2 = np.array([1.0, 0.1, 0.0]), np.array([0.05, 1.0, 0.2])
-    sig = np.empty((n, 1, 1, 3, 2), complex)
-    sig[:, 0, 0, :, 0] = np.where(lo[:, None], e1, e2)  # the lower sorted mode is a while fa < fb
-    sig[:, 0, 0, :, 1] = np.where(lo[:, None], e2, e1)
-    return t, fa, fb, freq, sig
-
-
-def test_track_follows_shapes_through_a_crossing():
-    t, fa, fb, freq, sig = _crossing()
-    st = np.full((len(t), 1, 1), Status.OK.code, np.uint8)
-    tracked, open_loops = track(freq, st, sig, np.linspace(0, 120, len(t)))
-    assert np.allclose(tracked[:, 0, 0, 0], fa) and np.allclose(tracked[:, 0, 0, 1], fb)
-    assert not np.allclose(freq[:, 0, 0, 0], fa)  # the sorted order does switch
-    assert open_loops == 0
-
-
-def test_track_skips_unconverged_points_and_copies_without_vectors():
-    t, fa, fb, freq, sig = _crossing()
-    st = np.full((len(t), 1, 1), Status.OK.code, np.uint8)
-    st[6] = Status.FAILED.code
-    tracked, _ = track(freq, st, sig, np.linspace(0, 120, len(t)))
-    assert np.all(np.isnan(tracked[6])) and np.allclose(tracked[7:, 0, 0, 0], fa[7:])
-    same, _ = track(freq, st, None, np.linspace(0, 120, len(t)))
-    assert np.array_equal(same[7:], freq[7:])
-
-
-def test_track_counts_modes_that_come_back_permuted_after_a_revolution():
-    """Mode a (100 -> 150 Hz) and b (140 -> 110 Hz) cross while their shapes turn by 90°: at
-    360° the lower mode is again e1-shaped as at 0°, but it is b, so the loop is open."""
-    n = 13
-    t = np.linspace(0.0, 1.0, n)
-    fa, fb = 100.0 + 50.0 * t, 140.0 - 30.0 * t
-    phi = 0.5 * np.pi * t
-    a = np.stack([np.cos(phi), np.sin(phi), 0 * phi], axis=1)
-    b = np.stack([-np.sin(phi), np.cos(phi), 0 * phi], axis=1)
-    lo = fa < fb
-    freq = np.stack([np.minimum(fa, fb), np.maximum(fa, fb)], axis=-1)[:, None, None, :]
-    sig = np.stack([np.where(lo[:, None], a, b), np.where(lo[:, None], b, a)], axis=-1)[:, None, None] + 0j
-    st = np.full((n, 1, 1), Status.OK.code, np.uint8)
-    tracked, open_loops = track(freq, st, sig, np.linspace(0, 360, n))
-    assert np.allclose(tracked[:, 0, 0, 0], fa) and open_loops == 1
-    _, open_arc = track(freq, st, sig, np.linspace(0, 180, n))  # not a revolution: nothing to close
-    assert open_arc == 0
 
 
 # ------------------------------------------------------------------------- the sweep itself

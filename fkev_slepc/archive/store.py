@@ -49,6 +49,7 @@ FORMAT, FORMAT_VERSION = "fkev-archive", 1
 _GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, case, mode)
     "frequency_hz": ("f8", np.nan, "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency"),
     "tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank angle (MAC)"),
+    "speed_tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank speed (MAC)"),
     "eigenvalue": ("c16", complex(np.nan, np.nan), "1/s", "eigenvalue lambda of the mode (Im > 0 member)"),
     "residual": ("f8", np.nan, "1", "relative residual |P(lambda)x| / (|Kx| + |lambda||Cx| + |lambda|^2|Mx|)"),
     "damping_ratio": ("f8", np.nan, "1", "damping ratio zeta = -Re(lambda)/|lambda| of the mode (< 0: growing)"),
@@ -298,7 +299,7 @@ def reopen_finished(path) -> Path:
 def read_tracking_inputs(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(frequency_hz, status, tracking signature or None) of every point."""
     with h5py.File(path, "r") as f:
-        sig = f["tracking/signature"][()] if "tracking" in f else None
+        sig = f["tracking/signature"][()] if "tracking/signature" in f else None
         return f["frequency_hz"][()], np.asarray(f["status"][()], dtype=np.uint8), sig
 
 

@@ -141,6 +141,8 @@ def report(res, n_errors: int = 5) -> list[str]:
     if "tracking_open_loops" in at:
         lines.append(f"  tracking    MAC along crank angle; {int(at['tracking_open_loops'])} (speed, case) "
                      "line(s) whose modes come back permuted after a revolution")
+    lines.append(f"  thresholds  imag_tol {at.get('imag_tol')}, stability_tol {at.get('stability_tol')}")
+    lines.extend(_tracking(res))
     lines.append(f"  run         {float(at.get('wall_time_s', 0.0)):.1f} s wall on {at.get('n_ranks', '?')} rank(s); "
                  f"fkev {at.get('fkev_version')}, PETSc {at.get('petsc_version')}, SLEPc {at.get('slepc_version')}, "
                  f"h5py {at.get('h5py_version')}, {at.get('mpi_version')}")
@@ -209,6 +211,38 @@ def _severity(res, status, mask, js, jc, speed) -> str:
     """Unstable: smallest ζ and the worst mode's growth per crank revolution; divergent: max Re λ."""
     from fkev_slepc.solve.stability import growth_per_revolution
     from fkev_slepc.status import Status
+def _tracking(res) -> list[str]:
+    """What mode tracking found (``/tracking`` attributes, docs/tracking.md)."""
+    import h5py
+
+    with h5py.File(res.path, "r") as f:
+        t = dict(f["tracking"].attrs) if "tracking" in f else {}
+        fb = f["tracking/fallback"][()] if "tracking/fallback" in f else None
+    if "mac_min" not in t:
+        if "tracking_open_loops" in res.attrs:  # archives written before refinement existed
+            return [f"  tracking    MAC along crank angle; {int(res.attrs['tracking_open_loops'])} (speed, case) "
+                    "line(s) whose modes come back permuted after a revolution"]
+        return ["  tracking    none (one angle and one speed)"]
+    na, ns, nc = res.status.shape
+    out = [f"  tracking    MAC >= {t['mac_min']:g} with a margin >= {t['mac_margin']:g} over the competitors; "
+           f"links halved at most {int(t['max_halvings'])} times",
+           f"    along crank angle: {int(t['ambiguous_links'])} ambiguous (link, line) pairs on the grid; "
+           f"{int(t['refined_angles'])} extra angles solved ({int(t['refined_points'])} points, /tracking/refined); "
+           f"{int(t['unresolved_links'])} ambiguous links left; {int(t.get('crossings', 0))} crossings confirmed; "
+           f"{int(t['open_loops'])} open loops"]
+    if fb is not None and fb.any():
+        which = ", ".join(f"{res.speed_rad_s[s]:g} rad/s {res.cases[c]}" for s, c in np.argwhere(fb))
+        out.append(f"    {int(fb.sum())} of {ns * nc} (speed, case) lines in SORTED order (fallback): {which}")
+    else:
+        out.append(f"    all {ns * nc} (speed, case) lines tracked")
+    if "speed_fallback_lines" in t and ns > 1:
+        out.append(f"    along speed: {int(t['speed_fallback_lines'])} of {na * nc} (angle, case) lines ambiguous "
+                   "or crossing, left in sorted order")
+    return out
+
+
+def _errors(res, n: int) -> list[str]:
+    import h5py
 
     if status == Status.DIVERGENT:
         return f"largest real eigenvalue {np.nanmax(res.max_real[:, js, jc][mask]):.4g} 1/s"

@@ -16,11 +16,11 @@ points of the same angle, which one rank solves in a fixed order, so a point get
 hint on any number of ranks and after a resume (the hint then comes from the archive, where
 |λ1| was stored exactly): results do not depend on the rank count.
 
-**Tracking.** Modes are followed along crank angle by MAC between neighbouring angles
-(:func:`track`) after the sweep, from eigenvector entries at up to :data:`TRACK_DOFS` free DOFs
-stored per point in the archive (``/tracking/signature``), so tracking does not need
-neighbouring angles on the same rank and survives a resume. Eigenvectors are therefore
-computed for every point when the sweep has more than one angle.
+**Tracking** (:mod:`fkev_slepc.sweep.tracking`). Modes are followed by MAC after the sweep, from
+eigenvector entries at up to ``tracking.TRACK_DOFS`` free DOFs stored per point in the archive
+(``/tracking/signature``), so tracking does not need neighbouring angles on the same rank and
+survives a resume. Eigenvectors are therefore computed for every point when the sweep has more
+than one angle or speed. :meth:`Sweep.solve_samples` solves the extra angles tracking asks for.
 
 **Failures.** ``PETSc.Error``, ``LinAlgError`` and ``FloatingPointError`` raised while solving
 a point mark it ``failed`` with the message; any other exception is a bug and propagates
@@ -37,12 +37,12 @@ import numpy as np
 
 from fkev_slepc.archive.store import Grid, modulus
 from fkev_slepc.archive.writer import Block, Writer
-from fkev_slepc.solve.modes import CNAN, PointResult, failed, match_modes, postprocess
-from fkev_slepc.scene import DAMPING_TOL
-from fkev_slepc.status import CONVERGED, RETRYABLE, converged_codes
+from fkev_slepc.model.operators import AssemblyError
+from fkev_slepc.solve.modes import CNAN, PointResult, failed, postprocess
+from fkev_slepc.status import CONVERGED, RETRYABLE
+from fkev_slepc.sweep.refine import Samples
 
 log = logging.getLogger(__name__)
-TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
 
 
 @dataclass(frozen=True)
@@ -58,18 +58,6 @@ class SweepOptions:
     @property
     def want_vectors(self) -> bool:
         return self.mode_shapes or self.tracking_dofs is not None
-
-
-def tracking_dofs(n_free: int, n_angles: int, limit: int = TRACK_DOFS) -> np.ndarray | None:
-    """Free DOFs whose eigenvector entries are stored for tracking; None for one angle.
-
-    Every DOF of models with at most ``limit`` of them, else ``limit`` DOFs spread evenly
-    over the numbering (a non-integer stride, so U, V and Φ entries all appear)."""
-    if n_angles < 2:
-        return None
-    if n_free <= limit:
-        return np.arange(n_free)
-    return np.unique(np.linspace(0, n_free - 1, limit).round().astype(int))
 
 
 def recoverable_errors() -> tuple[type[BaseException], ...]:
@@ -129,8 +117,27 @@ class Sweep:
 
     def solve_angle(self, ia: int, todo: np.ndarray) -> Block:
         """Solve the points of crank angle ``ia`` marked in ``todo`` (speed, case)."""
-        grid, model, o = self.grid, self.model, self.opts
-        theta = float(np.radians(grid.angles_deg[ia]))
+        theta = float(np.radians(self.grid.angles_deg[ia]))
+        results = self._solve_at(theta, todo, self.lam1[ia])
+        return self._block(ia, todo, results, self.model.node_positions(theta) if self.opts.mode_shapes else None)
+
+    def solve_samples(self, angle_deg: float, todo: np.ndarray) -> Samples:
+        """Solve the (speed, case) points of ``todo`` at an angle off the grid, for tracking
+        (:func:`tracking.refine_angles`); nothing is written. Hints come from this angle only."""
+        lam1 = np.full(todo.shape, np.nan)
+        try:
+            results = self._solve_at(float(np.radians(angle_deg)), todo, lam1)
+        except AssemblyError as exc:  # cannot happen between two assembled grid angles, but never guess
+            results = {tuple(i): failed(self.opts.n_modes, str(exc)) for i in np.argwhere(todo)}
+        b = self._block(-1, todo, results, None)
+        sig = b.data.get("tracking/signature")
+        return Samples(np.array([float(angle_deg)]), b.data["frequency_hz"][None], b.status[None],
+                       None if sig is None else sig[None], b.data["eigenvalue"][None])
+
+    def _solve_at(self, theta: float, todo: np.ndarray, lam1: np.ndarray) -> dict:
+        """Results {(speed, case): PointResult} of the points of ``todo`` at crank angle
+        ``theta`` (rad); ``lam1`` (speed, case) holds and receives the |λ1| hints."""
+        grid, model = self.grid, self.model
         pieces = model.pieces(theta)
         results: dict[tuple[int, int], PointResult] = {}
         cases = list(grid.cases)
@@ -139,21 +146,21 @@ class Sweep:
             jc = cases.index("structure")
             need = np.flatnonzero(todo[:, jc])
             if need.size:  # independent of speed: solve once, store at every speed
-                res = self._solve(model.qep(pieces, float(grid.speeds[0]), "structure"), None, (ia, 0, jc))
+                res = self._solve(model.qep(pieces, float(grid.speeds[0]), "structure"), None, (theta, 0, jc))
                 for js in need:
-                    self._keep(results, (ia, js, jc), res)
-            known = self.lam1[ia, :, jc][np.isfinite(self.lam1[ia, :, jc])]
+                    self._keep(results, lam1, (js, jc), res)
+            known = lam1[:, jc][np.isfinite(lam1[:, jc])]
             struct_lam1 = known[0] if known.size else np.nan
         for js, speed in enumerate(grid.speeds):
             for jc, case in enumerate(cases):
                 if case == "structure" or not todo[js, jc]:
                     continue
-                prev = self.lam1[ia, js - 1, jc] if js > 0 else np.nan
+                prev = lam1[js - 1, jc] if js > 0 else np.nan
                 hint = prev if np.isfinite(prev) else struct_lam1
                 res = self._solve(model.qep(pieces, float(speed), case),
-                                  float(hint) if np.isfinite(hint) else None, (ia, js, jc))
-                self._keep(results, (ia, js, jc), res)
-        return self._block(ia, todo, results, model.node_positions(theta) if o.mode_shapes else None)
+                                  float(hint) if np.isfinite(hint) else None, (theta, js, jc))
+                self._keep(results, lam1, (js, jc), res)
+        return results
 
     def _solve(self, qep, hint, where) -> PointResult:
         o = self.opts
@@ -161,15 +168,16 @@ class Sweep:
             sol = self.engine.solve(qep, o.n_modes, want_vectors=o.want_vectors, hint=hint)
             return postprocess(sol, o.n_modes, o.imag_tol, o.damping_tol, want_shapes=o.want_vectors)
         except self._errors as exc:
-            a, s, c = where
-            log.warning("point (%g deg, %g rad/s, %s) failed: %s: %s", self.grid.angles_deg[a],
+            theta, s, c = where
+            log.warning("point (%g deg, %g rad/s, %s) failed: %s: %s", np.degrees(theta),
                         self.grid.speeds[s], self.grid.cases[c], type(exc).__name__, exc)
             return failed(o.n_modes, f"{type(exc).__name__}: {exc}", getattr(self.engine, "name", ""))
 
-    def _keep(self, results, index, res: PointResult) -> None:
-        results[index[1:]] = res
+    @staticmethod
+    def _keep(results, lam1, index, res: PointResult) -> None:
+        results[index] = res
         lam = float(modulus(res.eigenvalue[:1])[0]) if res.eigenvalue.size else np.nan
-        self.lam1[index] = lam if res.status in CONVERGED else np.nan
+        lam1[index] = lam if res.status in CONVERGED else np.nan
 
     def _block(self, ia, todo, results, node_xy) -> Block:
         """Stack one angle's results into (speed, case, ...) arrays (NaN where not solved)."""
@@ -200,78 +208,3 @@ class Sweep:
             if r.status in RETRYABLE:
                 errors.append(((ia, js, jc), r.status.code, r.message))
         return Block(ia, np.asarray(todo, bool), data, status, errors, node_xy)
-
-
-# ---------------------------------------------------------------------------------- tracking
-def chain_order(angles_deg) -> tuple[np.ndarray, bool]:
-    """Order in which to walk the crank angles for tracking, and whether it closes a loop.
-
-    Angles are walked in ascending order. A grid spanning less than a revolution whose
-    largest hole (on the circle) is not across 360° → 0° is walked across 360° → 0° instead,
-    starting after that hole (300, 330, 0, 30 → 300, 330, 0, 30 rather than 0, 30, 300, 330).
-    The walk closes a loop when it covers a whole revolution, its last step back to the start
-    included (0..360 or 0..355 by 5°)."""
-    a = np.asarray(angles_deg, dtype=float)
-    order = np.argsort(a, kind="stable")
-    if a.size < 2:
-        return order, False
-    if a[order[-1]] - a[order[0]] < 360.0 - 1e-9:
-        on_circle = np.argsort(a % 360.0, kind="stable")
-        m = a[on_circle] % 360.0
-        gaps = np.diff(m)
-        if gaps.max() > m[0] + 360.0 - m[-1] + 1e-9:
-            order = np.roll(on_circle, -(int(np.argmax(gaps)) + 1))
-    steps = np.abs((np.diff(a[order]) + 180.0) % 360.0 - 180.0)
-    closed = bool(steps.sum() + steps.max() >= 360.0 - 1e-6)
-    return order, closed
-
-
-def track(freq: np.ndarray, status: np.ndarray, sig: np.ndarray | None, angles_deg) -> tuple[np.ndarray, int]:
-    """Frequencies with modes followed along crank angle, and the number of open loops.
-
-    Walking the angles in :func:`chain_order`, the modes at each angle are matched to the
-    (already tracked) modes of the previous converged angle by greedy MAC assignment (the
-    largest MAC first, as :func:`modes.match_modes`), for every (speed, case) line at once.
-
-    Parameters
-    ----------
-    freq : (angle, speed, case, mode) frequencies sorted at each point.
-    status : (angle, speed, case) statuses; points that did not converge are skipped (their
-        tracked frequencies are NaN) and the walk continues from the last converged angle.
-    sig : (angle, speed, case, n_sig, mode) eigenvector entries; None: no tracking (copy).
-    angles_deg : the crank-angle grid.
-
-    Returns
-    -------
-    tracked : same shape as ``freq``; at the first angle of the walk the sorted order.
-    open_loops : number of (speed, case) lines that cover a whole revolution and whose modes
-        come back permuted (MAC across 360° → 0°: a veering pair exchanged identities).
-    """
-    conv = np.isin(status, converged_codes())
-    tracked = np.where(conv[..., None], freq, np.nan)
-    if sig is None or freq.shape[0] < 2:
-        return tracked, 0
-    order, closed = chain_order(angles_deg)
-    na, ns, nc, nm = freq.shape
-    n_lines = ns * nc
-    f = freq.reshape(na, n_lines, nm)
-    ok = conv.reshape(na, n_lines)
-    v = np.nan_to_num(sig.reshape(na, n_lines, -1, nm))
-    out = tracked.reshape(na, n_lines, nm)
-    prev = np.zeros_like(v[0])
-    first = np.zeros_like(v[0])
-    seen = np.zeros(n_lines, bool)
-    for ia in order:
-        now = ok[ia]
-        perm = np.where(seen[:, None], match_modes(prev, v[ia]), np.arange(nm))
-        pick = perm[now]
-        out[ia, now] = np.take_along_axis(f[ia, now], pick, axis=1)
-        cur = np.take_along_axis(v[ia], perm[:, None, :], axis=2)
-        first[now & ~seen] = cur[now & ~seen]
-        prev[now] = cur[now]
-        seen |= now
-    if not closed:
-        return tracked, 0
-    back = match_modes(prev, first)
-    open_loops = int(np.count_nonzero(seen & np.any(back != np.arange(nm), axis=1)))
-    return tracked, open_loops

@@ -133,7 +133,7 @@ class SweepSession:
         from fkev_slepc.model.operators import Model
         from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
         from fkev_slepc.solve.petsc_init import init_petsc
-        from fkev_slepc.sweep.runner import tracking_dofs
+        from fkev_slepc.sweep.tracking import tracking_dofs
 
         # PETSc's initialisation is collective over MPI_COMM_WORLD: do it here, on every rank,
         # before rank 0 alone imports PETSc (software versions); a no-op after the CLI's init.
@@ -150,7 +150,7 @@ class SweepSession:
         factory = make_cross_check_engine if request.cross_check else make_engine
         self.engine = factory(request.solver or scene.solver.method, self.model.n_free, scene.solver.petsc)
         self.output = Path(request.output)
-        self.track_dofs = tracking_dofs(self.model.n_free, len(self.grid.angles_deg))
+        self.track_dofs = tracking_dofs(self.model.n_free, len(self.grid.angles_deg), len(self.grid.speeds))
         self._final_settings: dict | None = None  # set by solve (rank 0)
         self._cross: dict | None = None
 
@@ -287,6 +287,9 @@ class SweepSession:
         if stop.stopped:
             self.engine.close()
             raise SweepInterrupted(plan.part, done)
+        from fkev_slepc.sweep.refine import track_archive
+
+        self._open_loops = track_archive(plan.part, sweep, self.comm)  # may solve extra angles (collective)
         self._final_settings = self._settings() if self.rank0 else None  # before close: reads solver objects
         self._cross = self._reduce_cross_check()
         if self._cross is not None and self.rank0:
@@ -323,14 +326,12 @@ class SweepSession:
 
     def _finalise_on_rank0(self, plan: OutputPlan, n_solved: int) -> SweepOutcome:
         from fkev_slepc.archive import store
-        from fkev_slepc.sweep.runner import track
 
-        freq, status, sig = store.read_tracking_inputs(plan.part)
-        tracked, open_loops = track(freq, status, sig, self.grid.angles_deg)
+        status = store.read_state(plan.part).status
         attrs = {"n_ranks": self.comm.size, "last_command_line": self.request.command_line,
-                 "tracking_open_loops": open_loops, "last_solver_settings": self._final_settings}
+                 "tracking_open_loops": self._open_loops, "last_solver_settings": self._final_settings}
         wall = time.monotonic() - self.t0
-        store.finalize(plan.part, self.output, tracked, attrs, add_wall_time=wall)
+        store.finalize(plan.part, self.output, None, attrs, add_wall_time=wall)
         from fkev_slepc.archive.lock import release
 
         release(self.output)  # taken by open_output

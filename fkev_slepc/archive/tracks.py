@@ -1,0 +1,69 @@
+"""Tracking results in the archive: ``/tracking`` attributes and flags, ``/tracking/refined``.
+
+The writer side of what :mod:`fkev_slepc.sweep.tracking` computes after a sweep (the per-point
+eigenvector entries ``/tracking/signature`` are written with the points, by
+:mod:`fkev_slepc.archive.writer`); the layout is in docs/tracking.md and docs/archive.md.
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+from fkev_slepc.archive.store import _GRIDDED, STATUS_DTYPE, _gridded
+
+_REFINED = ("crank_angle_deg", "frequency_hz", "status", "signature", "eigenvalue")
+
+
+def read_refined(path) -> dict | None:
+    """Arrays of ``/tracking/refined`` (the extra angles solved for tracking), or None."""
+    with h5py.File(path, "r") as f:
+        if "tracking/refined" not in f:
+            return None
+        g = f["tracking/refined"]
+        return {k: g[k][()] for k in _REFINED}
+
+
+def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict, refined: dict | None = None,
+                   speed_tracked: np.ndarray | None = None, speed_fallback: np.ndarray | None = None) -> None:
+    """Rank 0, before :func:`finalize`: store what tracking found (docs/tracking.md).
+
+    ``tracked`` goes to ``tracked_frequency_hz`` and ``speed_tracked`` to
+    ``speed_tracked_frequency_hz``; ``fallback`` (speed, case) and ``speed_fallback`` (angle,
+    case) flag the lines left in sorted order; ``attrs`` (thresholds, counts) become attributes
+    of ``/tracking``; ``refined`` (``crank_angle_deg``, ``frequency_hz``, ``tracked_frequency_hz``,
+    ``status``, ``signature``, ``eigenvalue`` of the extra angles) is written to
+    ``/tracking/refined``, its own angle scale first. Earlier tracking results are replaced."""
+    with h5py.File(path, "r+") as f:
+        f["tracked_frequency_hz"][...] = tracked
+        if speed_tracked is not None:
+            if "speed_tracked_frequency_hz" not in f:  # archives created before it existed
+                _gridded(f, "speed_tracked_frequency_hz", tracked.shape, *_GRIDDED["speed_tracked_frequency_hz"],
+                         ("crank_angle_deg", "speed_rad_s", "case", "mode"))
+            f["speed_tracked_frequency_hz"][...] = speed_tracked
+        g = f.require_group("tracking")
+        for name in ("fallback", "speed_fallback", "refined"):
+            if name in g:
+                del g[name]
+        ds = g.create_dataset("fallback", data=np.asarray(fallback, dtype="u1"))
+        ds.attrs["long_name"] = "1: the (speed, case) line is in sorted order in tracked_frequency_hz (ambiguous MAC)"
+        if speed_fallback is not None:
+            ds = g.create_dataset("speed_fallback", data=np.asarray(speed_fallback, dtype="u1"))
+            ds.attrs["long_name"] = ("1: the (angle, case) line is in sorted order in speed_tracked_frequency_hz "
+                                     "(ambiguous MAC)")
+        g.attrs.update(attrs)
+        if refined is None or len(refined["crank_angle_deg"]) == 0:
+            return
+        r = g.create_group("refined")
+        r.attrs["description"] = ("extra crank angles solved only for mode tracking, where the MAC between "
+                                  "neighbouring grid angles was ambiguous; points of lines that were not refined "
+                                  "at an angle are pending")
+        sc = r.create_dataset("crank_angle_deg", data=np.asarray(refined["crank_angle_deg"], "f8"))
+        sc.make_scale("crank_angle_deg")
+        sc.attrs.update(units="degree", long_name="extra crank angle (tracking refinement)")
+        for name, dtype, units in (("frequency_hz", "f8", "Hz"), ("tracked_frequency_hz", "f8", "Hz"),
+                                   ("eigenvalue", "c16", "1/s"), ("status", STATUS_DTYPE, "1"),
+                                   ("signature", "c16", "1")):
+            ds = r.create_dataset(name, data=np.asarray(refined[name]), dtype=dtype)
+            ds.attrs["units"] = units
+            ds.dims[0].attach_scale(sc)
