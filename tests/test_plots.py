@@ -175,7 +175,7 @@ def test_param_speed_is_ratio_to_structure(archives):
 
 def test_error_angle_is_percent_error_vs_full(archives):
     r = raw(archives["bw"])
-    fig = plots.error_angle(load(archives["bw"]))  # default: highest speed, cases 2-5
+    fig = plots.error_angle(load(archives["bw"]), order="sorted")  # default: highest speed, cases 2-5
     s = 2
     full = r["case"].index("full")
     assert "Ω = 1000 rad/s" in fig._suptitle.get_text()
@@ -194,6 +194,39 @@ def test_error_angle_is_percent_error_vs_full(archives):
             peak[name] = max(peak.get(name, 0.0), float(np.max(np.abs(y))))
     # C5/C10 on this grid: tangential neglect is small, pseudo-normal neglect the largest
     assert peak["no_tangential"] < 1.0 < peak["no_normal"] < peak["no_pseudo_normal"]
+
+
+def test_error_angle_compares_mac_matched_modes(archives):
+    """Default: mode i of full against the mode of each case with the same shape (MAC on the
+    archived eigenvector entries, recomputed here by hand), gaps and × where no match is clear."""
+    r = raw(archives["bw"])
+    with h5py.File(archives["bw"], "r") as f:
+        sig = f["tracking/signature"][:, 2]  # 1000 rad/s
+    fig = plots.error_angle(load(archives["bw"]))
+    full = r["case"].index("full")
+    flagged = 0
+    for m, ax in enumerate(fig.axes):
+        lines = lines_by_label(ax)
+        for name in SIMPLIFIED:
+            c = r["case"].index(name)
+            y = lines[plots.case_label(name)].get_ydata()
+            u = sig[:, full, :, m]
+            macs = np.abs(np.einsum("ak,akj->aj", u.conj(), sig[:, c])) ** 2 / (
+                np.einsum("ak,ak->a", u.conj(), u).real[:, None] * np.einsum("akj,akj->aj", sig[:, c].conj(), sig[:, c]).real)
+            j = np.argmax(macs, axis=1)
+            f_c = r["frequency_hz"][np.arange(len(j)), 2, c, j]
+            want = (f_c - r["frequency_hz"][:, 2, full, m]) / r["frequency_hz"][:, 2, full, m] * 100
+            shown = np.isfinite(y)
+            np.testing.assert_allclose(y[shown], want[shown], rtol=1e-12, atol=1e-12)
+            assert np.all(macs[shown, j[shown]] >= 0.8)  # never a comparison of different shapes
+            marks = [ln for ln in ax.get_lines() if ln.get_label() == f"_nomatch {name}"]
+            n_marks = len(marks[0].get_xdata()) if marks else 0
+            assert n_marks == np.count_nonzero(~shown)
+            flagged += n_marks
+    assert flagged > 0 and f"× {flagged} points with no MAC match" in fig._suptitle.get_text()
+    # matched, the neglect of the tangential term stays small at every matched point (docs/theory.md §16)
+    y = lines_by_label(fig.axes[0])[plots.case_label("no_tangential")].get_ydata()
+    assert np.nanmax(np.abs(y)) < 1.0
 
 
 def _hermite_mid(mesh_dofs, elem_nodes, xy, q):
@@ -305,7 +338,7 @@ def test_stability_map_holds_min_damping_ratio_and_marks_divergence(archives):
 def test_campbell_lines_orders_and_crossings(archives):
     r = raw(archives["bw"])
     full = r["case"].index("full")
-    fig = plots.campbell(load(archives["bw"]), angle=0, orders=8)
+    fig = plots.campbell(load(archives["bw"]), angle=0, orders=8, order="sorted")
     ax = fig.axes[0]
     assert "(rad/s)" in ax.get_xlabel() and "(Hz)" in ax.get_ylabel()
     lines = lines_by_label(ax)
@@ -332,6 +365,23 @@ def test_campbell_lines_orders_and_crossings(archives):
         k = y * 2 * np.pi / x
         assert abs(k - round(k)) < 1e-9
         assert min(abs(np.interp(x, om, f[:, m]) - y) for m in range(3)) < 1e-9 * y
+
+
+def test_campbell_tracks_modes_along_speed_or_says_sorted(archives):
+    with h5py.File(archives["bw"], "r") as f:
+        trk, fb = f["speed_tracked_frequency_hz"][()], f["tracking/speed_fallback"][()]
+    r = raw(archives["bw"])
+    full = r["case"].index("full")
+    for a, angle in enumerate(r["crank_angle_deg"]):
+        fig = plots.campbell(load(archives["bw"]), angle=angle, orders=2)
+        lines = lines_by_label(fig.axes[0])
+        want = r["frequency_hz"] if fb[a, full] else trk
+        for m in range(3):
+            np.testing.assert_array_equal(lines[f"mode {m + 1}"].get_ydata(), want[a, :, full, m])
+        assert ("SORTED order for full" in fig._suptitle.get_text()) == bool(fb[a, full])
+    # speed 0 is the start of the walk: the sorted order
+    np.testing.assert_array_equal(trk[:, 0], np.where(np.isin(r["status"][:, 0], [1, 3, 4])[..., None],
+                                                      r["frequency_hz"][:, 0], np.nan))
 
 
 @pytest.mark.parametrize("kind", plots.KINDS)

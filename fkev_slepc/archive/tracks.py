@@ -67,3 +67,25 @@ def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict,
             ds = r.create_dataset(name, data=np.asarray(refined[name]), dtype=dtype)
             ds.attrs["units"] = units
             ds.dims[0].attach_scale(sc)
+
+
+def read_tracking(path) -> dict:
+    """What figures need of tracking: ``attrs`` of ``/tracking``, ``fallback`` (speed, case)
+    and ``speed_fallback`` (angle, case) flags (None when absent), ``speed_tracked`` (angle,
+    speed, case, mode) or None. Archives without tracking give empty attrs and Nones."""
+    with h5py.File(path, "r") as f:
+        g = f["tracking"] if "tracking" in f else None
+        out = {"attrs": dict(g.attrs) if g is not None else {}}
+        for key in ("fallback", "speed_fallback"):
+            out[key] = g[key][()].astype(bool) if g is not None and key in g else None
+        out["speed_tracked"] = f["speed_tracked_frequency_hz"][()] if "speed_tracked_frequency_hz" in f else None
+    return out
+
+
+def read_signature(path, speed: int | None = None) -> np.ndarray | None:
+    """``/tracking/signature`` (angle, speed, case, n_sig, mode), or one speed of it; None if absent."""
+    with h5py.File(path, "r") as f:
+        if "tracking/signature" not in f:
+            return None
+        ds = f["tracking/signature"]
+        return ds[()] if speed is None else ds[:, speed]

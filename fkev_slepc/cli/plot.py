@@ -64,8 +64,9 @@ def add_parser(subparsers) -> None:
                    help="crank angle in degrees (default: 10 if on the grid, else the first)")
     p.add_argument("--modes", type=_ints, action="append", metavar="I[,J]",
                    help="1-based mode numbers (default: all archived modes)")
-    p.add_argument("--order", choices=("sorted", "tracked"),
-                   help="mode order (default: tracked for freq-angle, sorted otherwise)")
+    p.add_argument("--order", choices=("sorted", "tracked", "matched"),
+                   help="mode order (default: tracked along angle for freq-angle, along speed for campbell; "
+                        "error-angle: matched to full's modes by MAC; sorted otherwise)")
     p.add_argument("--orders", type=int, metavar="K", help="campbell: crank orders drawn (default: enough to "
                    "reach the highest frequency, at most 8)")
     p.add_argument("--dpi", type=int, default=110, help="resolution of raster output (default 110)")

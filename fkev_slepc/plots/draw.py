@@ -9,7 +9,7 @@ Kinds (thesis Chapter 3 figure numbers in brackets):
 
 ``freq-angle``  natural frequency vs crank angle, one curve per speed  [3.2-3.4, 3.6-3.9]
 ``param-speed`` ω_i(case)/ω_i(structure) vs α = Ω/ω_1(structure) at one angle  [3.10-3.13]
-``error-angle`` % error of the simplified cases vs ``full`` over the cycle  [3.14-3.21]
+``error-angle`` % error of the simplified cases vs ``full`` over the cycle, MAC-matched modes  [3.14-3.21]
 ``mode-shape``  mode shapes on the undeformed linkage  [3.22-3.25]  (:mod:`.plots_shapes`)
 ``stability``   max Re λ over (crank angle, speed), unstable/divergent marked  (:mod:`.plots_maps`)
 ``campbell``    frequency vs speed at one angle with crank-order lines k·Ω/2π  (:mod:`.plots_maps`)
@@ -43,6 +43,9 @@ from fkev_slepc.plots.common import (
 from fkev_slepc.plots.maps import campbell, stability
 from fkev_slepc.plots.shapes import mode_shape
 from fkev_slepc.archive.reader import ArchiveError, SweepResults
+from fkev_slepc.archive.tracks import read_signature, read_tracking
+from fkev_slepc.solve.modes import percent_error
+from fkev_slepc.sweep.tracking import match_cases
 
 KINDS = ("freq-angle", "param-speed", "error-angle", "mode-shape", "stability", "campbell")
 __all__ = ["KINDS", "draw", "freq_angle", "param_speed", "error_angle", "mode_shape", "stability",
@@ -68,10 +71,12 @@ def freq_angle(
     mode_idx = pick_modes(first, modes)
     fig, axes = mode_grid(len(mode_idx))
     dashes = ["-", "--", ":", "-."]
+    sorted_lines = []  # tracked order asked for, but the archive left these lines sorted
     for r_i, res in enumerate(runs):
         c_idx = pick_cases(res, cases, [default_case(res)])
         s_idx = [res.speed_index(s) for s in speeds] if speeds else list(range(res.speed_rad_s.size))
         f = res.frequency(order=order)
+        fallback = read_tracking(res.path)["fallback"] if order == "tracked" else None
         for ax, m in zip(axes, mode_idx):
             for c_n, c in enumerate(c_idx):
                 for s_n, s in enumerate(s_idx):
@@ -80,6 +85,10 @@ def freq_angle(
                         parts.append(res.cases[c])
                     if len(runs) > 1:
                         parts.append(elements_tag(res))
+                    if fallback is not None and fallback[s, c]:
+                        parts.append("sorted")
+                        if ax is axes[0]:
+                            sorted_lines.append(f"{res.speed_rad_s[s]:g} rad/s {res.cases[c]}")
                     ax.plot(res.crank_angle_deg, f[:, s, c, m], dashes[(r_i if len(runs) > 1 else c_n) % 4],
                             color=f"C{r_i * len(s_idx) + s_n}", label=", ".join(parts))
     for ax, m in zip(axes, mode_idx):
@@ -90,6 +99,8 @@ def freq_angle(
     axes[0].legend(fontsize=8)
     names = sorted({first.cases[c] for c in pick_cases(first, cases, [default_case(first)])})
     what = f"natural frequency vs crank angle ({', '.join(names)}; {order} modes)"
+    if sorted_lines:  # say so: the archive could not tell these modes apart (docs/tracking.md)
+        what += f"; SORTED order, MAC ambiguous: {', '.join(sorted(set(sorted_lines)))}"
     if len(runs) > 1:  # the meshes differ by design: name the scene, list the meshes
         meshes = ", ".join(elements_tag(r) for r in runs)
         fig.suptitle(f"{first.title}\n{what}; meshes: {meshes}", fontsize=11)
@@ -140,12 +151,16 @@ def error_angle(
     speed: float | None = None,
     cases: Sequence[str | int] | None = None,
     modes: Sequence[int] | None = None,
-    order: str = "sorted",
+    order: str = "matched",
 ) -> Figure:
     """Signed % error (ω_i(case) − ω_i(full))/ω_i(full) × 100 of the simplified cases over the
     crank cycle at one speed, one axes per mode (Figs 3.14-3.21; docs/theory.md §12).
 
-    Defaults: the highest speed, cases ``no_coriolis`` … ``no_pseudo_normal``, every mode.
+    ``order="matched"`` (default): mode i of ``full`` is compared with the mode of each case
+    whose shape it matches at the same point (MAC, :func:`tracking.match_cases`); where no clear
+    match exists the curve has a gap and the sorted-order error is marked ×. ``"sorted"``
+    compares the i-th lowest frequencies. Defaults: the highest speed, cases ``no_coriolis`` …
+    ``no_pseudo_normal``, every mode.
     """
     if "full" not in res.cases:
         raise ArchiveError("error-angle: the archive has no 'full' case (the reference of the percentage error)")
@@ -153,18 +168,39 @@ def error_angle(
     c_idx = pick_cases(res, cases, SIMPLIFIED)
     mode_idx = pick_modes(res, modes)
     fig, axes = mode_grid(len(mode_idx))
-    err = {c: res.percent_error(res.cases[c], order)[:, s, :] for c in c_idx}
+    sorted_err = {c: res.percent_error(res.cases[c], "sorted" if order == "matched" else order)[:, s, :]
+                  for c in c_idx}
+    sig = read_signature(res.path, s) if order == "matched" else None
+    if order == "matched" and sig is None:
+        order = "sorted (no eigenvectors archived for MAC matching)"
+    err, unmatched = dict(sorted_err), {}
+    if sig is not None:
+        jf = res.case_index("full")
+        f = res.frequency("sorted")[:, s]
+        for c in c_idx:
+            perm, clear = match_cases(sig[:, jf], sig[:, c])
+            fc = np.take_along_axis(f[:, c], perm, axis=1)
+            err[c] = np.where(clear, percent_error(fc, f[:, jf]), np.nan)
+            unmatched[c] = ~clear & np.isfinite(sorted_err[c])
+    n_flag = 0
     for ax, m in zip(axes, mode_idx):
         ax.axhline(0.0, color="0.5", lw=0.8, label="_zero")
         for c in c_idx:
             name = res.cases[c]
             ax.plot(res.crank_angle_deg, err[c][:, m], label=case_label(name), **case_style(name))
+            if c in unmatched and unmatched[c][:, m].any():
+                miss = unmatched[c][:, m]
+                n_flag += int(miss.sum())
+                ax.plot(res.crank_angle_deg[miss], sorted_err[c][miss, m], "x", ms=6, ls="none",
+                        color=case_style(name).get("color", "k"), label=f"_nomatch {name}")
         ax.set_title(f"mode {res.modes[m]}")
         angle_axis(ax)
         ax.set_ylabel("error vs full (%)")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    what = f"percentage error in natural frequency vs crank angle, {speed_label(res.speed_rad_s[s])}"
+    what = f"percentage error in natural frequency vs crank angle, {speed_label(res.speed_rad_s[s])}; {order} modes"
+    if n_flag:
+        what += f"\n× {n_flag} points with no MAC match to a full mode (sorted-order error shown there)"
     set_title(fig, res, what)
     return fig
 
@@ -184,11 +220,11 @@ def draw(results: SweepResults | Sequence[SweepResults], kind: str, *, cases=Non
     if kind == "param-speed":
         return param_speed(res, only_one(angles, "--angle"), cases, modes, order or "sorted")
     if kind == "error-angle":
-        return error_angle(res, only_one(speeds, "--speed"), cases, modes, order or "sorted")
+        return error_angle(res, only_one(speeds, "--speed"), cases, modes, order or "matched")
     if kind == "stability":
         return stability(res, only_one(cases, "--case"))
     if kind == "campbell":
-        return campbell(res, only_one(angles, "--angle"), cases, modes, orders, order or "sorted")
+        return campbell(res, only_one(angles, "--angle"), cases, modes, orders, order or "tracked")
     if kind == "mode-shape":
         return mode_shape(res, only_one(angles, "--angle"), only_one(speeds, "--speed"), cases, modes)
     raise ArchiveError(f"--kind: unknown kind {kind!r} (known: {', '.join(KINDS)})")

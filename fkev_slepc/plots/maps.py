@@ -22,6 +22,7 @@ from fkev_slepc.plots.common import (
     set_title,
 )
 from fkev_slepc.archive.reader import SweepResults
+from fkev_slepc.archive.tracks import read_tracking
 
 MAX_DEFAULT_ORDERS = 8
 STATUS_MARKS = (  # status, marker, colour, legend text
@@ -112,19 +113,33 @@ def campbell(
     cases: Sequence[str | int] | None = None,
     modes: Sequence[int] | None = None,
     orders: int | None = None,
-    order: str = "sorted",
+    order: str = "tracked",
 ) -> Figure:
     """Campbell diagram at one crank angle: frequency vs crank speed per mode, with the
     crank-order excitation lines k·Ω/2π (k = 1..``orders``) and their crossings marked.
 
-    Defaults: θ = 10° if on the grid (else the first angle), case ``full``, every mode, and
-    enough orders to reach the highest plotted frequency (at most 8).
+    ``order="tracked"``: modes followed along speed by MAC (``speed_tracked_frequency_hz``;
+    lines whose links are ambiguous are in sorted order, and the title says so); ``"sorted"``:
+    the i-th lowest at each speed. Defaults: θ = 10° if on the grid (else the first angle),
+    case ``full``, every mode, and enough orders to reach the highest plotted frequency (at most 8).
     """
     a = pick_angle(res, angle)
     c_idx = pick_cases(res, cases, [default_case(res)])
     mode_idx = pick_modes(res, modes)
     om = res.speed_rad_s
-    f = res.frequency(order=order)[a]
+    note = ""
+    if order == "tracked":
+        trk = read_tracking(res.path)
+        if trk["speed_tracked"] is None:
+            order, note = "sorted", "; sorted modes (the archive has no tracking along speed)"
+        else:
+            f = np.where(res.converged[..., None], trk["speed_tracked"], np.nan)[a]
+            fb = trk["speed_fallback"][a] if trk["speed_fallback"] is not None else np.zeros(len(res.cases), bool)
+            left = [res.cases[c] for c in c_idx if fb[c]]
+            note = "; modes tracked along speed" + (
+                f"; SORTED order for {', '.join(left)} (MAC ambiguous or crossing)" if left else "")
+    if order != "tracked":
+        f = res.frequency(order=order)[a]
     shown = f[:, c_idx][:, :, mode_idx]
     fmax = float(np.nanmax(shown)) if np.any(np.isfinite(shown)) else 1.0
     if orders is None:
@@ -159,5 +174,5 @@ def campbell(
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     names = ", ".join(res.cases[c] for c in c_idx)
-    set_title(fig, res, f"Campbell diagram at θ = {res.crank_angle_deg[a]:g}° ({names})")
+    set_title(fig, res, f"Campbell diagram at θ = {res.crank_angle_deg[a]:g}° ({names}){note}")
     return fig

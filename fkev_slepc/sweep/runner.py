@@ -7,8 +7,9 @@ round, in equal rounds so that the collective flushes of :class:`archive_writer.
 Every angle carries the same mix of cases, so rounds cost the same on every rank although
 cases differ in cost (a cyclic split of single points would give one rank every expensive
 case). Inside an angle the operator pieces are assembled once, the ``structure`` case (which
-does not depend on speed) is solved once and copied to every speed, and the other points are
-solved speed by speed.
+does not depend on speed) is solved once and copied to every speed, and so is the motionless
+problem (Ω = 0 without crank acceleration: every case is the structure, docs/theory.md §11);
+the other points are solved speed by speed.
 
 **Continuation.** The engine ``hint`` (|λ| of the lowest mode) of point (θ, Ω_j, case) is
 |λ1| of (θ, Ω_{j-1}, case), or of the structure at θ for the first speed. It comes only from
@@ -142,23 +143,30 @@ class Sweep:
         results: dict[tuple[int, int], PointResult] = {}
         cases = list(grid.cases)
         struct_lam1 = np.nan
+        still = None  # the motionless problem (Ω = 0, no crank acceleration): every case is the structure
         if "structure" in cases:
             jc = cases.index("structure")
             need = np.flatnonzero(todo[:, jc])
             if need.size:  # independent of speed: solve once, store at every speed
-                res = self._solve(model.qep(pieces, float(grid.speeds[0]), "structure"), None, (theta, 0, jc))
+                still = self._solve(model.qep(pieces, float(grid.speeds[0]), "structure"), None, (theta, 0, jc))
                 for js in need:
-                    self._keep(results, lam1, (js, jc), res)
+                    self._keep(results, lam1, (js, jc), still)
             known = lam1[:, jc][np.isfinite(lam1[:, jc])]
             struct_lam1 = known[0] if known.size else np.nan
+        static = model.scene.driver.acceleration == 0.0
         for js, speed in enumerate(grid.speeds):
             for jc, case in enumerate(cases):
                 if case == "structure" or not todo[js, jc]:
+                    continue
+                if static and speed == 0.0 and still is not None:  # docs/theory.md §11: no motion term left
+                    self._keep(results, lam1, (js, jc), still)
                     continue
                 prev = lam1[js - 1, jc] if js > 0 else np.nan
                 hint = prev if np.isfinite(prev) else struct_lam1
                 res = self._solve(model.qep(pieces, float(speed), case),
                                   float(hint) if np.isfinite(hint) else None, (theta, js, jc))
+                if static and speed == 0.0:
+                    still = res
                 self._keep(results, lam1, (js, jc), res)
         return results
 
