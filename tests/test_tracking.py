@@ -19,7 +19,7 @@ from fkev_slepc.sweep.refine import Samples, refine_angles, track_angles
 from fkev_slepc.sweep.tracking import Criteria, chain_order, link_check, match_cases, track_speeds, tracking_dofs
 
 SCENE = "runs/bahgat-willmert-1976.toml"
-OK = int(Status.OK)
+OK = Status.OK.code
 
 
 def test_tracking_dofs():
@@ -153,7 +153,7 @@ def test_open_loop_falls_back_to_sorted_order():
 def test_unconverged_points_are_skipped():
     angles = np.arange(0.0, 301.0, 30.0)  # not a revolution: the synthetic K is not periodic
     s = samples(angles, 0.0)
-    s.status[6] = int(Status.FAILED)
+    s.status[6] = Status.FAILED.code
     res, _ = track_angles(s, crit=Criteria(max_halvings=0))
     assert np.all(np.isnan(res.tracked[6])) and np.all(np.isfinite(res.tracked[7:]))
     np.testing.assert_allclose(res.tracked[7:, 0, 0, 1] ** 2 * (2 * np.pi) ** 2, 10.0 - (angles[7:] - 180) / 100)
