@@ -6,8 +6,8 @@ every crank angle: operator pieces, the QEP of every (speed, case), the dense en
 eigenvectors tracking needs, selection and classification), without HDF5 writing. The bare
 side is ``scipy.linalg.eig(A, B, right=False)`` (LAPACK ggev, eigenvalues only) of the
 companion pencil A = [[0, I], [-M, -C]], B = [[I, 0], [0, K]] of every grid point, built
-beforehand (not timed); the same with right eigenvectors is shown for reference. Both are
-timed alternately in every repeat (same machine load); medians over the repeats, per grid
+beforehand (not timed); the same with right eigenvectors is shown for reference. They are
+timed alternately angle by angle (same machine load); medians over the repeats, per grid
 point (angle x speed x case). One BLAS thread.
 
     .venv/bin/python scripts/bench_small.py
@@ -60,10 +60,11 @@ def setup(args):
 
 
 def pencils(grid, model):
-    """Companion pencils (A, B) of every grid point (the structure case once per speed too)."""
+    """Companion pencils (A, B) of every grid point, per angle (the structure once per speed too)."""
     out = []
     for a in grid.angles_deg:
         p = model.pieces(np.radians(a))
+        here = []
         for speed in grid.speeds:
             for case in grid.cases:
                 q = model.qep(p, float(speed), case)
@@ -71,34 +72,36 @@ def pencils(grid, model):
                 M, K = q.mass.toarray(), q.stiffness.toarray()
                 C = q.damping.toarray() if q.damping is not None else np.zeros((n, n))
                 Z, I = np.zeros((n, n)), np.eye(n)
-                out.append((np.block([[Z, I], [-M, -C]]), np.block([[I, Z], [Z, K]])))
+                here.append((np.block([[Z, I], [-M, -C]]), np.block([[I, Z], [Z, K]])))
+        out.append(here)
     return out
 
 
-def time_sweep(sweep, grid) -> float:
+def one_pass(sweep, grid, pairs) -> np.ndarray:
+    """Seconds per grid point of (sweep, bare QZ, QZ with eigenvectors), timed angle by angle
+    alternately, so that both see the same machine load."""
     todo = np.ones(grid.shape[1:], bool)
-    t = time.perf_counter()
-    for ia in range(len(grid.angles_deg)):
+    t = np.zeros(3)
+    clock = time.perf_counter
+    for ia, here in enumerate(pairs):
+        t0 = clock()
         sweep.solve_angle(ia, todo)
-    return (time.perf_counter() - t) / grid.n_points
-
-
-def time_qz(pairs, vectors: bool) -> float:
-    t = time.perf_counter()
-    for A, B in pairs:
-        la.eig(A, B, right=vectors)
-    return (time.perf_counter() - t) / len(pairs)
+        t1 = clock()
+        for A, B in here:
+            la.eig(A, B, right=False)
+        t2 = clock()
+        for A, B in here:
+            la.eig(A, B)
+        t += (t1 - t0, t2 - t1, clock() - t2)
+    return t / grid.n_points
 
 
 def main(argv=None) -> None:
     args = parse_args(argv)
     scene, grid, model, sweep = setup(args)
     pairs = pencils(grid, model)
-    time_sweep(sweep, grid), time_qz(pairs, False), time_qz(pairs, True)  # warm-up
-    rows = []
-    for _ in range(args.repeats):
-        rows.append((time_sweep(sweep, grid), time_qz(pairs, False), time_qz(pairs, True)))
-    t = np.array(rows) * 1e3
+    one_pass(sweep, grid, pairs)  # warm-up
+    t = np.array([one_pass(sweep, grid, pairs) for _ in range(args.repeats)]) * 1e3
     med = np.median(t, axis=0)
     ratio = med[0] / med[1]
     print(f"{scene.title}: {model.n_free} DOFs, {grid.n_points} points "
