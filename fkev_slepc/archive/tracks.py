@@ -10,7 +10,8 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from fkev_slepc.archive.store import _GRIDDED, STATUS_DTYPE, _gridded
+from fkev_slepc.archive.groups import STATUS_DTYPE, gridded
+from fkev_slepc.archive.store import _GRIDDED
 
 _REFINED = ("crank_angle_deg", "frequency_hz", "status", "signature", "eigenvalue")
 
@@ -38,7 +39,7 @@ def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict,
         f["tracked_frequency_hz"][...] = tracked
         if speed_tracked is not None:
             if "speed_tracked_frequency_hz" not in f:  # archives created before it existed
-                _gridded(f, "speed_tracked_frequency_hz", tracked.shape, *_GRIDDED["speed_tracked_frequency_hz"],
+                gridded(f, "speed_tracked_frequency_hz", tracked.shape, *_GRIDDED["speed_tracked_frequency_hz"],
                          ("crank_angle_deg", "speed_rad_s", "case", "mode"))
             f["speed_tracked_frequency_hz"][...] = speed_tracked
         g = f.require_group("tracking")
