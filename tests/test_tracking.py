@@ -197,6 +197,11 @@ def test_tracked_mode_k_comes_back_to_itself_after_a_revolution(bw10, capsys):
     np.testing.assert_allclose(srt[-1], srt[0], rtol=1e-9)
     assert t["ambiguous_links"] > 0 and t["refined_angles"] == len(ref_angles) > 0
     assert np.all(ref_angles % 10.0 != 0)  # only off-grid angles were added
+    import xarray as xr  # the refined angles open as their own labelled dataset
+
+    with xr.open_dataset(bw10, group="tracking/refined", engine="h5netcdf") as ds:
+        assert ds.frequency_hz.dims == ("crank_angle_deg", "speed_rad_s", "case", "mode")
+        np.testing.assert_array_equal(ds.crank_angle_deg.values, ref_angles)
     main(["info", str(bw10)])
     out = capsys.readouterr().out
     assert "0 open loops" in out and "all 18 (speed, case) lines tracked" in out

@@ -10,7 +10,7 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from fkev_slepc.archive.groups import STATUS_DTYPE, gridded
+from fkev_slepc.archive.groups import STATUS_DTYPE, _describe, flags, gridded, scale
 from fkev_slepc.archive.store import _GRIDDED
 
 _REFINED = ("crank_angle_deg", "frequency_hz", "status", "signature", "eigenvalue")
@@ -46,12 +46,14 @@ def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict,
         for name in ("fallback", "speed_fallback", "refined"):
             if name in g:
                 del g[name]
+        root = {k: f[k] for k in ("crank_angle_deg", "speed_rad_s", "case", "mode")}
         ds = g.create_dataset("fallback", data=np.asarray(fallback, dtype="u1"))
-        ds.attrs["long_name"] = "1: the (speed, case) line is in sorted order in tracked_frequency_hz (ambiguous MAC)"
+        _describe(ds, "1", "1: the (speed, case) line is in sorted order in tracked_frequency_hz (ambiguous MAC)",
+                  root["speed_rad_s"], root["case"])
         if speed_fallback is not None:
             ds = g.create_dataset("speed_fallback", data=np.asarray(speed_fallback, dtype="u1"))
-            ds.attrs["long_name"] = ("1: the (angle, case) line is in sorted order in speed_tracked_frequency_hz "
-                                     "(ambiguous MAC)")
+            _describe(ds, "1", "1: the (angle, case) line is in sorted order in speed_tracked_frequency_hz "
+                      "(ambiguous MAC)", root["crank_angle_deg"], root["case"])
         g.attrs.update(attrs)
         if refined is None or len(refined["crank_angle_deg"]) == 0:
             return
@@ -59,15 +61,22 @@ def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict,
         r.attrs["description"] = ("extra crank angles solved only for mode tracking, where the MAC between "
                                   "neighbouring grid angles was ambiguous; points of lines that were not refined "
                                   "at an angle are pending")
-        sc = r.create_dataset("crank_angle_deg", data=np.asarray(refined["crank_angle_deg"], "f8"))
-        sc.make_scale("crank_angle_deg")
-        sc.attrs.update(units="degree", long_name="extra crank angle (tracking refinement)")
-        for name, dtype, units in (("frequency_hz", "f8", "Hz"), ("tracked_frequency_hz", "f8", "Hz"),
-                                   ("eigenvalue", "c16", "1/s"), ("status", STATUS_DTYPE, "1"),
-                                   ("signature", "c16", "1")):
+        sc = scale(r, "crank_angle_deg", np.asarray(refined["crank_angle_deg"], "f8"), "degree",
+                   "extra crank angle (tracking refinement)")
+        grid3 = (sc, root["speed_rad_s"], root["case"])
+        for name, dtype, units, long_name, dims in (
+            ("frequency_hz", "f8", "Hz", "natural frequency, sorted", grid3 + (root["mode"],)),
+            ("tracked_frequency_hz", "f8", "Hz", "natural frequency, tracked along crank angle",
+             grid3 + (root["mode"],)),
+            ("eigenvalue", "c16", "1/s", "eigenvalue lambda of the sorted mode", grid3 + (root["mode"],)),
+            ("status", STATUS_DTYPE, "1", "outcome of the point (pending: line not refined here)", grid3),
+            ("signature", "c16", "1", "eigenvector entries of each sorted mode at /tracking/dofs",
+             grid3 + (g["dofs"], root["mode"])),
+        ):
             ds = r.create_dataset(name, data=np.asarray(refined[name]), dtype=dtype)
-            ds.attrs["units"] = units
-            ds.dims[0].attach_scale(sc)
+            _describe(ds, units, long_name, *dims)
+            if name == "status":
+                flags(ds)
 
 
 def read_tracking(path) -> dict:
