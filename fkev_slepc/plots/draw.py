@@ -176,7 +176,7 @@ def error_angle(
     err, unmatched = dict(sorted_err), {}
     if sig is not None:
         jf = res.case_index("full")
-        f = res.frequency("sorted")[:, s]
+        f = res.frequency(order="sorted")[:, s]
         for c in c_idx:
             perm, clear = match_cases(sig[:, jf], sig[:, c])
             fc = np.take_along_axis(f[:, c], perm, axis=1)

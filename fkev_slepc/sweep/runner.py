@@ -40,6 +40,7 @@ from fkev_slepc.archive.store import Grid, modulus
 from fkev_slepc.archive.writer import Block, Writer
 from fkev_slepc.model.operators import AssemblyError
 from fkev_slepc.solve.modes import CNAN, PointResult, failed, postprocess
+from fkev_slepc.scene import DAMPING_TOL
 from fkev_slepc.status import CONVERGED, RETRYABLE
 from fkev_slepc.sweep.refine import Samples
 
