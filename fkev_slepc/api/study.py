@@ -208,6 +208,75 @@ class Study:
             raise SceneError(sc.source, [Problem("rel_error", str(err))]) from None
         return planned, plan.summary()
 
+    def critical(self, case="full", angle_deg: float | None = None, max_speed_rad_s: float | None = None,
+                 modes: int | None = None, solver: str | None = None):
+        """Divergence (buckling) and flutter onset speeds of ``case``: the code path of ``fkev critical``.
+
+        Divergence: the lowest Ω at which K(Ω) = K₀ + Ω²K₂ is singular, an eigenproblem in Ω²;
+        flutter: the lowest Ω at which a reported mode's damping ratio falls below
+        ``-analysis.damping_tol``, bracketed then refined to 1e-8 relative (docs/stability.md).
+
+        Parameters
+        ----------
+        case : str or int
+        angle_deg : float, optional
+            One crank angle (deg); default every angle of the scene, the lowest speeds reported
+            with the angle where they occur.
+        max_speed_rad_s : float, optional
+            Highest speed considered (default: divergence unbounded; flutter searched up to the
+            divergence speed, else ``DEFAULT_MAX_FACTOR`` x the scene's top speed).
+        modes, solver
+            Modes whose damping is watched and the engine (default the scene's).
+
+        Returns
+        -------
+        fkev_slepc.solve.critical.CriticalScan
+            ``lowest("divergence_speed")`` / ``lowest("flutter_speed")`` give (speed, angle);
+            ``as_dict()`` the JSON of ``fkev critical --json``.
+
+        Examples
+        --------
+        The Turcic-Midha follower buckles near 66.7 rad/s at θ = 10° (docs/stability.md):
+
+        >>> tm = load(RUNS / "turcic-midha-1984.toml")
+        >>> speed, angle = tm.critical("full", angle_deg=10).lowest("divergence_speed")
+        >>> round(speed, 4), angle
+        (66.6916, 10.0)
+        """
+        from fkev_slepc.model.operators import AssemblyError
+        from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
+        from fkev_slepc.solve.engines import make_engine
+        from fkev_slepc.sweep.grid import check_modes, modes_problem
+
+        sc, an = self.scene, self.scene.analysis
+        bad = []
+        try:
+            case = case_name(case)
+        except ValueError as err:
+            bad.append(Problem("case", str(err)))
+        if modes is not None:
+            bad += check_modes(modes, "modes")
+        if angle_deg is not None and not np.isfinite(angle_deg):
+            bad.append(Problem("angle_deg", f"must be finite (got {angle_deg})"))
+        if max_speed_rad_s is not None and not (np.isfinite(max_speed_rad_s) and max_speed_rad_s > 0):
+            bad.append(Problem("max_speed_rad_s", f"must be a finite speed > 0 rad/s (got {max_speed_rad_s})"))
+        if bad:
+            raise SceneError(sc.source, bad)
+        model = self._model(case)
+        n_modes = an.modes if modes is None else int(modes)
+        too_many = modes_problem(n_modes, model.n_free, "modes" if modes is not None else None)
+        if too_many:
+            raise SceneError(sc.source, [too_many])
+        angles = an.crank_angles_deg if angle_deg is None else (float(angle_deg),)
+        engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc)
+        try:
+            return scan(engine, model, angles, case, n_modes, an.damping_tol, max_speed_rad_s,
+                        DEFAULT_MAX_FACTOR * max(abs(s) for s in sc.driver.speeds))
+        except AssemblyError as err:
+            raise SceneError(sc.source, [Problem("angle_deg", f"{err} (got {angle_deg:g})")]) from None
+        finally:
+            engine.close()
+
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
               retry_failed: bool = False, cross_check: bool = False, progress: bool = False) -> SweepResults:

@@ -12,7 +12,7 @@ import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_OK
-from .common import add_model_arguments, modes_problem, report_scene_error, scene_case_modes
+from .common import add_model_arguments, report_scene_error, scene_case_modes
 
 
 def add_parser(sub) -> None:
@@ -46,32 +46,17 @@ def _check_flags(args) -> None:
 
 
 def run(args) -> int:
+    from fkev_slepc.api import Study
+
     try:
         _check_flags(args)
         scene, case, n_modes = scene_case_modes(args, check_angles=args.angle is None)
+        study = Study(scene, None)
+        found = study.critical(case, args.angle, args.max_speed, args.modes, args.solver)
     except SceneError as err:
-        return report_scene_error(err)
-    from fkev_slepc.model.operators import AssemblyError, Model
-    from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
-    from fkev_slepc.solve.engines import make_engine
-
-    angles = scene.analysis.crank_angles_deg if args.angle is None else (args.angle,)
-    model = Model(scene, cases=(case,))
-    too_many = modes_problem(n_modes, model.n_free, "--modes" if args.modes is not None else None)
-    if too_many:
-        return report_scene_error(SceneError(args.scene, [too_many]))
-    try:
-        engine = make_engine(args.solver or scene.solver.method, model.n_free, scene.solver.petsc)
-    except SceneError as err:
-        return report_scene_error(err)
-    try:
-        found = scan(engine, model, angles, case, n_modes, scene.analysis.damping_tol, args.max_speed,
-                     DEFAULT_MAX_FACTOR * max(abs(s) for s in scene.driver.speeds))
-    except AssemblyError as err:
-        return report_scene_error(SceneError(args.scene, [Problem("--angle", f"{err} (got {args.angle:g})")]))
-    finally:
-        engine.close()
-    out = {"scene": scene.title, "n_free": model.n_free, **found.as_dict(), "max_speed_rad_s": args.max_speed}
+        return report_scene_error(_as_flags(err))
+    n_free = study._model(case).n_free
+    out = {"scene": scene.title, "n_free": n_free, **found.as_dict(), "max_speed_rad_s": args.max_speed}
     if args.json:
         json.dump(out, sys.stdout, indent=1)
         print()
@@ -90,3 +75,11 @@ def _print(o: dict) -> None:
           f"{speed(o['flutter_speed_rad_s'], o['flutter_angle_deg'])}")
     for note in sorted({n for r in o["per_angle"] for n in r["notes"]}):
         print(f"  note: {note}")
+
+
+_FLAGS = {"angle_deg": "--angle", "max_speed_rad_s": "--max-speed", "modes": "--modes", "case": "--case"}
+
+
+def _as_flags(err: SceneError) -> SceneError:
+    """The API's argument names (``angle_deg``) as this command's flags (``--angle``)."""
+    return SceneError(err.source, [Problem(_FLAGS.get(p.path, p.path), p.message) for p in err.problems])
