@@ -195,6 +195,12 @@ def test_sweep_refusals_are_exceptions(tmp_path):
         study.sweep([0, 0], output=out)
     with pytest.raises(SceneError, match="output: required"):
         fk.Study.from_text(BW.read_text()).sweep([0])
+    before = out.read_bytes()
+    with pytest.raises(RunRefused, match="a.h5") as err:  # a finished archive is never replaced silently
+        study.sweep([0], [0], ["structure"], output=out)
+    assert err.value.exit_code == 2 and out.read_bytes() == before
+    replaced = study.sweep([0], [0], ["structure"], output=out, force=True)
+    assert replaced.crank_angle_deg.tolist() == [0.0]
     (tmp_path / "file").write_text("")
     with pytest.raises(RunRefused, match="file/a.h5: .*file is not a directory"):  # an OSError, refused on every rank
         study.sweep([0], [0], ["structure"], output=tmp_path / "file" / "a.h5")

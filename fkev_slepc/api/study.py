@@ -279,7 +279,8 @@ class Study:
 
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
-              retry_failed: bool = False, cross_check: bool = False, progress: bool = False) -> SweepResults:
+              retry_failed: bool = False, cross_check: bool = False, progress: bool = False,
+              force: bool = False) -> SweepResults:
         """Sweep crank angle x speed x case into an HDF5 archive: the code path of ``fkev run``.
 
         Parameters
@@ -297,6 +298,9 @@ class Study:
         modes, mode_shapes, solver, retry_failed, cross_check, progress
             As ``fkev run --modes --mode-shapes --solver --retry-failed --cross-check`` and
             its progress output (stderr, rank 0).
+        force : bool
+            Replace an existing archive (or unfinished run) at ``output`` (``fkev run --force``);
+            without it, and without ``resume``, an existing one is refused and left untouched.
 
         Returns
         -------
@@ -320,7 +324,7 @@ class Study:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
             output = default_output(self.path)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
-                               cross_check=cross_check)
+                               cross_check=cross_check, force=force)
         outcome = run_sweep(request, comm, notify=log.info, progress=progress)
         return open(outcome.output)
 
