@@ -66,11 +66,16 @@ def run(args) -> int:
 def _print_table(o: dict) -> None:
     print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {with_rpm(o['speed_rad_s'], o['speed_rpm'] is not None)}, "
           f"case {o['case']}, {o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
-    print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'residual':>10}")
-    for i, (f, (re, im), r) in enumerate(zip(o["frequency_hz"], o["eigenvalue"], o["residual"]), 1):
+    print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'ζ':>11} {'residual':>10}")
+    rows = zip(o["frequency_hz"], o["eigenvalue"], o["damping_ratio"], o["residual"])
+    for i, (f, (re, im), z, r) in enumerate(rows, 1):
         fmt = lambda v, w: f"{v:{w}.6g}" if v is not None else f"{'—':>{w}}"  # noqa: E731
-        print(f"{i:>4} {fmt(f, 14)} {fmt(re, 14)} {fmt(im, 14)} {fmt(r, 10) if r is None else f'{r:10.1e}'}")
-    print(f"max Re λ = {o['max_real']!r} 1/s; status: {o['status']}"
+        zeta = f"{z:11.3e}" if z is not None else f"{'—':>11}"
+        print(f"{i:>4} {fmt(f, 14)} {fmt(re, 14)} {fmt(im, 14)} {zeta} {fmt(r, 10) if r is None else f'{r:10.1e}'}")
+    growth = o["growth_per_revolution"]
+    print(f"max Re λ = {o['max_real']!r} 1/s"
+          + (f" (x{growth:.6g} per crank revolution)" if growth is not None else "")
+          + f"; divergence: {o['stability_scope']['divergence']}; status: {o['status']}"
           + (f"; divergent (real) eigenvalues: {o['divergent']}" if o["divergent"] else "")
           + (f" ({o['message']})" if o["message"] else ""))
     if "rel_error_estimate" in o:
