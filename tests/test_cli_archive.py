@@ -132,3 +132,23 @@ def test_output_path_problems_are_one_line_and_touch_nothing(archive, tmp_path, 
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and needle.format(tmp=tmp_path) in r.stderr and r.stderr.startswith(f"fkev {cmd}: -o ")
     assert digest(archive) == before and not (tmp_path / "missing").exists()
+
+
+def test_figures_show_rpm_when_the_scene_used_rpm(tmp_path):
+    from fkev_slepc.plots import draw, maps
+    from fkev_slepc.archive.reader import load
+
+    scene = tmp_path / "rpm.toml"
+    scene.write_text(BW.read_text().replace("speeds_rad_s = [0.0, 500.0, 1000.0]", "speeds_rpm = [0, 3000, 6000]"))
+    out = tmp_path / "rpm.h5"
+    r = fkev("run", scene, "--angles", "0,10", "--cases", "full", "--solver", "dense", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    res = load(out)
+    assert res.speeds_in_rpm
+    legend = [t.get_text() for t in draw.freq_angle(res).axes[0].get_legend().get_texts()]
+    assert "Ω = 628.319 rad/s (6000 rpm)" in legend
+    fig = maps.campbell(res)
+    top = [a for a in fig.axes[0].child_axes if a.get_xlabel() == "crank speed (rpm)"]
+    assert len(top) == 1
+    fig.savefig(io.BytesIO(), format="png")  # lays out the secondary axis
+    assert top[0].get_xlim() == pytest.approx(tuple(x / (2 * math.pi / 60) for x in fig.axes[0].get_xlim()))

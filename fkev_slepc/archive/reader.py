@@ -133,6 +133,13 @@ class SweepResults:
 
     # ------------------------------------------------------------------- derived arrays
     @property
+    def speeds_in_rpm(self) -> bool:
+        """The run's speeds were given in rpm (scene ``speeds_rpm`` or ``--speeds-rpm``): show rpm too."""
+        from fkev_slepc.scene.units import speeds_given_in_rpm
+
+        return speeds_given_in_rpm(self.scene_toml, str(self.attrs.get("command_line", "")))
+
+    @property
     def status_names(self) -> np.ndarray:
         """(angle, speed, case) array of status names (``ok``, ``unstable``, ...), decoded with
         the archive's CF ``flag_values``/``flag_meanings`` (:class:`~fkev_slepc.status.Status` if absent)."""

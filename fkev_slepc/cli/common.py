@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tomllib
 
 from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError, with_elements
-from fkev_slepc.sweep.grid import RAD_S_PER_RPM, modes_problem  # noqa: F401 (re-exported to the subcommands)
+from fkev_slepc.sweep.grid import modes_problem  # noqa: F401 (re-exported to the subcommands)
 
 
 def parse_elements(text: str) -> int | tuple[int, ...]:
@@ -19,24 +18,6 @@ def parse_elements(text: str) -> int | tuple[int, ...]:
     if any(v < 1 for v in vals):
         raise argparse.ArgumentTypeError(f"--elements: every count must be >= 1 (got {text!r})")
     return vals[0] if len(vals) == 1 else vals
-
-
-def scene_uses_rpm(scene_toml: str, command_line: str = "") -> bool:
-    """True when the speeds were given in rpm: ``driver.speeds_rpm`` in the scene text, or
-    ``--speeds-rpm``/``--speed-rpm`` on the command line (rpm is then shown beside rad/s)."""
-    if "--speeds-rpm" in command_line or "--speed-rpm" in command_line:
-        return True
-    try:
-        doc = tomllib.loads(scene_toml) if scene_toml else {}
-    except tomllib.TOMLDecodeError:
-        return False
-    driver = doc.get("driver")
-    return isinstance(driver, dict) and "speeds_rpm" in driver
-
-
-def with_rpm(rad_s: float, show: bool) -> str:
-    """``104.72 rad/s`` or ``104.72 rad/s (1000 rpm)``."""
-    return f"{rad_s:g} rad/s" + (f" ({rad_s / RAD_S_PER_RPM:.6g} rpm)" if show else "")
 
 
 def add_elements_argument(p: argparse.ArgumentParser) -> None:

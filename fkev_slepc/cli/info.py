@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import RAD_S_PER_RPM
+from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 
 
 def add_parser(sub) -> None:
@@ -87,10 +87,8 @@ def report(res, n_errors: int = 5) -> list[str]:
     from fkev_slepc.status import Status
     from fkev_slepc.archive.reader import solver_settings
 
-    from .common import scene_uses_rpm
-
     at = res.attrs
-    rpm = scene_uses_rpm(res.scene_toml, str(at.get("command_line", "")))
+    rpm = res.speeds_in_rpm
     na, ns, nc = res.status.shape
     counts = status_counts(res.status)
     total = sum(counts.values())
@@ -181,7 +179,6 @@ def crossing_lines(res, angle: float | None = None, orders: int | None = None) -
     from fkev_slepc.plots.common import pick_angle
     from fkev_slepc.plots.maps import MAX_DEFAULT_ORDERS, crossings
 
-    from .common import scene_uses_rpm, with_rpm
 
     if res.speed_rad_s.size < 2:
         raise ArchiveError(f"--crossings: {res.path} has one crank speed; crossings need a speed sweep")
@@ -194,7 +191,7 @@ def crossing_lines(res, angle: float | None = None, orders: int | None = None) -
         top = om.max() / (2 * np.pi)
         fmax = float(np.nanmax(f)) if np.any(np.isfinite(f)) else 0.0
         orders = int(min(MAX_DEFAULT_ORDERS, max(1, np.ceil(fmax / top)))) if top > 0 else 1
-    rpm = scene_uses_rpm(res.scene_toml, str(res.attrs.get("command_line", "")))
+    rpm = res.speeds_in_rpm
     lines = [f"  crossings   at θ = {res.crank_angle_deg[a]:g} deg, crank orders k = 1..{orders} "
              f"(speeds {om.min():g}-{om.max():g} rad/s, linear between grid speeds):"]
     for c, case in enumerate(res.cases):

@@ -7,9 +7,10 @@ import sys
 
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
+from fkev_slepc.scene.units import RAD_S_PER_RPM, speeds_given_in_rpm, with_rpm
 from .common import (
-    RAD_S_PER_RPM, add_accuracy_arguments, add_elements_argument, apply_element, load_checked,
-    report_scene_error, scene_uses_rpm, transmission_warning, with_rpm,
+    add_accuracy_arguments, add_elements_argument, apply_element, load_checked, report_scene_error,
+    transmission_warning,
 )
 
 FLAGS = {"angle_deg": "--angle", "speed_rad_s": "--speed", "case": "--case", "modes": "--modes",
@@ -52,7 +53,7 @@ def run(args) -> int:
         return report_scene_error(SceneError(err.source, [Problem(flags.get(p.path, p.path), p.message)
                                                           for p in err.problems]))
     transmission_warning(res.transmission_angle_deg, res.angle_deg)
-    rpm = args.speed_rpm is not None or (args.speed is None and scene_uses_rpm(scene.source_text))
+    rpm = args.speed_rpm is not None or (args.speed is None and speeds_given_in_rpm(scene.source_text))
     out = res.as_dict()
     out["speed_rpm"] = res.speed_rad_s / RAD_S_PER_RPM if rpm else None
     if args.json:

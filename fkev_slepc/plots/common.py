@@ -13,6 +13,7 @@ from typing import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
+from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 from fkev_slepc.scene.cases import CASE_NAMES
 from fkev_slepc.archive.reader import ArchiveError, SweepResults, declared_elements
 
@@ -107,8 +108,18 @@ def case_style(name: str) -> dict:
     return dict(CASE_STYLE.get(name, {}))
 
 
-def speed_label(omega: float) -> str:
-    return f"Ω = {omega:g} rad/s"
+def speed_label(omega: float, rpm: bool = False) -> str:
+    """``Ω = 628.319 rad/s``, with ``(6000 rpm)`` when the run's speeds were given in rpm."""
+    return "Ω = " + with_rpm(omega, rpm)
+
+
+def rpm_axis(ax, which: str = "x") -> None:
+    """A secondary speed axis in rev/min (top or right) beside the rad/s one."""
+    convert = (lambda w: w / RAD_S_PER_RPM, lambda n: n * RAD_S_PER_RPM)
+    if which == "x":
+        ax.secondary_xaxis("top", functions=convert).set_xlabel("crank speed (rpm)")
+    else:
+        ax.secondary_yaxis("right", functions=convert).set_ylabel("crank speed (rpm)")
 
 
 def case_label(name: str) -> str:

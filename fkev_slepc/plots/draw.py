@@ -80,7 +80,7 @@ def freq_angle(
         for ax, m in zip(axes, mode_idx):
             for c_n, c in enumerate(c_idx):
                 for s_n, s in enumerate(s_idx):
-                    parts = [speed_label(res.speed_rad_s[s])]
+                    parts = [speed_label(res.speed_rad_s[s], res.speeds_in_rpm)]
                     if len(c_idx) > 1 or cases:
                         parts.append(res.cases[c])
                     if len(runs) > 1:
@@ -198,7 +198,8 @@ def error_angle(
         ax.set_ylabel("error vs full (%)")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    what = f"percentage error in natural frequency vs crank angle, {speed_label(res.speed_rad_s[s])}; {order} modes"
+    what = (f"percentage error in natural frequency vs crank angle, "
+            f"{speed_label(res.speed_rad_s[s], res.speeds_in_rpm)}; {order} modes")
     if n_flag:
         what += f"\n× {n_flag} points with no MAC match to a full mode (sorted-order error shown there)"
     set_title(fig, res, what)

@@ -19,6 +19,7 @@ from fkev_slepc.plots.common import (
     pick_angle,
     pick_cases,
     pick_modes,
+    rpm_axis,
     set_title,
 )
 from fkev_slepc.archive.reader import SweepResults
@@ -75,6 +76,8 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
     n_unst = int(np.sum(st == Status.UNSTABLE.code))
     ax.set_xlabel(ANGLE_LABEL)
     ax.set_ylabel(SPEED_LABEL)
+    if res.speeds_in_rpm:
+        rpm_axis(ax, "y")
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=8, loc="upper right", framealpha=0.85)
     set_title(fig, res, f"stability map, case {res.cases[c]}{_damping_label(res)}\n{n_unst} unstable "
@@ -168,6 +171,8 @@ def campbell(
         ax.scatter(cross_om, cross_f, s=40, facecolors="none", edgecolors="r", zorder=5,
                    label=f"crossings: {len(cross_om)}")
     ax.set_xlabel(SPEED_LABEL)
+    if res.speeds_in_rpm:
+        rpm_axis(ax, "x")
     ax.set_ylabel(FREQ_LABEL)
     ax.set_ylim(0, 1.08 * fmax)
     ax.set_xlim(0, om.max() * 1.04 if om.max() > 0 else 1)

@@ -191,7 +191,7 @@ def mode_shape(
     mode_idx = pick_modes(res, modes)
     f = res.frequency(order="sorted")
     lines = [(res.cases[c], res.mode_shape(a, s, c), f[a, s, c]) for c in c_idx]
-    where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s])}"
+    where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s], res.speeds_in_rpm)}"
     heading = f"{scene_heading(res)}\nmode shapes at {where}"
     return shapes_figure(res.mesh, np.asarray(res.node_xy[a], dtype=float), lines, mode_idx, heading,
                          [int(m) for m in res.modes], guides(res.scene_toml))

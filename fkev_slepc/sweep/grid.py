@@ -7,16 +7,15 @@ name the flag or argument (``names``) and the value given.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
 
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
+from fkev_slepc.scene.units import RAD_S_PER_RPM
 
 MAX_POINTS_PER_AXIS = 1_000_000
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 API_NAMES = {"angles": "angles_deg", "speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "cases": "cases",
              "modes": "modes"}
 """How :func:`configure` names each override in its messages (Python argument names)."""
