@@ -15,7 +15,6 @@ Derived quantities follow docs/theory.md §12:
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable
@@ -24,6 +23,7 @@ import numpy as np
 
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.solve.modes import percent_error
+from fkev_slepc.archive.scene_text import scene_title
 from fkev_slepc.status import Status, converged_codes
 
 ARCHIVE_FORMAT = "fkev-archive"
@@ -319,45 +319,6 @@ def _damping_ratio(h5) -> np.ndarray:
     from fkev_slepc.solve.stability import damping_ratio
 
     return damping_ratio(h5["eigenvalue"][()])
-
-
-def scene_title(scene_toml: str, fallback: str) -> str:
-    """The scene's ``title`` (top level or under ``[scene]``); the source file stem otherwise."""
-    try:
-        doc = tomllib.loads(scene_toml) if scene_toml else {}
-    except tomllib.TOMLDecodeError:
-        doc = {}
-    for table in (doc, doc.get("scene", {}) if isinstance(doc.get("scene"), dict) else {}):
-        if isinstance(table.get("title"), str) and table["title"].strip():
-            return table["title"].strip()
-    return Path(str(fallback)).stem
-
-
-def declared_elements(scene_toml: str) -> tuple[int, ...] | None:
-    """Elements per link as the scene text declares them (``links[].elements`` or
-    ``link_defaults.elements``); None if the text does not say. Compared with the archive's
-    ``elements`` attribute, it tells whether the run re-meshed the scene (``--elements``)."""
-    try:
-        doc = tomllib.loads(scene_toml) if scene_toml else {}
-    except tomllib.TOMLDecodeError:
-        return None
-    links = doc.get("links")
-    defaults = doc.get("link_defaults")
-    default = defaults.get("elements") if isinstance(defaults, dict) else None
-    if not isinstance(links, list) or not links:
-        return None
-    counts = [_declared(lk, default) if isinstance(lk, dict) else None for lk in links]
-    return tuple(int(n) for n in counts) if all(isinstance(n, int) for n in counts) else None
-
-
-def _declared(link: dict, default):
-    """A link's axis elements: its own count, or the sum over its [[links.segments]]."""
-    own = link.get("elements", default)
-    segments = link.get("segments")
-    if not isinstance(segments, list):
-        return own
-    counts = [s.get("elements", own) if isinstance(s, dict) else None for s in segments]
-    return sum(counts) if all(isinstance(n, int) for n in counts) else None
 
 
 def solver_settings(res: SweepResults) -> dict:

@@ -15,7 +15,8 @@ from matplotlib.figure import Figure
 
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 from fkev_slepc.scene.cases import CASE_NAMES
-from fkev_slepc.archive.reader import ArchiveError, SweepResults, declared_elements
+from fkev_slepc.archive.reader import ArchiveError, SweepResults
+from fkev_slepc.archive.scene_text import declared_elements
 
 SIMPLIFIED = ("no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal")
 PREFERRED_ANGLE_DEG = 10.0  # the thesis's detailed-study position (Figs 3.10-3.13, 3.22-3.25)
