@@ -16,7 +16,8 @@ import pytest
 from clitools import BW, ROOT, fkev
 
 pytestmark = pytest.mark.slow
-GRID = ("--angles", "0:358:2", "--cases", "structure,full", "--solver", "dense", "--modes", "3")
+# long enough (4320 points, ~10 s on 2 idle ranks) that the signal always arrives mid-sweep
+GRID = ("--angles", "0:359.5:0.5", "--cases", "structure,full", "--solver", "dense", "--modes", "3")
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}  # only so that the tests run as root on 2 cores
 
@@ -43,7 +44,7 @@ def interrupt_after_start(proc, pid=None, sig=signal.SIGINT):
         lines.append(line)
         if "points to solve" in line:
             break
-    time.sleep(1.5)
+    time.sleep(1.0)
     assert proc.poll() is None, "the run finished before it was interrupted"
     os.kill(pid or proc.pid, sig)
     out, err = proc.communicate(timeout=300)
