@@ -5,7 +5,8 @@
 #   usage: scripts/demo.sh [VENV] [NP]        (defaults: .venv, 2 ranks)
 #
 # The archive is runs/out/bahgat-willmert-1976.h5 (fkev run's default: <scene dir>/out/<stem>.h5;
-# git-ignored). Each call starts a new run; `fkev run ... --resume` would continue a killed one.
+# git-ignored). Each call starts a new run (--force replaces the previous archive; fkev run refuses
+# to without it); `fkev run ... --resume` would continue a killed one.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${1:-.venv}
@@ -16,9 +17,10 @@ ARCHIVE=runs/out/bahgat-willmert-1976.h5
 # OpenMPI refuses to run as root and to place more ranks than cores unless told; only for this script.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 
-echo "+ mpiexec -n $NP $FKEV run $SCENE -o $ARCHIVE"
+mkdir -p "$(dirname "$ARCHIVE")"  # fkev run -o never creates directories itself
+echo "+ mpiexec -n $NP $FKEV run $SCENE -o $ARCHIVE --force"
 rc=0
-mpiexec -n "$NP" "$FKEV" run "$SCENE" -o "$ARCHIVE" || rc=$?
+mpiexec -n "$NP" "$FKEV" run "$SCENE" -o "$ARCHIVE" --force || rc=$?
 if [ "$rc" -eq 3 ]; then
     echo "demo: some points failed or did not converge (listed by fkev info below)"
 elif [ "$rc" -ne 0 ]; then

@@ -22,7 +22,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_
 sweep() {  # sweep OUT SCENE [fkev run options]: exit 3 (some points not converged) is reported, not fatal
     local out=$1 scene=$2
     shift 2
-    local cmd=("$FKEV" run "$scene" -o "$out" --quiet "$@")
+    local cmd=("$FKEV" run "$scene" -o "$out" --force --quiet "$@")  # --force: each call starts afresh
     [ "$NP" -gt 1 ] && cmd=(mpiexec -n "$NP" "${cmd[@]}")
     echo "+ ${cmd[*]}"
     local rc=0
