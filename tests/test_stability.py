@@ -205,3 +205,22 @@ def test_archive_and_info_carry_damping_ratio(tmp_path):
     info = subprocess.run([sys.executable, "-m", "fkev_slepc", "info", str(out)], env=env, check=True,
                           capture_output=True, text=True).stdout
     assert "damping ratio, smallest over the reported modes" in info and "damping_tol 1e-06" in info
+
+
+def test_info_states_the_severity_of_unstable_regions(tmp_path):
+    """Undamped Bahgat-Willmert at 1000 rad/s (case full) flutters at every angle: fkev info names
+    the region with the smallest damping ratio of its points, as archived."""
+    import h5py
+
+    out = tmp_path / "bw.h5"
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    subprocess.run([sys.executable, "-m", "fkev_slepc", "run", os.path.join(ROOT, "runs", "bahgat-willmert-1976.toml"),
+                    "-o", str(out), "--quiet", "--angles", "0,90", "--speeds", "1000", "--cases", "full"],
+                   env=env, check=True)
+    with h5py.File(out) as f:
+        zmin = np.nanmin(f["damping_ratio"][()])
+    assert zmin < -1e-6
+    info = subprocess.run([sys.executable, "-m", "fkev_slepc", "info", str(out)], env=env, check=True,
+                          capture_output=True, text=True).stdout
+    line = next(ln for ln in info.splitlines() if ln.strip().startswith("unstable  full at 1000 rad/s"))
+    assert f"min damping ratio {zmin:.3g}," in line and "per revolution" in line and "None" not in info

@@ -136,10 +136,6 @@ def report(res, n_errors: int = 5) -> list[str]:
     settings = solver_settings(res)
     lines.extend(settings_table(settings))
     lines.append(f"  thresholds  imag_tol {at.get('imag_tol')}, damping_tol {at.get('damping_tol')}")
-    if "tracking_open_loops" in at:
-        lines.append(f"  tracking    MAC along crank angle; {int(at['tracking_open_loops'])} (speed, case) "
-                     "line(s) whose modes come back permuted after a revolution")
-    lines.append(f"  thresholds  imag_tol {at.get('imag_tol')}, stability_tol {at.get('stability_tol')}")
     lines.extend(_tracking(res))
     lines.append(f"  run         {float(at.get('wall_time_s', 0.0)):.1f} s wall on {at.get('n_ranks', '?')} rank(s); "
                  f"fkev {at.get('fkev_version')}, PETSc {at.get('petsc_version')}, SLEPc {at.get('slepc_version')}, "
@@ -208,6 +204,14 @@ def _severity(res, status, mask, js, jc, speed) -> str:
     """Unstable: smallest ζ and the worst mode's growth per crank revolution; divergent: max Re λ."""
     from fkev_slepc.solve.stability import growth_per_revolution
     from fkev_slepc.status import Status
+
+    if status == Status.DIVERGENT:
+        return f"largest real eigenvalue {np.nanmax(res.max_real[:, js, jc][mask]):.4g} 1/s"
+    zmin = np.nanmin(res.damping_ratio[:, js, jc][mask])
+    worst = np.nanmax(res.eigenvalue[:, js, jc][mask].real)
+    return f"min damping ratio {zmin:.3g}, worst mode x{growth_per_revolution(worst, speed):.6g} per revolution"
+
+
 def _tracking(res) -> list[str]:
     """What mode tracking found (``/tracking`` attributes, docs/tracking.md)."""
     import h5py
@@ -236,16 +240,6 @@ def _tracking(res) -> list[str]:
         out.append(f"    along speed: {int(t['speed_fallback_lines'])} of {na * nc} (angle, case) lines ambiguous "
                    "or crossing, left in sorted order")
     return out
-
-
-def _errors(res, n: int) -> list[str]:
-    import h5py
-
-    if status == Status.DIVERGENT:
-        return f"largest real eigenvalue {np.nanmax(res.max_real[:, js, jc][mask]):.4g} 1/s"
-    zmin = np.nanmin(res.damping_ratio[:, js, jc][mask])
-    worst = np.nanmax(res.eigenvalue[:, js, jc][mask].real)
-    return f"min damping ratio {zmin:.3g}, worst mode x{growth_per_revolution(worst, speed):.6g} per revolution"
 
 
 def _errors(res, n: int) -> list[str]:
