@@ -182,6 +182,33 @@ def test_study_sweep_writes_the_archive_fkev_run_writes(tmp_path, capsys):
     np.testing.assert_array_equal(ds.frequency_hz.sel(case="full", speed_rad_s=1000).values, f)
 
 
+def test_study_sweep_rel_error_and_element_write_what_fkev_run_writes(tmp_path):
+    """Study.sweep(rel_error=, element=) and `fkev run --rel-error/--element`: the same plan, mesh and
+    archive (the plan archived as `accuracy`); bad values name the argument, before anything is written."""
+    import json
+
+    grid = ["--angles", "0,90", "--speeds", "0,1000", "--cases", "structure,full"]
+    cli, api = tmp_path / "cli.h5", tmp_path / "api.h5"
+    assert main(["run", str(BW), "-o", str(cli), "--quiet", *grid, "--rel-error", "1e-3"]) == 0
+    res = fk.load(BW).sweep("0,90", [0, 1000], ["structure", "full"], output=api, rel_error=1e-3)
+    assert_same_archive(cli, api)
+    plan = json.loads(res.attrs["accuracy"])
+    assert plan["rel_error"] == 1e-3 and plan["predicted_rel_error"] <= 1e-3
+    assert res.settings()["elements"] == (plan["elements_per_link"],) * 3 != (1, 2, 2)  # re-meshed
+    assert res.attrs["element"] == plan["element"]
+    # --element alone: the scene's mesh with the cubic element (5 free DOFs per element instead of 3)
+    cli, api = tmp_path / "cli-cubic.h5", tmp_path / "api-cubic.h5"
+    assert main(["run", str(BW), "-o", str(cli), "--quiet", *grid, "--element", "cubic"]) == 0
+    res = fk.load(BW).sweep("0,90", [0, 1000], ["structure", "full"], output=api, element="cubic")
+    assert_same_archive(cli, api)
+    assert res.attrs["element"] == "cubic" and "accuracy" not in res.attrs
+    assert res.settings()["n_free"] == 15 + 2 * 5  # the thesis mesh's 15 DOFs plus 2 axial bubbles per element
+    bad = tmp_path / "bad.h5"
+    with pytest.raises(SceneError, match=r"rel_error: must be a number in \(0, 1\) \(got 2\)") as err:
+        fk.load(BW).sweep([0], [0], ["full"], output=bad, rel_error=2, element="quad")
+    assert "element: must be one of thesis, cubic (got 'quad')" in str(err.value) and not bad.exists()
+
+
 def test_sweep_refusals_are_exceptions(tmp_path):
     study = fk.load(BW)
     out = tmp_path / "a.h5"

@@ -280,7 +280,7 @@ class Study:
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
               retry_failed: bool = False, cross_check: bool = False, progress: bool = False,
-              force: bool = False) -> SweepResults:
+              force: bool = False, element: str | None = None, rel_error: float | None = None) -> SweepResults:
         """Sweep crank angle x speed x case into an HDF5 archive: the code path of ``fkev run``.
 
         Parameters
@@ -301,6 +301,13 @@ class Study:
         force : bool
             Replace an existing archive (or unfinished run) at ``output`` (``fkev run --force``);
             without it, and without ``resume``, an existing one is refused and left untouched.
+        element : {"thesis", "cubic"}, optional
+            Element type (``fkev run --element``; default the scene's ``analysis.element``).
+        rel_error : float, optional
+            Requested relative error of the frequencies, in (0, 1) (``fkev run --rel-error``;
+            default the scene's ``analysis.rel_error``): before the sweep the element and the
+            elements per link are chosen at a few sample points of the grid, and the plan is
+            archived as the root attribute ``accuracy`` (docs/accuracy.md §3).
 
         Returns
         -------
@@ -313,18 +320,32 @@ class Study:
             A bad argument or solver option (nothing written).
         RunRefused
             ``resume`` of an archive of another scene or grid (nothing written).
+
+        Examples
+        --------
+        Two angles of the Bahgat-Willmert linkage at rest, meshed for a relative error of 1e-3
+        (the thesis scene has 1, 2, 2 elements per link; the plan is archived):
+
+        >>> import json, tempfile
+        >>> out = Path(tempfile.mkdtemp()) / "bw.h5"
+        >>> res = load(RUNS / "bahgat-willmert-1976.toml").sweep([0, 90], [0], ["structure"], out, rel_error=1e-3)
+        >>> plan = json.loads(res.attrs["accuracy"])
+        >>> plan["element"], plan["elements_per_link"], res.settings()["elements"], plan["predicted_rel_error"] < 1e-3
+        ('thesis', 7, (7, 7, 7), True)
         """
         from fkev_slepc.sweep.grid import configure
+        from fkev_slepc.sweep.mesh_plan import plan_accuracy
         from fkev_slepc.sweep.session import SweepRequest, default_output, run_sweep
 
         scene = configure(self.scene, angles=angles_deg, speeds=speeds_rad_s, cases=cases, modes=modes,
-                          mode_shapes=mode_shapes)
+                          mode_shapes=mode_shapes, element=element, rel_error=rel_error)
         if output is None:
             if self.path is None:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
             output = default_output(self.path)
+        scene, plan = plan_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
-                               cross_check=cross_check, force=force)
+                               cross_check=cross_check, force=force, accuracy=plan)
         outcome = run_sweep(request, comm, notify=log.info, progress=progress)
         return open(outcome.output)
 

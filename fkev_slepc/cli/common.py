@@ -44,9 +44,9 @@ def _positive_fraction(text: str) -> float:
 
 def apply_element(scene: Scene, element: str | None) -> Scene:
     """``scene`` with ``--element`` applied (None: unchanged)."""
-    from dataclasses import replace
+    from fkev_slepc.solve.accuracy import with_element
 
-    return scene if element is None else replace(scene, analysis=replace(scene.analysis, element=element))
+    return scene if element is None else with_element(scene, element)
 
 
 def add_model_arguments(p: argparse.ArgumentParser) -> None:

@@ -18,7 +18,7 @@ from pathlib import Path
 from fkev_slepc.scene import SceneError, load_scene, with_elements
 from fkev_slepc.status import EXIT_BAD_INPUT
 from fkev_slepc.sweep.session import default_output
-from .common import add_accuracy_arguments, add_elements_argument, apply_element
+from .common import add_accuracy_arguments, add_elements_argument
 from .launch import NP_VARIABLE
 
 
@@ -61,7 +61,8 @@ def run(args) -> int:
     """Parse, run the sweep (:mod:`fkev_slepc.sweep.session`, as ``Study.sweep``), print, exit code."""
     from fkev_slepc.sweep.grid import CLI_NAMES, configure
     from fkev_slepc.sweep.parallel import install_abort_hook, world
-    from fkev_slepc.sweep.session import RunRefused, SweepInterrupted, SweepRequest, plan_accuracy, run_sweep
+    from fkev_slepc.sweep.mesh_plan import plan_accuracy
+    from fkev_slepc.sweep.session import RunRefused, SweepInterrupted, SweepRequest, run_sweep
 
     comm = world()
     install_abort_hook()
@@ -70,11 +71,10 @@ def run(args) -> int:
         scene = load_scene(args.scene)
         if args.elements is not None:
             scene = with_elements(scene, args.elements)
-        scene = configure(apply_element(scene, args.element), angles=args.angles, speeds=args.speeds,
-                          speeds_rpm=args.speeds_rpm, cases=args.cases, modes=args.modes,
-                          mode_shapes=args.mode_shapes, names=CLI_NAMES)
-        rel_error = scene.analysis.rel_error if args.rel_error is None else args.rel_error
-        scene, plan = plan_accuracy(scene, rel_error, args.solver, comm, None if args.quiet else _note, "--rel-error")
+        scene = configure(scene, angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm,
+                          cases=args.cases, modes=args.modes, mode_shapes=args.mode_shapes, element=args.element,
+                          rel_error=args.rel_error, names=CLI_NAMES)
+        scene, plan = plan_accuracy(scene, args.solver, comm, None if args.quiet else _note, CLI_NAMES["rel_error"])
         request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene),
                                resume=args.resume, retry_failed=args.retry_failed, solver=args.solver,
                                cross_check=args.cross_check, accuracy=plan, force=args.force,

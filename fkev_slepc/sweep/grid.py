@@ -11,16 +11,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
 from fkev_slepc.scene.units import RAD_S_PER_RPM
 
 MAX_POINTS_PER_AXIS = 1_000_000
 API_NAMES = {"angles": "angles_deg", "speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "cases": "cases",
-             "modes": "modes"}
+             "modes": "modes", "element": "element", "rel_error": "rel_error"}
 """How :func:`configure` names each override in its messages (Python argument names)."""
 CLI_NAMES = {"angles": "--angles", "speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "cases": "--cases",
-             "modes": "--modes"}
+             "modes": "--modes", "element": "--element", "rel_error": "--rel-error"}
 """The same for ``fkev run`` (its flags)."""
 
 
@@ -109,6 +109,14 @@ def check_modes(modes, name: str) -> list[Problem]:
     return [Problem(name, f"must be >= 1 (got {modes})")] if modes < 1 else []
 
 
+def check_rel_error(rel_error, name: str) -> list[Problem]:
+    """The problem with a requested relative frequency error (a number in (0, 1)), if any."""
+    ok = isinstance(rel_error, (int, float, np.integer, np.floating)) and not isinstance(rel_error, bool)
+    if ok and 0 < rel_error < 1:
+        return []
+    return [Problem(name, f"must be a number in (0, 1) (got {rel_error!r})")]
+
+
 def modes_problem(n_modes: int, n_free: int, name: str | None) -> Problem | None:
     """A problem when more modes are asked than the model can have: its ``n_free`` DOFs give
     at most ``n_free`` oscillating modes (conjugate pairs of the 2·n_free eigenvalues)."""
@@ -120,8 +128,9 @@ def modes_problem(n_modes: int, n_free: int, name: str | None) -> Problem | None
 
 
 def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=None, modes=None,
-              mode_shapes=False, names=API_NAMES) -> Scene:
-    """``scene`` with its sweep grid overridden where a value is given, and checked.
+              mode_shapes=False, element=None, rel_error=None, names=API_NAMES) -> Scene:
+    """``scene`` with its sweep grid (and element, requested accuracy) overridden where a value
+    is given, and checked.
 
     Parameters
     ----------
@@ -133,6 +142,11 @@ def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=
         Modes per point (>= 1, at most the model's free DOFs); None keeps the scene's.
     mode_shapes : bool
         Also archive mode shapes (in addition to the scene's ``analysis.mode_shapes``).
+    element : str, optional
+        Element type, one of ``ELEMENT_NAMES`` (``analysis.element``); None keeps the scene's.
+    rel_error : float, optional
+        Requested relative frequency error in (0, 1) (``analysis.rel_error``: the sweep is then
+        re-meshed by :func:`fkev_slepc.sweep.session.plan_accuracy`); None keeps the scene's.
     names : dict
         How messages name each override (:data:`API_NAMES` or :data:`CLI_NAMES`).
 
@@ -176,6 +190,16 @@ def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=
         problems += bad
         if not bad:
             an = replace(an, modes=int(modes))
+    if element is not None:
+        if element in ELEMENT_NAMES:
+            an = replace(an, element=element)
+        else:
+            problems.append(Problem(names["element"], f"must be one of {', '.join(ELEMENT_NAMES)} (got {element!r})"))
+    if rel_error is not None:
+        bad = check_rel_error(rel_error, names["rel_error"])
+        problems += bad
+        if not bad:
+            an = replace(an, rel_error=float(rel_error))
     if problems:
         raise SceneError(scene.source, problems)
     scene = replace(scene, analysis=replace(an, mode_shapes=an.mode_shapes or bool(mode_shapes)), driver=drv)

@@ -17,6 +17,15 @@ def world():
     return MPI.COMM_WORLD
 
 
+def local(comm=None):
+    """``comm``, or this process alone (``MPI.COMM_SELF``) for None."""
+    if comm is None:
+        from mpi4py import MPI
+
+        comm = MPI.COMM_SELF
+    return comm
+
+
 def configure_logging(level: int = logging.WARNING) -> None:
     comm = world()
     rank, size = comm.rank, comm.size

@@ -352,48 +352,11 @@ class SweepSession:
         return self.finalise(plan, self.solve(plan, progress))
 
 
-def plan_accuracy(scene: Scene, rel_error: float | None, solver: str | None, comm,
-                  notify: Callable[[str], None] | None = None, name: str = "rel_error") -> tuple[Scene, dict | None]:
-    """Collective. With ``rel_error``: rank 0 plans the element and mesh at a few sample points
-    of the grid (:mod:`fkev_slepc.solve.accuracy`), every rank gets the re-meshed scene and the
-    plan (archived as the ``accuracy`` attribute: :attr:`SweepRequest.accuracy`).
-
-    Raises ``SceneError`` (naming ``name``) on every rank when no element reaches ``rel_error``."""
-    if rel_error is None:
-        return scene, None
-    from dataclasses import replace
-
-    from fkev_slepc.scene import Problem, SceneError, with_elements
-    from fkev_slepc.solve.accuracy import planned_scene, sample_points
-
-    out: dict | Problem | None = None
-    if comm.rank == 0:
-        an = scene.analysis
-        points = sample_points(an.crank_angles_deg, scene.driver.speeds, an.cases)
-        try:
-            _, plan = planned_scene(scene, points, an.modes, rel_error, solver or scene.solver.method)
-            out = dict(plan.summary(), sample_points=points)
-        except ValueError as err:
-            out = Problem(name, str(err))
-    out = comm.bcast(out, root=0)
-    if isinstance(out, Problem):
-        raise SceneError(scene.source, [out])
-    scene = with_elements(scene, out["elements_per_link"])
-    scene = replace(scene, analysis=replace(scene.analysis, element=out["element"]))
-    if notify is not None and comm.rank == 0:
-        notify(f"rel_error {rel_error:g}: element {out['element']}, {out['elements_per_link']} elements per link, "
-               f"estimated max relative error {out['predicted_rel_error']:.1e} at {len(out['sample_points'])} "
-               "sample points")
-    return scene, out
-
-
 def run_sweep(request: SweepRequest, comm=None, notify=None, progress: bool = False) -> SweepOutcome:
     """Run ``request`` over ``comm`` (None: this process alone, ``MPI.COMM_SELF``).
 
     Collective; see :class:`SweepSession`. Raises ``SceneError`` (solver options) or
     :class:`RunRefused` (output) on every rank before anything is solved."""
-    if comm is None:
-        from mpi4py import MPI
+    from fkev_slepc.sweep.parallel import local
 
-        comm = MPI.COMM_SELF
-    return SweepSession(request, comm, notify).run(progress)
+    return SweepSession(request, local(comm), notify).run(progress)
