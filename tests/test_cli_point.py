@@ -83,3 +83,26 @@ def test_bad_petsc_option_is_a_scene_error_not_a_traceback():
              "-fkev_pep_type", "toarr")
     assert r.returncode == 2
     assert "pep_type" in r.stderr and "toarr" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_point_json_separates_accepted_pairs_from_the_stability_verdict(capsys):
+    """`unstable` is a converged status: case full at θ = 10°, 1000 rad/s has modes 1 and 2 with negative
+    damping ratio (docs/accuracy.md §2), every pair accepted; the same point without the Coriolis term
+    (undamped, non-gyroscopic) is ok; a threshold no pair can meet gives pairs_accepted false."""
+    common = (BW, "--angle", "10", "--speed", "1000", "--elements", "4", "--json")
+    code, stdout, stderr = point(capsys, *common, "--case", "full")
+    full = json.loads(stdout)
+    assert code == 0 and full["status"] == "unstable" and full["pairs_accepted"] is True, stderr
+    assert full["unstable_modes"] == [1, 2] and full["max_pair_error"] == 1e-3
+    zeta = np.array(full["damping_ratio"])
+    assert zeta[0] < -1e-3 and zeta[1] < -1e-3 and np.all(zeta[2:] > 0)
+    assert max(full["residual"]) <= full["max_pair_error"]
+    code, stdout, _ = point(capsys, *common, "--case", "no_coriolis")
+    nc = json.loads(stdout)
+    assert code == 0 and nc["status"] == "ok" and nc["pairs_accepted"] is True and nc["unstable_modes"] == []
+    code, stdout, _ = point(capsys, *common[:-1], "--case", "full")  # the table says both, on one line
+    line = next(s for s in stdout.splitlines() if s.startswith("accuracy:"))
+    assert "every reported pair accepted" in line and "modes 1, 2 grow" in line
+    r = fkev("point", *common, "--case", "full", "--solver", "dense", "-fkev_max_pair_error", "1e-30")
+    strict = json.loads(r.stdout)
+    assert r.returncode == 3 and strict["status"] == "not_converged" and strict["pairs_accepted"] is False

@@ -58,6 +58,8 @@ class PointResult:
     _theta: float = 0.0
     cross_check: float | None = None  # largest relative frequency difference vs the other engine
     accuracy: dict | None = None  # with rel_error: the planned element and mesh, and its estimate
+    max_pair_error: float = float("nan")  # the engine's acceptance threshold on each reported pair's error
+    damping_tol: float = float("nan")  # a mode with damping ratio < -damping_tol is unstable (analysis.damping_tol)
 
     eigenvalues = property(lambda self: self.raw.eigenvalue)
     frequency_hz = property(lambda self: self.raw.frequency_hz)
@@ -75,7 +77,16 @@ class PointResult:
 
     @property
     def converged(self) -> bool:
+        """Every requested mode found and every reported pair accepted (pair error at most
+        ``max_pair_error`` and within what the matrices' conditioning explains): the
+        frequencies are trustworthy. Independent of the stability verdict: ``unstable`` and
+        ``divergent`` points are converged."""
         return self.status in CONVERGED
+
+    @property
+    def unstable_modes(self) -> list[int]:
+        """Modes (1-based) whose damping ratio is below ``-damping_tol``: the flutter verdict."""
+        return [int(k) + 1 for k in np.flatnonzero(self.damping_ratio < -self.damping_tol)]
 
     def __repr__(self) -> str:
         f = ", ".join("—" if not np.isfinite(v) else f"{v:.6g}" for v in self.frequency_hz)
@@ -144,6 +155,9 @@ class PointResult:
                "stability_scope": {"divergence": self.raw.divergence_check,
                                    "flutter": f"modes 1-{len(self.frequency_hz)} (damping ratio of the reported modes)"},
                "status": self.status.value, "message": self.message,
+               # what the status combines, apart: the pairs' acceptance (accuracy) and stability
+               "pairs_accepted": self.converged, "max_pair_error": num(self.max_pair_error),
+               "unstable_modes": self.unstable_modes,
                "transmission_angle_deg": num(self.transmission_angle_deg),
                "element": self._model.scene.analysis.element,
                "elements": [lk.elements for lk in self._model.scene.links]}

@@ -190,7 +190,7 @@ class Study:
             engine.close()
         diff = _cross_check(qep, int(modes), sc.solver.petsc) if cross_check else None
         return PointResult(float(angle_deg), float(speed_rad_s), case, res, sc.title, model.n_free, qep.kind,
-                           mu_deg, model, theta, diff, plan)
+                           mu_deg, model, theta, diff, plan, engine.max_pair_error, an.damping_tol)
 
     def _plan(self, angle_deg, speed_rad_s, case, modes, rel_error, solver) -> tuple[Scene, dict | None]:
         """The scene re-meshed for ``rel_error`` at this point and the plan (solve/accuracy.py);

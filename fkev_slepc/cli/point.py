@@ -79,6 +79,13 @@ def _print_table(o: dict) -> None:
           + f"; divergence: {o['stability_scope']['divergence']}; status: {o['status']}"
           + (f"; divergent (real) eigenvalues: {o['divergent']}" if o["divergent"] else "")
           + (f" ({o['message']})" if o["message"] else ""))
+    worst = max((r for r in o["residual"] if r is not None), default=None)
+    pairs = (f"every reported pair accepted (largest pair error {worst:.1e} <= max_pair_error {o['max_pair_error']:g})"
+             if o["pairs_accepted"] else "pairs NOT accepted: the frequencies are not trustworthy")
+    grow = o["unstable_modes"]
+    grows = (f"mode{'s' if len(grow) > 1 else ''} {', '.join(map(str, grow))} grow "
+             "(damping ratio < -analysis.damping_tol)") if grow else "no reported mode grows"
+    print(f"accuracy: {pairs}; stability: {grows}")
     if "rel_error_estimate" in o:
         a = o["accuracy"]
         print(f"requested rel_error {a['rel_error']:g}: element {a['element']}, {a['elements_per_link']} elements per "
