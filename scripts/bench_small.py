@@ -53,7 +53,7 @@ def setup(args):
     angles = np.arange(start, stop + step / 2, step)
     grid = Grid(angles, np.asarray(scene.driver.speeds, float), tuple(scene.analysis.cases), args.modes)
     model = Model(scene, cases=grid.cases)
-    opts = SweepOptions(args.modes, scene.analysis.imag_tol, scene.analysis.stability_tol, False,
+    opts = SweepOptions(args.modes, scene.analysis.imag_tol, scene.analysis.damping_tol, False,
                         tracking_dofs(model.n_free, len(angles), len(grid.speeds)))
     sweep = Sweep(model, grid, DenseEngine(), None, opts, np.full(grid.shape, np.nan))
     return scene, grid, model, sweep

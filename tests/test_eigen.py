@@ -413,3 +413,33 @@ def test_dense_engine_applies_the_same_pair_error_check():
     assert good.converged and good.message == ""
     strict = DenseEngine(max_pair_error=1e-20).solve(q, 4)  # nothing passes a zero tolerance
     assert not strict.converged and "max_pair_error" in strict.message
+
+
+@pytest.mark.parametrize("case", ["full", "no_coriolis", "structure"])
+def test_dense_vectors_of_reported_pairs_equal_lapack_eigenvectors(case):
+    """The dense engine computes eigenvalues only and the reported pairs' vectors by one step of
+    inverse iteration: they must be LAPACK's eigenvectors (MAC 1), and a scale hint must not
+    change the eigenvalues."""
+    import scipy.linalg as la
+    from builders import bahgat_willmert
+
+    from fkev_slepc.solve.modes import mac, reported
+
+    m = Model(bahgat_willmert(elements=(2, 3, 3)))
+    q = m.qep(m.pieces(np.radians(37.0)), 900.0, case)
+    sol = DenseEngine().solve(q, 4, want_vectors=True)
+    osc, _ = reported(sol.eigenvalues, 4)
+    n = q.n
+    M, K = q.mass.toarray(), q.stiffness.toarray()
+    C = q.damping.toarray() if q.damping is not None else np.zeros((n, n))
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-K, -C]])
+    B = np.block([[np.eye(n), np.zeros((n, n))], [np.zeros((n, n)), M]])
+    lam, V = la.eig(A, B)
+    for j in osc:
+        k = np.argmin(np.abs(lam - sol.eigenvalues[j]))
+        assert abs(lam[k] - sol.eigenvalues[j]) <= 1e-8 * abs(lam[k])
+        assert mac(V[:n, [k]], sol.vectors[:, [j]])[0, 0] == pytest.approx(1.0, abs=1e-10)
+    assert np.max(pair_error(q, sol.eigenvalues[osc], sol.vectors[:, osc])) < 1e-10
+    hinted = DenseEngine().solve(q, 4, hint=3.0 * abs(sol.eigenvalues[osc[0]]))
+    h = reported(hinted.eigenvalues, 4)[0]
+    np.testing.assert_allclose(hinted.eigenvalues[h], sol.eigenvalues[osc], rtol=1e-11)

@@ -41,6 +41,27 @@ def test_matrix_structure(bw):
     assert bw.qep(p, 0.0, "full", accel=0.0).kind == LINEAR_SYMMETRIC
 
 
+def test_pattern_matrix_equals_scipy_checked_constructor(bw):
+    """Pattern.matrix skips scipy's per-call validation: it must give what the checked
+    constructor gives (a scipy storing CSR differently would fail here), and reject bad data."""
+    import scipy.sparse as sp
+
+    pat = bw.pattern
+    data = np.random.default_rng(3).normal(size=pat.nnz)
+    A = pat.matrix(data)
+    B = sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.n, pat.n))
+    assert type(A) is type(B) and A.shape == B.shape and A.nnz == B.nnz
+    x = np.random.default_rng(4).normal(size=pat.n)
+    np.testing.assert_array_equal(A @ x, B @ x)
+    np.testing.assert_array_equal(A.toarray(), B.toarray())
+    np.testing.assert_array_equal((A.T @ x), (B.T @ x))
+    np.testing.assert_array_equal(abs(A).toarray(), abs(B).toarray())
+    np.testing.assert_array_equal((A + A).toarray(), 2 * B.toarray())
+    assert pat.matrix(2 * data).data[0] == 2 * data[0] and A.data[0] == data[0]  # no shared data
+    with pytest.raises(ValueError, match="entries"):
+        pat.matrix(data[:-1])
+
+
 def test_pieces_equal_direct_assembly(bw):
     """combine(pieces, Ω, α) equals assembling Σ Tᵀ(k_s + 2θ̇… ) T with the actual link rates."""
     theta, omega, alpha = np.radians(123.0), 650.0, -2.5e4

@@ -81,6 +81,20 @@ def test_certificates_on_known_matrices():
     assert det_sign(P) == -1 and det_sign(P @ P) == 1
 
 
+def test_dense_certificates_agree_with_sparse_and_determinant():
+    """The dense engine's certificates (numpy arrays) decide like the sparse ones and like det."""
+    import scipy.sparse as sp
+
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        n = int(rng.integers(1, 9))
+        A = rng.normal(size=(n, n))
+        assert det_sign(A) == det_sign(sp.csr_matrix(A)) == int(np.sign(np.linalg.det(A)))
+        S = A @ A.T - rng.uniform(0.0, 1.0) * np.eye(n) + (A - A.T)  # skew part: no effect
+        pd = bool(np.linalg.eigvalsh((S + S.T) / 2).min() > 0)
+        assert sym_positive_definite(S) == sym_positive_definite(sp.csr_matrix(S)) == pd
+
+
 def random_crank_rockers(n, seed):
     """Seeded random Grashof crank-rockers (crank shortest), lumped masses, speeds and angles."""
     rng = np.random.default_rng(seed)

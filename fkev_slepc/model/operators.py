@@ -102,6 +102,7 @@ class Model:
         self._ks = et.structural(mech.elem_ea, mech.elem_ei, l)
         self._strain_op = et.strains(mech.elem_ea, mech.elem_ei, l)
         self._node_frames = node_frames(mech, et.n_dof)
+        self._mass = (None, None)  # (pieces, their CSR mass matrix): see qep()
 
     # -- per angle -------------------------------------------------------------------------
     def kinematics(self, theta: float):
@@ -205,7 +206,9 @@ class Model:
         pat = self.pattern
         C = None if data is None else pat.matrix(data)
         kind = classify(C is not None, k_sym, c_skew=not d.active)
-        return QEP(pat.matrix(p.mass), C, pat.matrix(p.structural + rest), kind,
+        if self._mass[0] is not p:  # one M per angle, shared by its (speed, case) points (never modified)
+            self._mass = (p, pat.matrix(p.mass))
+        return QEP(self._mass[1], C, pat.matrix(p.structural + rest), kind,
                    staged=p.staged, stiffness_rest=pat.matrix(rest))
 
     def _require(self, name, piece):

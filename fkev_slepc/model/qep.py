@@ -99,18 +99,31 @@ def pair_error(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
     100 % wrong. Scaling by the norms of the *products* keeps η = O(1) for a wrong pair
     (its residual is of the size of the terms it should balance) and O(ε) for a right one.
     """
+    return pair_error_and_floor(qep, lam, X, floor=False)[0]
+
+
+def pair_error_and_floor(qep: QEP, lam: np.ndarray, X: np.ndarray, floor: bool = True):
+    """(:func:`pair_error`, :func:`pair_error_floor` or None) of the columns of ``X``, sharing
+    the products Kx, Cx, Mx (on small dense models their overhead is a fair part of a solve)."""
     lam = np.atleast_1d(np.asarray(lam, dtype=complex))
     X = np.asarray(X, dtype=complex).reshape(qep.n, -1)
-    KX = qep.stiffness @ X
-    MX = qep.mass @ X
-    CX = qep.damping @ X if qep.damping is not None else np.zeros_like(X)
-    R = KX + lam * CX + lam**2 * MX
-    nK = np.linalg.norm(KX, axis=0)
-    nC = np.linalg.norm(CX, axis=0)
-    nM = np.linalg.norm(MX, axis=0)
-    scale = nK + np.abs(lam) * nC + np.abs(lam) ** 2 * nM
+    mats = (qep.stiffness, qep.damping, qep.mass)
+    weights = (np.ones_like(lam.real), np.abs(lam), np.abs(lam) ** 2)
+    R = np.zeros_like(X)
+    den = np.zeros(X.shape[1])
+    num = np.zeros(X.shape[1])
+    aX = np.abs(X) if floor else None
+    for A, w, p in zip(mats, weights, (0, 1, 2)):
+        if A is None:
+            continue
+        AX = A @ X
+        R += lam**p * AX
+        den += w * np.linalg.norm(AX, axis=0)
+        if floor:
+            num += w * np.linalg.norm(abs(A) @ aX, axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(scale > 0, np.linalg.norm(R, axis=0) / scale, np.inf)
+        err = np.where(den > 0, np.linalg.norm(R, axis=0) / den, np.inf)
+        return err, (np.where(den > 0, np.finfo(float).eps * num / den, np.inf) if floor else None)
 
 
 def staged_residual(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -153,12 +166,4 @@ def pair_error_floor(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
     definition of "accurate to its conditioning") has :func:`pair_error` ≲ η₀. It is large when
     the products cancel: low modes of refined meshes, stiff links the mode hardly loads.
     """
-    lam = np.atleast_1d(np.asarray(lam, dtype=complex))
-    X = np.asarray(X, dtype=complex).reshape(qep.n, -1)
-    aX = np.abs(X)
-    mats = (qep.stiffness, qep.damping, qep.mass)
-    weights = (np.ones_like(lam.real), np.abs(lam), np.abs(lam) ** 2)
-    num = sum(w * np.linalg.norm(abs(A) @ aX, axis=0) for A, w in zip(mats, weights) if A is not None)
-    den = sum(w * np.linalg.norm(A @ X, axis=0) for A, w in zip(mats, weights) if A is not None)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(den > 0, np.finfo(float).eps * num / den, np.inf)
+    return pair_error_and_floor(qep, lam, X)[1]

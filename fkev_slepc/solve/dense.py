@@ -9,11 +9,14 @@ when K is symmetric), which is exact and cheaper.
 
 from __future__ import annotations
 
+from dataclasses import replace
+from functools import lru_cache
+
 import numpy as np
 import scipy.linalg as la
 
 from fkev_slepc.solve.refine import polish_reported
-from fkev_slepc.solve.modes import check_pairs
+from fkev_slepc.solve.modes import check_pairs, reported
 from fkev_slepc.solve.stability import check_divergence
 from fkev_slepc.model.qep import LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
@@ -55,7 +58,7 @@ def balanced(qep: QEP) -> tuple[QEP, np.ndarray]:
     return QEP(scaled(qep.mass), scaled(qep.damping), scaled(qep.stiffness), qep.kind), d
 
 
-def symmetric_low_modes(M: np.ndarray, K: np.ndarray):
+def symmetric_low_modes(M: np.ndarray, K: np.ndarray, eigvals_only: bool = False):
     """All (μ, V) of K v = μ M v (K, M symmetric, M positive definite), accurate at the low end.
 
     Solved inverted, M v = ν K v with ν = 1/μ, the way SLEPc's shift-and-invert about 0 does:
@@ -64,71 +67,129 @@ def symmetric_low_modes(M: np.ndarray, K: np.ndarray):
     frequency of a rhombus linkage with a rigid crank and a 1e4 kg mass at B 6.6e-6 wrong;
     inverted, that error is relative to the largest ν = 1/μ₁ instead (tests/test_stress.py).
     When K is indefinite (divergence) the shift σ = 2|μ_min| + ... makes K + σM definite and
-    ν = 1/(μ + σ).
+    ν = 1/(μ + σ). V is None when ``eigvals_only``.
     """
     sigma = 0.0
     for _ in range(2):
         try:
-            nu, V = la.eigh(M, K + sigma * M)
+            out = la.eigh(M, K + sigma * M, eigvals_only=eigvals_only)
         except la.LinAlgError:  # K + σM not positive definite: shift past the lowest μ
             mu_min = la.eigh(K, M, eigvals_only=True, subset_by_index=[0, 0])[0]
             sigma = 2.0 * max(-mu_min, 0.0) + np.finfo(float).eps * la.norm(K, 1) / la.norm(M, 1)
             continue
+        nu, V = (out, None) if eigvals_only else out
         with np.errstate(divide="ignore"):
             return 1.0 / nu - sigma, V
-    return la.eigh(K, M)
+    return (la.eigh(K, M, eigvals_only=True), None) if eigvals_only else la.eigh(K, M)
+
+
+def as_dense(qep: QEP) -> QEP:
+    """``qep`` with numpy arrays (pair errors and certificates of small models without sparse
+    overhead, which cost more than the solve at thesis size); K_s stays factored."""
+    C = None if qep.damping is None else qep.damping.toarray()
+    return replace(qep, mass=qep.mass.toarray(), damping=C, stiffness=qep.stiffness.toarray())
+
+
+def _spectrum(M: np.ndarray, C: np.ndarray | None, K: np.ndarray, kind: str, hint=None):
+    """Every eigenvalue of a balanced dense QEP, without eigenvectors except on the symmetric
+    path (where LAPACK's come almost free): (λ, method, scaled QEP (s, M_s, C_s, K_s) whose
+    eigenvalues are λ/s, V of K v = μ M v or None)."""
+    if kind == LINEAR_SYMMETRIC:  # operators.classify decides; no second symmetry test here
+        mu, V = symmetric_low_modes(M, K)
+        return _lambda_from_mu(mu), "dense-eigh", (1.0, M, None, K), V
+    if C is None:
+        alpha, beta = la.eig(M, K, right=False, homogeneous_eigvals=True)  # ν = α/β = 1/μ
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mu = beta / alpha
+        return _lambda_from_mu(mu), "dense-eig", (1.0, M, None, K), None
+    lam, scaled = qz(M, C, K, hint)
+    return lam, "dense-qz", scaled, None
 
 
 def all_eigenpairs(qep: QEP, want_vectors: bool = True):
-    """All 2n eigenvalues (and, if asked, eigenvectors) of ``qep``: (λ, X or None, method).
-
-    Shared by :class:`DenseEngine` and the whole-spectrum divergence check of the SLEPc engine
-    (solve/stability.py)."""
-    M = qep.mass.toarray()
-    K = qep.stiffness.toarray()
-    d = balance(M, K)
-    M, K = d[:, None] * M * d, d[:, None] * K * d
-    if qep.kind == LINEAR_SYMMETRIC:  # operators.classify decides; no second symmetry test here
-        mu, V = symmetric_low_modes(M, K)
-        lam, X, method = _lambda_from_mu(mu), np.hstack([V, V]), "dense-eigh"
-    elif qep.damping is None:
-        (alpha, beta), V = _eig(M, K, want_vectors)  # ν = α/β = 1/μ
-        with np.errstate(divide="ignore", invalid="ignore"):
-            mu = beta / alpha
-        lam, X, method = _lambda_from_mu(mu), None if V is None else np.hstack([V, V]), "dense-eig"
-    else:
-        lam, X = qz(M, d[:, None] * qep.damping.toarray() * d, K, want_vectors)
-        method = "dense-qz"
-    return lam, (d[:, None] * X if want_vectors else None), method
+    """All 2n eigenvalues (and, if asked, eigenvectors, unit 2-norm) of ``qep``: (λ, X or None,
+    method). Used by the whole-spectrum divergence check of the SLEPc engine (solve/stability.py)."""
+    q = as_dense(qep)
+    d = balance(q.mass, q.stiffness)
+    C = None if q.damping is None else d[:, None] * q.damping * d
+    lam, method, (s, Ms, Cs, Ks), V = _spectrum(d[:, None] * q.mass * d, C, d[:, None] * q.stiffness * d, q.kind)
+    if not want_vectors:
+        return lam, None, method
+    X = np.hstack([V, V]) if V is not None else null_vectors(Ms, Cs, Ks, lam / s)
+    return lam, d[:, None] * X, method
 
 
-def _eig(A, B, want_vectors):
-    """Homogeneous generalized eigenvalues (α, β) of (A, B), and right vectors if wanted."""
-    if want_vectors:
-        return la.eig(A, B, homogeneous_eigvals=True)
-    return la.eig(A, B, right=False, homogeneous_eigvals=True), None
-
-
-def qz(M: np.ndarray, C: np.ndarray, K: np.ndarray, want_vectors: bool = True):
-    """(λ, X or None) of λ²M + λC + K by QZ of a scaled, reversed companion pencil."""
+def qz(M: np.ndarray, C: np.ndarray, K: np.ndarray, hint=None):
+    """Eigenvalues λ of λ²M + λC + K by QZ of a scaled, reversed companion pencil (no
+    eigenvectors: see :func:`null_vectors`), and the scaled QEP (s, M_s, C_s, K_s)."""
     n = M.shape[0]
     # λ = s·ν with s ≈ |λ₁| (from the symmetric part of K): the wanted low modes get |ν| ≈ 1.
     # Measured on Bahgat-Willmert meshes of 36-360 DOFs this gives 5-40x smaller pair errors
     # for the low modes than s² = ‖K‖/‖M‖, which centres the scaling on the highest modes.
-    mu, _ = symmetric_low_modes(M, (K + K.T) / 2)
-    small = np.abs(mu).min()
+    # A sweep's hint (|λ₁| of the previous speed, or of the structure) is such an s already.
     nM = la.norm(M, 1)
-    s = np.sqrt(small) if small > 0 else np.sqrt(la.norm(K, 1) / nM)
+    if hint is not None and np.isfinite(hint) and hint > 0:
+        s = float(hint)
+    else:
+        mu = symmetric_low_modes(M, (K + K.T) / 2, eigvals_only=True)[0]
+        small = np.abs(mu).min()
+        s = np.sqrt(small) if small > 0 else np.sqrt(la.norm(K, 1) / nM)
     norm = s * s * nM
     Ms, Cs, Ks = M * (s * s / norm), C * (s / norm), K / norm
-    Z, I = np.zeros((n, n)), np.eye(n)
-    A = np.block([[Z, I], [-Ms, -Cs]])
-    B = np.block([[I, Z], [Z, Ks]])
+    A = np.zeros((2 * n, 2 * n))
+    B = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = B[:n, :n] = np.eye(n)
+    A[n:, :n], A[n:, n:], B[n:, n:] = -Ms, -Cs, Ks
     # Homogeneous pairs (α, β): μ = α/β, ν = 1/μ = β/α; a singular K (β = 0) gives λ = 0.
-    (alpha, beta), V = _eig(A, B, want_vectors)
+    alpha, beta = la.eig(A, B, right=False, homogeneous_eigvals=True)
     with np.errstate(divide="ignore", invalid="ignore"):
-        lam = s * beta / alpha
-    return lam, None if V is None else V[:n]
+        return s * beta / alpha, (s, Ms, Cs, Ks)
+
+
+def null_vectors(M: np.ndarray, C: np.ndarray | None, K: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """Eigenvectors of the QEP for the eigenvalues ``lam`` only, by one step of inverse iteration
+    x = P(λ)⁻¹b, P(λ) = λ²M + λC + K (one batched LU of k n×n matrices), unit 2-norm.
+
+    With λ accurate to round-off, one step from a fixed generic b leaves in x only a round-off
+    share of the other eigenvectors (the pair error of every pair is checked afterwards); for
+    the few pairs a point reports this costs far less than LAPACK's eigenvectors of all 2n
+    pairs. An exactly singular P(λ) falls back to the SVD's null vector. Equal eigenvalues get
+    different b, so a double eigenvalue keeps two independent vectors."""
+    lam = np.asarray(lam, dtype=complex)
+    n = M.shape[0]
+    if lam.size == 0:
+        return np.zeros((n, 0), complex)
+    L = lam[:, None, None]
+    P = L * L * M + K if C is None else L * L * M + L * C + K
+    b = _start(n)[np.arange(lam.size) % _N_START]
+    try:
+        X = np.linalg.solve(P, b[:, :, None])[..., 0]
+        if not np.all(np.isfinite(X)):
+            raise np.linalg.LinAlgError("overflow")
+    except np.linalg.LinAlgError:
+        X = np.linalg.svd(P)[2][:, -1, :].conj()
+    return (X / np.linalg.norm(X, axis=1, keepdims=True)).T
+
+
+_N_START = 7  # distinct start vectors: up to 7-fold repeated eigenvalues keep independent vectors
+
+
+@lru_cache(maxsize=8)
+def _start(n: int) -> np.ndarray:
+    """Fixed generic complex start vectors (_N_START, n), reproducible for every n."""
+    rng = np.random.default_rng(20261128)
+    return rng.uniform(0.5, 1.5, (_N_START, n)) * np.exp(2j * np.pi * rng.uniform(size=(_N_START, n)))
+
+
+def _vector_pairs(lam: np.ndarray, n_modes: int) -> np.ndarray:
+    """Indices of the pairs whose eigenvectors a point needs: the ones it reports
+    (:func:`modes.reported`: the ``n_modes`` lowest oscillatory ones and every real one) and,
+    when there are few, every oscillatory one (:func:`refine.polish_reported` may polish them)."""
+    osc, is_real = reported(lam, max(n_modes, 1))
+    upper = np.flatnonzero(np.isfinite(lam) & (lam.imag > 0))
+    if upper.size <= 2 * n_modes + 4:
+        osc = np.union1d(osc, upper)
+    return np.concatenate([osc, np.flatnonzero(is_real & np.isfinite(lam))])
 
 
 class DenseEngine:
@@ -144,14 +205,25 @@ class DenseEngine:
         self.max_pair_error = float(max_pair_error)
 
     def solve(self, qep: QEP, n_modes: int = 0, want_vectors: bool = False, hint=None) -> EigenSolution:
-        lam, X, method = all_eigenpairs(qep)
-        err = pair_error(qep, lam, X)
+        """Every eigenvalue of ``qep``; eigenvectors (and pair errors) of the pairs a point
+        reports. ``hint`` ≈ |λ₁| (a sweep's previous speed) saves the QZ path its scale solve."""
+        q = as_dense(qep)
+        d = balance(q.mass, q.stiffness)
+        C = None if q.damping is None else d[:, None] * q.damping * d
+        lam, method, (s, Ms, Cs, Ks), V = _spectrum(d[:, None] * q.mass * d, C, d[:, None] * q.stiffness * d,
+                                                    q.kind, hint)
+        used = _vector_pairs(lam, n_modes)
+        X = np.full((q.n, lam.size), complex(np.nan, np.nan))
+        X[:, used] = np.hstack([V, V])[:, used] if V is not None else null_vectors(Ms, Cs, Ks, lam[used] / s)
+        X[:, used] *= d[:, None]
+        err = np.full(lam.size, np.nan)
+        err[used] = pair_error(q, lam[used], X[:, used])
         lam, X, err = polish_reported(qep, lam, X, err, n_modes)  # beyond the assembled K's round-off
         # LAPACK always "converges"; the pairs still have to satisfy the QEP (the same check as
         # the SLEPc engine's: on over-refined meshes the assembled K no longer determines them).
-        msg = check_pairs(qep, lam, X, err, max(n_modes, 1), self.max_pair_error)[1]
+        msg = check_pairs(q, lam, X, err, max(n_modes, 1), self.max_pair_error)[1]
         # The whole spectrum is at hand: the divergence check uses it when no certificate decides.
-        verdict = check_divergence(qep, spectrum=lam)
+        verdict = check_divergence(q, spectrum=lam)
         return EigenSolution(lam, err, X if want_vectors else None, not msg, method, msg, verdict)
 
     def settings(self) -> dict:

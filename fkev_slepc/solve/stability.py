@@ -54,8 +54,15 @@ def growth_per_revolution(max_real: float, omega: float) -> float:
     return float(np.exp(2.0 * np.pi * max_real / abs(omega)))
 
 
-def sym_positive_definite(K: sp.spmatrix) -> bool:
-    """Whether (K + Kᵀ)/2 is positive definite: a banded Cholesky after RCM reordering."""
+def sym_positive_definite(K) -> bool:
+    """Whether (K + Kᵀ)/2 is positive definite: a banded Cholesky after RCM reordering (a
+    dense one for a dense K)."""
+    if not sp.issparse(K):
+        try:
+            la.cholesky((K + K.T) * 0.5, lower=True, check_finite=True)
+        except la.LinAlgError:
+            return False
+        return True
     S = sp.csr_matrix((K + K.T) * 0.5)
     perm = csgraph.reverse_cuthill_mckee(S, symmetric_mode=True)
     P = sp.tril(S[perm][:, perm]).tocoo()
@@ -69,8 +76,16 @@ def sym_positive_definite(K: sp.spmatrix) -> bool:
     return True
 
 
-def det_sign(K: sp.spmatrix) -> int:
-    """Sign of det K (-1, 0 or +1) from a sparse LU: Pr A Pc = L U with unit-diagonal L."""
+def det_sign(K) -> int:
+    """Sign of det K (-1, 0 or +1) from a sparse LU: Pr A Pc = L U with unit-diagonal L (a
+    dense LU with row interchanges for a dense K)."""
+    if not sp.issparse(K):
+        lu, piv = la.lu_factor(K, check_finite=False)
+        d = lu.diagonal()
+        if np.any(d == 0) or not np.all(np.isfinite(d)):
+            return 0
+        swaps = int(np.count_nonzero(piv != np.arange(piv.size)))  # each a transposition
+        return -1 if (np.count_nonzero(d < 0) + swaps) % 2 else 1
     try:
         lu = spla.splu(sp.csc_matrix(K))
     except RuntimeError:  # exactly singular
