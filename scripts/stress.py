@@ -106,23 +106,32 @@ def cmd_units(args) -> Tally:
     return t
 
 
-def cmd_toggle(args) -> Tally:
-    """Approach the toggle of a non-Grashof four-bar (Turcic-Midha with a 0.35 m crank)."""
-    from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, assembly_ranges
+TOGGLE_SECTIONS = ((1.07e-4, 1.62e-10), (4.1e-5, 8.67e-12), (4.1e-5, 8.67e-12))
+ALUMINIUM = dict(youngs_modulus=7.1e10, density=2710.0)
 
-    t = Tally("toggle approach")
-    sec = ((1.07e-4, 1.62e-10), (4.1e-5, 8.67e-12), (4.1e-5, 8.67e-12))
-    alu = dict(youngs_modulus=7.1e10, density=2710.0)
-    base = four_bar((0.35, 0.2794, 0.2705), 0.254, sec, (3, 3, 3), props=alu)
+
+def toggle_scene(delta: float = 0.0):
+    """Turcic-Midha links with a 0.35 m crank (non-Grashof), ``delta`` degrees before the limit of
+    assembly, full case at 100 rad/s; and that limit θ_lim (degrees)."""
+    from fkev_slepc.model.kinematics import assembly_ranges
     from fkev_slepc.model.mechanism import build_mechanism
 
-    lim = assembly_ranges(build_mechanism(base))[0][0]
+    geometry = ((0.35, 0.2794, 0.2705), 0.254, TOGGLE_SECTIONS, (3, 3, 3))
+    lim = assembly_ranges(build_mechanism(four_bar(*geometry, props=ALUMINIUM)))[0][0]
+    return four_bar(*geometry, props=ALUMINIUM, speed=100.0, angle=lim - delta, case="full", modes=3), lim
+
+
+def cmd_toggle(args) -> Tally:
+    """Approach the toggle of a non-Grashof four-bar (Turcic-Midha with a 0.35 m crank)."""
+    from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG
+
+    t = Tally("toggle approach")
+    lim = toggle_scene()[1]
     judge = Judge(3, args.seed)
     print(f"toggle at θ = {lim:.9f}°; full case, Ω = 100 rad/s")
     print(f"{'θlim-θ [°]':>11} {'μ [°]':>9} {'max Re λ dense':>15} {'max Re λ slepc':>15} {'status d/s':>22} warn")
     for delta in 10.0 ** np.arange(1, -7, -0.25):
-        scene = four_bar((0.35, 0.2794, 0.2705), 0.254, sec, (3, 3, 3), props=alu, speed=100.0,
-                         angle=lim - delta, case="full", modes=3)
+        scene = toggle_scene(delta)[0]
 
         def point():
             model, qep = _qep(scene)

@@ -305,3 +305,46 @@ def test_second_fkev_run_on_the_same_output_is_refused_and_the_first_finishes(tm
     assert second.stderr.strip().count("\n") == 0, second.stderr
     assert first.returncode == 0, err1[-2000:]
     assert verify(out).ok and not (tmp_path / "x.h5.lock").exists()
+
+
+def test_near_a_toggle_both_engines_find_the_same_divergence(campaigns):
+    """3.2e-6° and 1.8e-7° before the toggle of a non-Grashof four-bar: the dense engine's QZ
+    gave the real eigenvalues right (40-digit mpmath: 5.18590162e4 and 5.10809609e5 1/s) but
+    vectors of pair error 0.17 and 0.79, so it said not_converged where SLEPc said divergent.
+    Polished, both engines are divergent with accepted pairs and the same real eigenvalues."""
+    from fkev_slepc.model.qep import pair_error_floor
+    from fkev_slepc.solve.modes import reported
+    from fkev_slepc.solve.stability import det_sign
+
+    stress, _ = campaigns
+    for delta, smallest, det in ((3.2e-6, 5.18590162e4, -1), (1.8e-7, 5.10809609e5, 1)):
+        model, q = stress._qep(stress.toggle_scene(delta)[0])
+        assert det_sign(q.stiffness) == det  # det K < 0 proves the first divergent (solve/stability.py)
+        with SlepcEngine() as slepc:
+            sols = {"dense": DenseEngine().solve(q, 3, want_vectors=True), "slepc": slepc.solve(q, 3, True)}
+        res = {name: postprocess(sol, 3) for name, sol in sols.items()}
+        assert {r.status.value for r in res.values()} == {"divergent"}, {k: r.message for k, r in res.items()}
+        sol = sols["dense"]
+        real = reported(sol.eigenvalues, 3)[1] & (sol.eigenvalues.real > 0)
+        # to 2e-7: one-ulp changes of the matrices alone give these pairs a pair error of 2e-7
+        np.testing.assert_allclose(sol.eigenvalues[real].real.min(), smallest, rtol=2e-7)
+        lam = sols["slepc"].eigenvalues
+        np.testing.assert_allclose(lam[(lam.imag == 0) & (lam.real > 0)].real.min(), smallest, rtol=2e-7)
+        i = np.flatnonzero(real)[np.argmin(sol.eigenvalues[real].real)]
+        assert sol.errors[i] <= 10 * pair_error_floor(q, sol.eigenvalues[i], sol.vectors[:, i])[0]  # was 0.17, 0.79
+
+
+def test_slepc_is_accurate_to_the_floor_with_a_heavy_mass_and_coriolis(campaigns):
+    """1e3 kg at B of Bahgat-Willmert (links ~0.3 kg), gyroscopic: TOAR's frequencies were up to
+    1.6e-11 off the Newton-refined ones (1,400x the conditioning floor of 1.1e-14); its pairs
+    are now polished when their pair error exceeds 100x its one-ulp floor."""
+    stress, _ = campaigns
+    from stresslib import four_bar, newton_refined
+
+    scene = four_bar((0.127, 0.2794, 0.2667), 0.254, ((1.61e-4, 8.66e-9),) * 3, (2, 2, 2),
+                     (("B", "follower", 1e3),), speed=300.0, case="no_tangential")
+    q = stress._qep(scene)[1]
+    ref = newton_refined(q, DenseEngine().solve(q, 4, want_vectors=True), 4)
+    with SlepcEngine() as slepc:
+        f = postprocess(slepc.solve(q, 4), 4).frequency_hz
+    np.testing.assert_allclose(f, ref, rtol=1e-13, atol=0)
