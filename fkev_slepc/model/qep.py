@@ -107,22 +107,18 @@ def pair_error_and_floor(qep: QEP, lam: np.ndarray, X: np.ndarray, floor: bool =
     the products Kx, Cx, Mx (on small dense models their overhead is a fair part of a solve)."""
     lam = np.atleast_1d(np.asarray(lam, dtype=complex))
     X = np.asarray(X, dtype=complex).reshape(qep.n, -1)
-    mats = (qep.stiffness, qep.damping, qep.mass)
-    weights = (np.ones_like(lam.real), np.abs(lam), np.abs(lam) ** 2)
-    R = np.zeros_like(X)
-    den = np.zeros(X.shape[1])
-    num = np.zeros(X.shape[1])
-    aX = np.abs(X) if floor else None
-    for A, w, p in zip(mats, weights, (0, 1, 2)):
-        if A is None:
-            continue
-        AX = A @ X
-        R += lam**p * AX
-        den += w * np.linalg.norm(AX, axis=0)
-        if floor:
-            num += w * np.linalg.norm(abs(A) @ aX, axis=0)
+    terms = [(A, p) for A, p in ((qep.stiffness, 0), (qep.damping, 1), (qep.mass, 2)) if A is not None]
+    AX = np.stack([A @ X for A, _ in terms])  # (term, n, pair)
+    power = lam ** np.array([p for _, p in terms])[:, None]  # λ⁰, λ¹, λ² per term and pair
+    weight = np.abs(power)
+    den = np.sum(weight * np.linalg.norm(AX, axis=1), axis=0)
+    res = np.linalg.norm(np.sum(power[:, None, :] * AX, axis=0), axis=0)
+    num = None
+    if floor:
+        aX = np.abs(X)
+        num = np.sum(weight * np.linalg.norm(np.stack([abs(A) @ aX for A, _ in terms]), axis=1), axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        err = np.where(den > 0, np.linalg.norm(R, axis=0) / den, np.inf)
+        err = np.where(den > 0, res / den, np.inf)
         return err, (np.where(den > 0, np.finfo(float).eps * num / den, np.inf) if floor else None)
 
 

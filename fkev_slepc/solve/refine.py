@@ -118,6 +118,8 @@ def polish_reported(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray
     if X is None or qep.staged is None:
         return lam, X, errors
     errors = np.asarray(errors, dtype=float)
+    if ratio_above is None and not np.any(errors > POLISH_ABOVE):  # NaN (no vector) compares False
+        return lam, X, errors  # the common case, decided before selecting pairs (per-point cost)
     osc, is_real = reported(lam, max(n_modes, 1))
     used = np.concatenate([osc, np.flatnonzero(is_real)])
     need = errors[used] > POLISH_ABOVE
