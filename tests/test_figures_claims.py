@@ -26,9 +26,9 @@ def _script():
 
 @pytest.fixture(scope="module")
 def archives(tmp_path_factory):
-    """The archives scripts/figures.sh writes, on small grids (3 angles; 4 speeds at 10°)."""
+    """The archives scripts/figures.sh writes, on small grids (4 angles; 4 speeds at 10°)."""
     out = tmp_path_factory.mktemp("figures")
-    angles = [0, 10, 20]
+    angles = [0, 10, 20, 360]  # 360°: the position of 0° again (see test_peaks_name_each_position_once)
     fk.load(BW).sweep(angles, output=out / "bw.h5", solver="dense")
     fk.load(BW, elements=2).sweep(angles, output=out / "bw-refined.h5", solver="dense")
     fk.load(RUNS / "bahgat-willmert-speed-sweep.toml").sweep(speeds_rad_s=[0, 25, 500, 1000], mode_shapes=True,
@@ -64,3 +64,15 @@ def test_claim_numbers_follow_the_physics(archives):
     for t, n_points in zip(text["stability"], (2 * 3, 2 * 3)):
         counts = {k: int(v) for k, v in re.findall(r"'(\w+)': (\d+)", t)}
         assert sum(counts.values()) == n_points and counts["failed"] == 0
+
+
+def test_peaks_name_each_position_once(archives):
+    """0° and 360° are one crank position with the same frequencies up to round-off: where a cycle's
+    peak or minimum lies is reported once (0°), so that a regenerated table does not flip 0 <-> 360."""
+    mod = _script()
+    np.testing.assert_array_equal(mod.one_turn([0, 90, 180, 270, 360]), [True, True, True, True, False])
+    np.testing.assert_array_equal(mod.one_turn([0, 120, 240]), [True, True, True])
+    np.testing.assert_array_equal(mod.one_turn([90, 360]), [True, True])  # 360° alone is a position of its own
+    rows = mod.claims(archives)
+    where = [t.split("θ = ")[1] for c, t in rows if c in ("C8", "C9", "C12") and "θ = " in t]
+    assert len(where) == 2 * 2 + 1 + 3 and not any("360" in w for w in where)

@@ -20,6 +20,7 @@ from matplotlib.collections import PathCollection, QuadMesh
 from fkev_slepc.plots import draw as plots
 from fkev_slepc.plots.shapes import element_displacement, mode_shape
 from fkev_slepc.archive.reader import ArchiveError, load
+from fkev_slepc.status import converged_codes
 
 ROOT = Path(__file__).resolve().parents[1]
 # 0, 10 (the thesis's study angle), 30, 60, ..., 330
@@ -111,11 +112,17 @@ def test_archive_loads_with_labels(archives):
 
 
 def test_freq_angle_lines_are_the_tracked_archive_data(archives):
+    """Each tracked line is the archive's tracked data at the grid angles and, in angle order, at
+    the extra angles its line was refined at (/tracking/refined: dotted points, counted in the title)."""
     r = raw(archives["bw"])
     fig = plots.freq_angle(load(archives["bw"]))
     full = r["case"].index("full")
     assert r["title"] in fig._suptitle.get_text()
     assert len(fig.axes) == 3
+    with h5py.File(archives["bw"], "r") as f:
+        g = f["tracking/refined"]
+        ref_angles, ref_f, ref_status = g["crank_angle_deg"][()], g["tracked_frequency_hz"][()], g["status"][()]
+    drawn = set()
     for m, ax in enumerate(fig.axes):
         assert ax.get_title() == f"mode {m + 1}"
         assert "(deg)" in ax.get_xlabel() and "(Hz)" in ax.get_ylabel()
@@ -123,8 +130,18 @@ def test_freq_angle_lines_are_the_tracked_archive_data(archives):
         assert sorted(lines) == sorted(f"Ω = {s:g} rad/s" for s in r["speed_rad_s"])
         for s, omega in enumerate(r["speed_rad_s"]):
             ln = lines[f"Ω = {omega:g} rad/s"]
-            np.testing.assert_array_equal(ln.get_xdata(), r["crank_angle_deg"])
-            np.testing.assert_array_equal(ln.get_ydata(), r["tracked_frequency_hz"][:, s, full, m])
+            x, y = np.asarray(ln.get_xdata()), np.asarray(ln.get_ydata())
+            assert np.all(np.diff(x) > 0)
+            grid = np.isin(x, r["crank_angle_deg"])
+            np.testing.assert_array_equal(x[grid], r["crank_angle_deg"])
+            np.testing.assert_array_equal(y[grid], r["tracked_frequency_hz"][:, s, full, m])
+            solved = np.isin(ref_status[:, s, full], converged_codes())  # refined for this line, converged
+            np.testing.assert_array_equal(x[~grid], ref_angles[solved])
+            np.testing.assert_array_equal(y[~grid], ref_f[solved, s, full, m])
+            assert list(ln.get_markevery()) == np.flatnonzero(~grid).tolist()
+            drawn.update(x[~grid].tolist())
+    assert drawn, "the 30° grid at 1000 rad/s has veerings the sweep refines"
+    assert f"dots: {len(drawn)} extra angles solved where the MAC was ambiguous" in fig._suptitle.get_text()
     # the sorted order on request, for one speed and one mode, another case
     fig = plots.freq_angle(load(archives["bw"]), cases=["no_normal"], speeds=[500], modes=[2], order="sorted")
     (ax,) = fig.axes

@@ -13,7 +13,7 @@ import numpy as np
 from fkev_slepc.archive.groups import STATUS_DTYPE, _describe, flags, gridded, scale
 from fkev_slepc.archive.store import _GRIDDED
 
-_REFINED = ("crank_angle_deg", "frequency_hz", "status", "signature", "eigenvalue")
+_REFINED = ("crank_angle_deg", "frequency_hz", "tracked_frequency_hz", "status", "signature", "eigenvalue")
 
 
 def read_refined(path) -> dict | None:

@@ -43,8 +43,9 @@ from fkev_slepc.plots.common import (
 from fkev_slepc.plots.maps import campbell, stability
 from fkev_slepc.plots.shapes import mode_shape
 from fkev_slepc.archive.reader import ArchiveError, SweepResults
-from fkev_slepc.archive.tracks import read_signature, read_tracking
+from fkev_slepc.archive.tracks import read_refined, read_signature, read_tracking
 from fkev_slepc.solve.modes import percent_error
+from fkev_slepc.status import converged_codes
 from fkev_slepc.sweep.tracking import match_cases
 
 KINDS = ("freq-angle", "param-speed", "error-angle", "mode-shape", "stability", "campbell")
@@ -65,6 +66,9 @@ def freq_angle(
     labelled by their element counts (Figs 3.2-3.4: convergence). Points that did not converge
     are gaps. Defaults: case ``full`` (else the first case), every speed and mode, modes
     tracked along the crank angle (``order="sorted"``: the i-th lowest at each angle).
+    Tracked curves also pass through the extra angles the sweep solved where neighbouring grid
+    angles could not be matched (``/tracking/refined``, docs/tracking.md), drawn as dots: a
+    sharp veering is drawn as solved, not as a straight line between two grid angles.
     """
     runs = [results] if isinstance(results, SweepResults) else list(results)
     first = runs[0]
@@ -72,11 +76,13 @@ def freq_angle(
     fig, axes = mode_grid(len(mode_idx))
     dashes = ["-", "--", ":", "-."]
     sorted_lines = []  # tracked order asked for, but the archive left these lines sorted
+    extra_angles: set[float] = set()  # refined angles drawn
     for r_i, res in enumerate(runs):
         c_idx = pick_cases(res, cases, [default_case(res)])
         s_idx = [res.speed_index(s) for s in speeds] if speeds else list(range(res.speed_rad_s.size))
         f = res.frequency(order=order)
         fallback = read_tracking(res.path)["fallback"] if order == "tracked" else None
+        refined = read_refined(res.path) if order == "tracked" else None
         for ax, m in zip(axes, mode_idx):
             for c_n, c in enumerate(c_idx):
                 for s_n, s in enumerate(s_idx):
@@ -85,11 +91,15 @@ def freq_angle(
                         parts.append(res.cases[c])
                     if len(runs) > 1:
                         parts.append(elements_tag(res))
+                    x, y, extra = res.crank_angle_deg, f[:, s, c, m], []
                     if fallback is not None and fallback[s, c]:
                         parts.append("sorted")
                         if ax is axes[0]:
                             sorted_lines.append(f"{res.speed_rad_s[s]:g} rad/s {res.cases[c]}")
-                    ax.plot(res.crank_angle_deg, f[:, s, c, m], dashes[(r_i if len(runs) > 1 else c_n) % 4],
+                    elif refined is not None:
+                        x, y, extra = _with_refined(x, y, refined, s, c, m)
+                        extra_angles.update(x[extra].tolist())
+                    ax.plot(x, y, dashes[(r_i if len(runs) > 1 else c_n) % 4], marker=".", markevery=extra,
                             color=f"C{r_i * len(s_idx) + s_n}", label=", ".join(parts))
     for ax, m in zip(axes, mode_idx):
         ax.set_title(f"mode {first.modes[m]}")
@@ -99,6 +109,8 @@ def freq_angle(
     axes[0].legend(fontsize=8)
     names = sorted({first.cases[c] for c in pick_cases(first, cases, [default_case(first)])})
     what = f"natural frequency vs crank angle ({', '.join(names)}; {order} modes)"
+    if extra_angles:
+        what += f"; dots: {len(extra_angles)} extra angles solved where the MAC was ambiguous"
     if sorted_lines:  # say so: the archive could not tell these modes apart (docs/tracking.md)
         what += f"; SORTED order, MAC ambiguous: {', '.join(sorted(set(sorted_lines)))}"
     if len(runs) > 1:  # the meshes differ by design: name the scene, list the meshes
@@ -107,6 +119,17 @@ def freq_angle(
     else:
         set_title(fig, first, what)
     return fig
+
+
+def _with_refined(angles, values, refined: dict, s: int, c: int, m: int):
+    """One tracked line (speed ``s``, case ``c``, mode ``m``) with its converged extra angles of
+    ``/tracking/refined`` inserted in angle order: (angles, values, indices of the extra ones)."""
+    ok = np.isin(refined["status"][:, s, c], converged_codes())
+    x = np.concatenate([angles, refined["crank_angle_deg"][ok]])
+    y = np.concatenate([values, refined["tracked_frequency_hz"][ok, s, c, m]])
+    order = np.argsort(x, kind="stable")
+    extra = np.concatenate([np.zeros(len(angles), bool), np.ones(int(ok.sum()), bool)])[order]
+    return x[order], y[order], np.flatnonzero(extra).tolist()
 
 
 def param_speed(
