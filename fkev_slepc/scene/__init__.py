@@ -1,8 +1,8 @@
 """Stage 1 — scene files: TOML -> a validated, frozen :class:`Scene` in SI units.
 
 ``model`` holds the dataclasses, ``schema`` the generic key/value reader, ``sections`` one reader
-per TOML section, ``reader`` the entry points, ``cases`` Table 3.1 as data. Nothing here imports
-PETSc, MPI or h5py.
+per TOML section of the linkage (``settings``: of ``[analysis]`` and ``[solver]``), ``reader`` the
+entry points, ``cases`` Table 3.1 as data. Nothing here imports PETSc, MPI or h5py.
 """
 
 from fkev_slepc.scene.model import (

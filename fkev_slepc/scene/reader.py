@@ -11,6 +11,7 @@ from pathlib import Path
 
 from fkev_slepc.scene import parts
 from fkev_slepc.scene import sections as sec
+from fkev_slepc.scene import settings
 from fkev_slepc.scene.damping import read_damping
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.schema import Reader
@@ -80,8 +81,8 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     topology_ok = len(r.problems) == n_before and None not in links and None not in joints
     driver = sec.read_driver(r, doc, link_names, joints if topology_ok else None)
     masses = parts.read_masses(r, doc, joints, joint_names, links, link_names)
-    analysis = sec.read_analysis(r, doc)
-    solver = sec.read_solver(r, doc)
+    analysis = settings.read_analysis(r, doc)
+    solver = settings.read_solver(r, doc)
     damping = read_damping(r, doc)
     if topology_ok and links:
         sec.check_topology(r, links, joints)
