@@ -99,8 +99,9 @@ def freq_angle(
                     elif refined is not None:
                         x, y, extra = _with_refined(x, y, refined, s, c, m)
                         extra_angles.update(x[extra].tolist())
-                    ax.plot(x, y, dashes[(r_i if len(runs) > 1 else c_n) % 4], marker=".", markevery=extra,
-                            color=f"C{r_i * len(s_idx) + s_n}", label=", ".join(parts))
+                    dots = dict(marker=".", markevery=extra) if refined is not None else {}
+                    ax.plot(x, y, dashes[(r_i if len(runs) > 1 else c_n) % 4], color=f"C{r_i * len(s_idx) + s_n}",
+                            label=", ".join(parts), **dots)
     for ax, m in zip(axes, mode_idx):
         ax.set_title(f"mode {first.modes[m]}")
         angle_axis(ax)
