@@ -448,3 +448,28 @@ def test_dense_vectors_of_reported_pairs_equal_lapack_eigenvectors(case):
     hinted = DenseEngine().solve(q, 4, hint=3.0 * abs(sol.eigenvalues[osc[0]]))
     h = reported(hinted.eigenvalues, 4)[0]
     np.testing.assert_allclose(hinted.eigenvalues[h], sol.eigenvalues[osc], rtol=1e-11)
+
+
+def test_dense_solve_many_equals_one_by_one():
+    """The batched dense path (the cases of one speed in one call) gives each problem what a
+    solve of it alone gives: eigenvalues, reported vectors, pair errors, verdicts, statuses; with
+    problems of every kind (C present or not, symmetric or not) and a divergent one in the batch."""
+    from builders import bahgat_willmert
+
+    m = Model(bahgat_willmert(elements=(2, 3, 3)))
+    p = m.pieces(np.radians(37.0))
+    qeps = [m.qep(p, 900.0, c) for c in CASE_NAMES if c != "structure"] + [m.qep(p, 9000.0, "no_coriolis")]
+    eng = DenseEngine()
+    many = eng.solve_many(qeps, 4, want_vectors=True, hints=[2000.0] * len(qeps))
+    statuses = set()
+    for q, got in zip(qeps, many):
+        one = eng.solve(q, 4, want_vectors=True, hint=2000.0)
+        np.testing.assert_allclose(got.eigenvalues, one.eigenvalues, rtol=1e-13, atol=0)
+        seen = np.isfinite(one.errors)
+        np.testing.assert_array_equal(np.isfinite(got.errors), seen)
+        np.testing.assert_allclose(got.errors[seen], one.errors[seen], rtol=1e-6, atol=1e-13)  # round-off level
+        np.testing.assert_allclose(got.vectors[:, seen], one.vectors[:, seen], rtol=1e-10, atol=1e-14)
+        assert (got.converged, got.message, got.divergence.divergent, got.divergence.method) == (
+            one.converged, one.message, one.divergence.divergent, one.divergence.method)
+        statuses.add(postprocess(got, 4).status)
+    assert Status.DIVERGENT in statuses and statuses - {Status.DIVERGENT}

@@ -53,8 +53,9 @@ def test_assign_is_cyclic_complete_and_in_equal_rounds(size):
 
 # ------------------------------------------------------------------------- the sweep itself
 class RecordingEngine(DenseEngine):
-    """The dense engine, recording the hint of every call; raises LinAlgError on request
-    (fault injection for the failure path) or a KeyError (a bug)."""
+    """The dense engine, recording the hint of every problem solved; raises LinAlgError on
+    request (fault injection for the failure path; a batch holding such a problem fails whole,
+    before anything is recorded) or a KeyError (a bug)."""
 
     def __init__(self, fail_kind=None, bug=False):
         super().__init__()
@@ -67,6 +68,14 @@ class RecordingEngine(DenseEngine):
         if qep.kind == self.fail_kind:
             raise np.linalg.LinAlgError("injected: QZ failed")
         return super().solve(qep, n_modes, want_vectors, hint)
+
+    def solve_many(self, qeps, n_modes=0, want_vectors=False, hints=None):
+        if self.bug:
+            raise KeyError("a bug")
+        if any(q.kind == self.fail_kind for q in qeps):  # the sweep retries point by point
+            raise np.linalg.LinAlgError("injected: batch failed")
+        self.calls.extend((q.kind, h) for q, h in zip(qeps, hints))
+        return super().solve_many(qeps, n_modes, want_vectors, hints)
 
 
 def _run(tmp_path, engine, angles=(0.0, 40.0, 80.0), speeds=(0.0, 500.0, 1000.0),

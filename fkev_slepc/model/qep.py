@@ -104,11 +104,14 @@ def pair_error(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
 
 def pair_error_and_floor(qep: QEP, lam: np.ndarray, X: np.ndarray, floor: bool = True):
     """(:func:`pair_error`, :func:`pair_error_floor` or None) of the columns of ``X``, sharing
-    the products Kx, Cx, Mx (on small dense models their overhead is a fair part of a solve)."""
+    the products Kx, Cx, Mx (on small dense models their overhead is a fair part of a solve).
+
+    ``qep``'s matrices may also be stacks (k, n, n), one per column of X: the pairs of several
+    problems of one model judged in one go (solve/dense.py ``DenseEngine.solve_many``)."""
     lam = np.atleast_1d(np.asarray(lam, dtype=complex))
-    X = np.asarray(X, dtype=complex).reshape(qep.n, -1)
+    X = np.asarray(X, dtype=complex).reshape(qep.mass.shape[-1], -1)
     terms = [(A, p) for A, p in ((qep.stiffness, 0), (qep.damping, 1), (qep.mass, 2)) if A is not None]
-    AX = np.stack([A @ X for A, _ in terms])  # (term, n, pair)
+    AX = np.stack([_apply(A, X) for A, _ in terms])  # (term, n, pair)
     power = lam ** np.array([p for _, p in terms])[:, None]  # λ⁰, λ¹, λ² per term and pair
     weight = np.abs(power)
     den = np.sum(weight * np.linalg.norm(AX, axis=1), axis=0)
@@ -116,10 +119,17 @@ def pair_error_and_floor(qep: QEP, lam: np.ndarray, X: np.ndarray, floor: bool =
     num = None
     if floor:
         aX = np.abs(X)
-        num = np.sum(weight * np.linalg.norm(np.stack([abs(A) @ aX for A, _ in terms]), axis=1), axis=0)
+        num = np.sum(weight * np.linalg.norm(np.stack([_apply(abs(A), aX) for A, _ in terms]), axis=1), axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         err = np.where(den > 0, res / den, np.inf)
         return err, (np.where(den > 0, np.finfo(float).eps * num / den, np.inf) if floor else None)
+
+
+def _apply(A, X: np.ndarray) -> np.ndarray:
+    """A @ X, or column by column when A stacks one matrix per column of X: (k, n, n)."""
+    if getattr(A, "ndim", 2) == 3:
+        return np.matmul(A, X.T[:, :, None])[:, :, 0].T
+    return A @ X
 
 
 def staged_residual(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:

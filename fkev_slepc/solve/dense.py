@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as la
@@ -18,7 +19,7 @@ import scipy.linalg as la
 from fkev_slepc.solve.refine import polish_reported
 from fkev_slepc.solve.modes import check_pairs, reported
 from fkev_slepc.solve.stability import check_divergence
-from fkev_slepc.model.qep import LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
+from fkev_slepc.model.qep import GENERAL, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
 
 
 def _lambda_from_mu(mu: np.ndarray) -> np.ndarray:
@@ -146,7 +147,7 @@ def qz(M: np.ndarray, C: np.ndarray, K: np.ndarray, hint=None):
         return s * beta / alpha, (s, Ms, Cs, Ks)
 
 
-def null_vectors(M: np.ndarray, C: np.ndarray | None, K: np.ndarray, lam: np.ndarray) -> np.ndarray:
+def null_vectors(M: np.ndarray, C: np.ndarray | None, K: np.ndarray, lam: np.ndarray, start=None) -> np.ndarray:
     """Eigenvectors of the QEP for the eigenvalues ``lam`` only, by one step of inverse iteration
     x = P(λ)⁻¹b, P(λ) = λ²M + λC + K (one batched LU of k n×n matrices), unit 2-norm.
 
@@ -154,14 +155,16 @@ def null_vectors(M: np.ndarray, C: np.ndarray | None, K: np.ndarray, lam: np.nda
     share of the other eigenvectors (the pair error of every pair is checked afterwards); for
     the few pairs a point reports this costs far less than LAPACK's eigenvectors of all 2n
     pairs. An exactly singular P(λ) falls back to the SVD's null vector. Equal eigenvalues get
-    different b, so a double eigenvalue keeps two independent vectors."""
+    different b, so a double eigenvalue keeps two independent vectors. ``start[i]`` picks the b
+    of eigenvalue i (default i): a batch of problems passes each pair's index in its own problem,
+    so that a problem gets the same vectors batched or alone."""
     lam = np.asarray(lam, dtype=complex)
-    n = M.shape[0]
+    n = M.shape[-1]  # M, C, K may also be stacks (k, n, n), one per eigenvalue
     if lam.size == 0:
         return np.zeros((n, 0), complex)
     L = lam[:, None, None]
     P = L * L * M + K if C is None else L * L * M + L * C + K
-    b = _start(n)[np.arange(lam.size) % _N_START]
+    b = _start(n)[(np.arange(lam.size) if start is None else np.asarray(start)) % _N_START]
     try:
         X = np.linalg.solve(P, b[:, :, None])[..., 0]
         if not np.all(np.isfinite(X)):
@@ -192,11 +195,98 @@ def _vector_pairs(lam: np.ndarray, n_modes: int) -> np.ndarray:
     return np.concatenate([osc, np.flatnonzero(is_real & np.isfinite(lam))])
 
 
+# Problems up to this size are batched by DenseEngine.solve_many (per-pair stacks of n×n matrices).
+BATCH_MAX_N = 64
+
+
+class _Spectrum(NamedTuple):
+    """One problem's LAPACK result: λ, method, the balanced and scaled QEP (eigenvalues λ/s),
+    LAPACK's vectors of K v = μ M v (symmetric path) or None, and the balancing d."""
+
+    lam: np.ndarray
+    method: str
+    s: float
+    M: np.ndarray
+    C: np.ndarray | None
+    K: np.ndarray
+    V: np.ndarray | None
+    d: np.ndarray
+
+
+def _balanced_spectrum(q: QEP, hint) -> _Spectrum:
+    d = balance(q.mass, q.stiffness)
+    C = None if q.damping is None else d[:, None] * q.damping * d
+    lam, method, (s, Ms, Cs, Ks), V = _spectrum(d[:, None] * q.mass * d, C, d[:, None] * q.stiffness * d, q.kind, hint)
+    return _Spectrum(lam, method, s, Ms, Cs, Ks, V, d)
+
+
+def _per_pair(mats: list, counts: list):
+    """One matrix per used pair, ``counts[i]`` copies of ``mats[i]`` ((k, n, n); zeros for a
+    missing C; None if every one is missing), or the one problem's own matrix."""
+    if all(A is None for A in mats):
+        return None
+    if len(mats) == 1:
+        return mats[0]
+    n = next(A for A in mats if A is not None).shape[0]
+    stack = np.stack([np.zeros((n, n)) if A is None else A for A in mats])
+    return stack[np.repeat(np.arange(len(mats)), counts)]
+
+
+def _eigenvectors(parts: list, used: list) -> list:
+    """Each problem's eigenvectors (NaN columns where not used): LAPACK's on the symmetric path,
+    else :func:`null_vectors` of every used pair of every problem in one batched solve."""
+    n = parts[0].d.size
+    X = [np.full((n, p.lam.size), complex(np.nan, np.nan)) for p in parts]
+    for x, p, u in zip(X, parts, used):
+        if p.V is not None:
+            x[:, u] = np.hstack([p.V, p.V])[:, u]
+    inv = [i for i, p in enumerate(parts) if p.V is None]
+    if inv:
+        sub, su = [parts[i] for i in inv], [used[i] for i in inv]
+        lam = np.concatenate([p.lam[u] / p.s for p, u in zip(sub, su)])
+        counts = [u.size for u in su]
+        Y = null_vectors(*(_per_pair([getattr(p, m) for p in sub], counts) for m in "MCK"), lam,
+                         np.concatenate([np.arange(k) for k in counts]))
+        for i, y in zip(inv, np.split(Y, np.cumsum([u.size for u in su])[:-1], axis=1)):
+            X[i][:, used[i]] = y
+    for x, p, u in zip(X, parts, used):
+        x[:, u] *= p.d[:, None]
+    return X
+
+
+def _pair_errors(dense: list, parts: list, X: list, used: list) -> list:
+    """Each problem's pair errors (NaN where no vector), all problems' pairs in one evaluation."""
+    counts = [u.size for u in used]
+    q = QEP(*(_per_pair([getattr(q, m) for q in dense], counts) for m in ("mass", "damping", "stiffness")),
+            dense[0].kind if len(dense) == 1 else GENERAL)
+    lam = np.concatenate([p.lam[u] for p, u in zip(parts, used)])
+    cols = np.concatenate([x[:, u] for x, u in zip(X, used)], axis=1)
+    flat = pair_error(q, lam, cols)
+    out = []
+    for p, u, e in zip(parts, used, np.split(flat, np.cumsum(counts)[:-1])):
+        err = np.full(p.lam.size, np.nan)
+        err[u] = e
+        out.append(err)
+    return out
+
+
+def _sym_definite(dense: list) -> list:
+    """The Cholesky certificate of every problem at once (True: sym(K) positive definite), or
+    None each (then :func:`check_divergence` decides problem by problem)."""
+    S = np.stack([q.stiffness for q in dense])
+    try:
+        np.linalg.cholesky(0.5 * (S + S.transpose(0, 2, 1)))  # raises if any one is not
+    except np.linalg.LinAlgError:
+        return [None] * len(dense)
+    return [True] * len(dense)
+
+
 class DenseEngine:
-    """QZ / symmetric-definite LAPACK solver; returns all 2n eigenpairs of the QEP.
+    """QZ / symmetric-definite LAPACK solver; returns all 2n eigenvalues of the QEP.
 
     Every path solves a diagonally balanced problem (:func:`balance`) in an inverted variable,
     so the low modes are the *largest* eigenvalues LAPACK computes (docs/numerical-stability.md).
+    Eigenvectors (and pair errors) only of the pairs a point reports (:func:`null_vectors`).
     """
 
     name = "dense"
@@ -207,24 +297,37 @@ class DenseEngine:
     def solve(self, qep: QEP, n_modes: int = 0, want_vectors: bool = False, hint=None) -> EigenSolution:
         """Every eigenvalue of ``qep``; eigenvectors (and pair errors) of the pairs a point
         reports. ``hint`` ≈ |λ₁| (a sweep's previous speed) saves the QZ path its scale solve."""
-        q = as_dense(qep)
-        d = balance(q.mass, q.stiffness)
-        C = None if q.damping is None else d[:, None] * q.damping * d
-        lam, method, (s, Ms, Cs, Ks), V = _spectrum(d[:, None] * q.mass * d, C, d[:, None] * q.stiffness * d,
-                                                    q.kind, hint)
-        used = _vector_pairs(lam, n_modes)
-        X = np.full((q.n, lam.size), complex(np.nan, np.nan))
-        X[:, used] = np.hstack([V, V])[:, used] if V is not None else null_vectors(Ms, Cs, Ks, lam[used] / s)
-        X[:, used] *= d[:, None]
-        err = np.full(lam.size, np.nan)
-        err[used] = pair_error(q, lam[used], X[:, used])
-        lam, X, err = polish_reported(qep, lam, X, err, n_modes)  # beyond the assembled K's round-off
-        # LAPACK always "converges"; the pairs still have to satisfy the QEP (the same check as
-        # the SLEPc engine's: on over-refined meshes the assembled K no longer determines them).
-        msg = check_pairs(q, lam, X, err, max(n_modes, 1), self.max_pair_error)[1]
-        # The whole spectrum is at hand: the divergence check uses it when no certificate decides.
-        verdict = check_divergence(q, spectrum=lam)
-        return EigenSolution(lam, err, X if want_vectors else None, not msg, method, msg, verdict)
+        return self._solve_all([qep], n_modes, want_vectors, [hint])[0]
+
+    def solve_many(self, qeps: list, n_modes: int = 0, want_vectors: bool = False, hints=None) -> list:
+        """:meth:`solve` of several problems of one model (e.g. the cases of one crank speed).
+
+        LAPACK runs problem by problem; the rest (eigenvectors of the reported pairs, pair
+        errors, the Cholesky certificate) runs once for all of them: at thesis size its numpy
+        overhead per problem cost about as much as the QZ itself (scripts/bench_small.py).
+        """
+        hints = [None] * len(qeps) if hints is None else list(hints)
+        if len(qeps) > 1 and qeps[0].n > BATCH_MAX_N:
+            return [self._solve_all([q], n_modes, want_vectors, [h])[0] for q, h in zip(qeps, hints)]
+        return self._solve_all(qeps, n_modes, want_vectors, hints)
+
+    def _solve_all(self, qeps: list, n_modes: int, want_vectors: bool, hints: list) -> list:
+        dense = [as_dense(q) for q in qeps]
+        parts = [_balanced_spectrum(q, h) for q, h in zip(dense, hints)]
+        used = [_vector_pairs(p.lam, n_modes) for p in parts]
+        X = _eigenvectors(parts, used)
+        errors = _pair_errors(dense, parts, X, used)
+        definite = _sym_definite(dense) if len(dense) > 1 else [None]
+        out = []
+        for qep, q, p, x, err, pd in zip(qeps, dense, parts, X, errors, definite):
+            lam, x, err = polish_reported(qep, p.lam, x, err, n_modes)  # beyond the assembled K's round-off
+            # LAPACK always "converges"; the pairs still have to satisfy the QEP (the same check
+            # as the SLEPc engine's: on over-refined meshes the assembled K no longer determines them).
+            msg = check_pairs(q, lam, x, err, max(n_modes, 1), self.max_pair_error)[1]
+            # The whole spectrum is at hand: the divergence check uses it when no certificate decides.
+            verdict = check_divergence(q, spectrum=lam, sym_definite=pd)
+            out.append(EigenSolution(lam, err, x if want_vectors else None, not msg, p.method, msg, verdict))
+        return out
 
     def settings(self) -> dict:
         return {"engine": "dense", "method": "LAPACK (scipy.linalg): eigh / eig / QZ of a scaled reversed companion",

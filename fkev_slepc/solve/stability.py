@@ -114,7 +114,7 @@ def real_positive(lam, imag_tol: float = 1e-9) -> np.ndarray:
 
 
 def check_divergence(qep: QEP, spectrum=None, computed=None, dense_spectrum=None, imag_tol: float = 1e-9,
-                     dense_limit: int = DENSE_LIMIT) -> Divergence:
+                     dense_limit: int = DENSE_LIMIT, sym_definite: bool | None = None) -> Divergence:
     """Whole-spectrum divergence verdict of ``qep`` (see the module docstring).
 
     Parameters
@@ -133,12 +133,15 @@ def check_divergence(qep: QEP, spectrum=None, computed=None, dense_spectrum=None
         |Im λ| <= imag_tol·|λ| is a real eigenvalue.
     dense_limit : int
         Largest model (free DOFs) whose undecided points get a dense whole-spectrum solve.
+    sym_definite : bool, optional
+        The Cholesky certificate when the caller already has it (the dense engine factors a
+        batch of problems at once); None: factor here.
 
     Returns
     -------
     Divergence
     """
-    if sym_positive_definite(qep.stiffness):
+    if sym_definite if sym_definite is not None else sym_positive_definite(qep.stiffness):
         return Divergence(False, True, np.zeros(0), "proven: sym(K) positive definite (Cholesky)")
     negative_det = det_sign(qep.stiffness) < 0
     if spectrum is None and qep.n <= dense_limit and dense_spectrum is not None:

@@ -156,26 +156,48 @@ class Sweep:
             struct_lam1 = known[0] if known.size else np.nan
         static = model.scene.driver.acceleration == 0.0
         for js, speed in enumerate(grid.speeds):
+            motionless = static and speed == 0.0  # docs/theory.md §11: no motion term left
+            batch, copies = [], []  # (case index, QEP, hint) to solve; cases that copy `still`
             for jc, case in enumerate(cases):
                 if case == "structure" or not todo[js, jc]:
                     continue
-                if static and speed == 0.0 and still is not None:  # docs/theory.md §11: no motion term left
-                    self._keep(results, lam1, (js, jc), still)
+                if motionless and (still is not None or batch):
+                    copies.append(jc)
                     continue
                 prev = lam1[js - 1, jc] if js > 0 else np.nan
                 hint = prev if np.isfinite(prev) else struct_lam1
-                res = self._solve(model.qep(pieces, float(speed), case),
-                                  float(hint) if np.isfinite(hint) else None, (theta, js, jc))
-                if static and speed == 0.0:
-                    still = res
+                batch.append((jc, model.qep(pieces, float(speed), case), float(hint) if np.isfinite(hint) else None))
+            solved = self._solve_many(batch, theta, js)
+            for (jc, _, _), res in zip(batch, solved):
                 self._keep(results, lam1, (js, jc), res)
+            if motionless and still is None and solved:
+                still = solved[0]
+            for jc in copies:
+                self._keep(results, lam1, (js, jc), still)
         return results
+
+    def _solve_many(self, batch: list, theta: float, js: int) -> list[PointResult]:
+        """Results of the (case index, QEP, hint) of one speed: in one call of an engine that
+        batches problems (the dense engine's ``solve_many``), else point by point; a batch
+        that raises is solved again point by point, so that a failure marks only its own point."""
+        many = getattr(self.engine, "solve_many", None)
+        if many is not None and len(batch) > 1:
+            o = self.opts
+            try:
+                sols = many([q for _, q, _ in batch], o.n_modes, o.want_vectors, [h for _, _, h in batch])
+                return [self._postprocess(sol) for sol in sols]
+            except self._errors:
+                pass
+        return [self._solve(q, hint, (theta, js, jc)) for jc, q, hint in batch]
+
+    def _postprocess(self, sol) -> PointResult:
+        o = self.opts
+        return postprocess(sol, o.n_modes, o.imag_tol, o.damping_tol, want_shapes=o.want_vectors)
 
     def _solve(self, qep, hint, where) -> PointResult:
         o = self.opts
         try:
-            sol = self.engine.solve(qep, o.n_modes, want_vectors=o.want_vectors, hint=hint)
-            return postprocess(sol, o.n_modes, o.imag_tol, o.damping_tol, want_shapes=o.want_vectors)
+            return self._postprocess(self.engine.solve(qep, o.n_modes, want_vectors=o.want_vectors, hint=hint))
         except self._errors as exc:
             theta, s, c = where
             log.warning("point (%g deg, %g rad/s, %s) failed: %s: %s", np.degrees(theta),
