@@ -34,6 +34,7 @@ POLISH_ABOVE = 1e-8
 POLISH_RATIO = 100.0
 MAX_STEPS = 8
 STEP_TOL = 1e-13
+MAX_RESTARTS = 3  # new factorizations at the improved λ when one shift stalls (polish_pair)
 
 
 def _quadratic_root(qep: QEP, x: np.ndarray, near: complex) -> complex:
@@ -48,6 +49,13 @@ def _quadratic_root(qep: QEP, x: np.ndarray, near: complex) -> complex:
 def polish_pair(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray, float]:
     """One eigenpair polished by residual inverse iteration; returns (λ, x, pair error).
 
+    When the iteration stalls above :data:`POLISH_ABOVE`, P is factored again at the improved λ,
+    up to :data:`MAX_RESTARTS` times. Measured on Bahgat-Willmert with 4,000 cubic elements per
+    link (60,000 DOFs, θ = 10°, Ω = 1000 rad/s, full): TOAR's f₁ pair had pair error 0.12; one
+    factorization, stopping when a step shrank by less than 0.3, left 5.8e-4 and f₁ 6.8e-6 off
+    (flagged not_converged); going on while steps shrink by 0.9 and refactoring gives 5.5e-9 and
+    f₁ within 3.8e-10 of the Richardson reference, in 2.3 s.
+
     Raises
     ------
     RuntimeError
@@ -55,6 +63,15 @@ def polish_pair(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndar
     """
     x = np.asarray(x, dtype=complex).ravel()
     x = x / x[np.argmax(np.abs(x))]
+    for _ in range(1 + MAX_RESTARTS):
+        lam, x, err = _iterate(qep, lam, x)
+        if err <= POLISH_ABOVE:
+            break
+    return lam, x, err
+
+
+def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray, float]:
+    """Residual inverse iteration with P(σ) factored once at σ = ``lam``."""
     P = qep.stiffness + lam * lam * qep.mass
     if qep.damping is not None:
         P = P + lam * qep.damping
@@ -67,7 +84,9 @@ def polish_pair(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndar
         x_new = x_new / x_new[np.argmax(np.abs(x_new))]
         step = np.linalg.norm(x_new - x) / np.linalg.norm(x_new)
         x = x_new
-        if step < STEP_TOL or step > 0.3 * prev:  # converged, or no longer contracting (noise level)
+        # converged, or no longer contracting (noise level). A slow contraction goes on: on very
+        # fine meshes the LU of P(σ) is itself only a few digits good and contracts by ~0.5/step
+        if step < STEP_TOL or step > 0.9 * prev:
             break
         prev = step
     lam = _quadratic_root(qep, x, lam)
