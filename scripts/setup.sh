@@ -11,6 +11,7 @@ DEB_PACKAGES=(
   python3-petsc4py python3-slepc4py petsc-dev slepc-dev
   python3-mpi4py python3-h5py-mpi openmpi-bin
   python3-matplotlib python3-xarray python3-h5netcdf python3-tqdm python3-pytest
+  python3-mpmath
 )
 
 missing=()
