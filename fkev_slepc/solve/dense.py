@@ -186,12 +186,9 @@ def _start(n: int) -> np.ndarray:
 
 def _vector_pairs(lam: np.ndarray, n_modes: int) -> np.ndarray:
     """Indices of the pairs whose eigenvectors a point needs: the ones it reports
-    (:func:`modes.reported`: the ``n_modes`` lowest oscillatory ones and every real one) and,
-    when there are few, every oscillatory one (:func:`refine.polish_reported` may polish them)."""
+    (:func:`modes.reported`: the ``n_modes`` lowest oscillatory ones and every real one), the
+    only ones :func:`refine.polish_reported` polishes."""
     osc, is_real = reported(lam, max(n_modes, 1))
-    upper = np.flatnonzero(np.isfinite(lam) & (lam.imag > 0))
-    if upper.size <= 2 * n_modes + 4:
-        osc = np.union1d(osc, upper)
     return np.concatenate([osc, np.flatnonzero(is_real & np.isfinite(lam))])
 
 

@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from fkev_slepc.model.qep import QEP, pair_error_floor, polished_pair_error, staged_residual
+from fkev_slepc.model.qep import QEP, pair_error_floor, polished_pair_error
 
 # Pairs whose plain pair_error is below this are left as the engine returned them. Measured on
 # Bahgat-Willmert (docs/accuracy.md §2): the frequency error the round-off causes is ~4e-3 of the
@@ -37,13 +37,28 @@ STEP_TOL = 1e-13
 MAX_RESTARTS = 3  # new factorizations at the improved λ when one shift stalls (polish_pair)
 
 
-def _quadratic_root(qep: QEP, x: np.ndarray, near: complex) -> complex:
-    """The root nearest ``near`` of xᴴ(λ²M + λC + K)x = 0, xᴴKx from element strains."""
-    m = np.vdot(x, qep.mass @ x)
-    c = np.vdot(x, qep.damping @ x) if qep.damping is not None else 0.0
-    k = qep.staged.form(x, x)[0] + np.vdot(x, qep.stiffness_rest @ x)
-    roots = np.roots([m, c, k])
+def _step_terms(qep: QEP, x: np.ndarray):
+    """(K x, M x, C x or None, xᴴKx) of one vector, K x and xᴴK_s x from one set of element
+    strains (model/energy.py): the products a polish step needs, each computed once."""
+    e = qep.staged.strains(x)
+    rest = qep.stiffness_rest @ x
+    Kx = qep.staged.forces(e)[:, 0] + rest
+    xKx = qep.staged.energy(e, e)[0] + np.vdot(x, rest)
+    return Kx, qep.mass @ x, None if qep.damping is None else qep.damping @ x, xKx
+
+
+def _quadratic_root(x: np.ndarray, terms, near: complex) -> complex:
+    """The root nearest ``near`` of xᴴ(λ²M + λC + K)x = 0 (``terms`` from :func:`_step_terms`)."""
+    _, Mx, Cx, xKx = terms
+    roots = np.roots([np.vdot(x, Mx), 0.0 if Cx is None else np.vdot(x, Cx), xKx])
     return complex(roots[np.argmin(np.abs(roots - near))])
+
+
+def _residual(terms, lam: complex) -> np.ndarray:
+    """P(λ)x from the products of :func:`_step_terms`."""
+    Kx, Mx, Cx, _ = terms
+    R = Kx + (lam * lam) * Mx
+    return R if Cx is None else R + lam * Cx
 
 
 def polish_pair(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray, float]:
@@ -78,9 +93,9 @@ def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray
     lu = spla.splu(sp.csc_matrix(P, dtype=complex))
     prev = np.inf
     for _ in range(MAX_STEPS):
-        lam = _quadratic_root(qep, x, lam)
-        dx = lu.solve(staged_residual(qep, lam, x[:, None])[:, 0])
-        x_new = x - dx
+        terms = _step_terms(qep, x)
+        lam = _quadratic_root(x, terms, lam)
+        x_new = x - lu.solve(_residual(terms, lam))
         x_new = x_new / x_new[np.argmax(np.abs(x_new))]
         step = np.linalg.norm(x_new - x) / np.linalg.norm(x_new)
         x = x_new
@@ -89,7 +104,7 @@ def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray
         if step < STEP_TOL or step > 0.9 * prev:
             break
         prev = step
-    lam = _quadratic_root(qep, x, lam)
+    lam = _quadratic_root(x, _step_terms(qep, x), lam)
     return lam, x, float(polished_pair_error(qep, lam, x, lu.solve))
 
 
@@ -120,12 +135,13 @@ def polish_reported(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray
     A reported pair is polished when its plain pair error exceeds :data:`POLISH_ABOVE` or, with
     ``ratio_above``, exceeds that multiple of what one-ulp changes of the matrices explain
     (:func:`~fkev_slepc.model.qep.pair_error_floor`; the SLEPc engine passes
-    :data:`POLISH_RATIO`). When a reported frequency is polished all of them are, and the
-    engine's other oscillatory pairs too when there are few of them (a SLEPc solve returns
-    ~n_modes + 1): max Re λ, the stability verdict, is taken over every computed eigenvalue, and
-    an unpolished one carries a spurious real part of the size of its round-off (measured:
-    2.2e-4 1/s on a gyroscopic Bahgat-Willmert point at 2,000 elements per link, whose true real
-    parts are 0). A dense solve returns all 2n and only the reported ones are polished.
+    :data:`POLISH_RATIO`). When a reported frequency is polished all of them are: an unpolished
+    one carries a spurious real part of the size of its round-off (measured: 2.2e-4 1/s on a
+    gyroscopic Bahgat-Willmert point at 2,000 elements per link, whose true real parts are 0),
+    and ζ and max Re λ, the stability verdict, are taken over the reported modes and the real
+    eigenvalues (solve/modes.py ``postprocess``). The engine's other pairs (SLEPc returns a few
+    more than asked) are not polished: they are not reported and decide nothing (at 50,400 DOFs
+    polishing them too meant 6 polished pairs per point instead of 4).
 
     Real eigenvalues: near a toggle position the dense engine's values are right but its vectors
     had pair errors up to 0.97 (QZ's), then up to 7e-6 = 1.5e10 times their floor (one
@@ -149,6 +165,5 @@ def polish_reported(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray
         return lam, X, errors
     which = used[need]
     if need[: osc.size].any():
-        upper = np.flatnonzero(np.asarray(lam).imag > 0)
-        which = np.union1d(which, np.union1d(osc, upper) if upper.size <= 2 * n_modes + 4 else osc)
+        which = np.union1d(which, osc)
     return polish(qep, lam, X, errors, which)
