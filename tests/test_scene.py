@@ -444,3 +444,14 @@ def test_check_reports_an_impossible_crank_angle_after_a_clean_schema(capsys):
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(pytest.main([__file__, "-q"]))
+
+
+def test_a_dropped_link_defaults_header_gives_one_line_per_key_not_per_link():
+    """Without its [link_defaults] header the section keys become unknown top-level keys and
+    every link misses them: one line per key names all the links (8 lines, not 16)."""
+    text = (ROOT / "runs" / "bahgat-willmert-1976.toml").read_text().replace("[link_defaults]\n", "", 1)
+    got = problems_of(text)
+    assert len(got) == 8
+    assert "links[0, 1, 2].area_m2: missing required key (set it here or in [link_defaults])" in got
+    assert sum("belongs in [link_defaults]" in p for p in got) == 4
+    # one link's problem keeps its own path: tests/data/bad_missing_field.toml (BAD above)

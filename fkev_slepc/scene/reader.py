@@ -87,7 +87,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     if topology_ok and links:
         sec.check_topology(r, links, joints)
     if r.problems:
-        raise SceneError(source, r.problems)
+        raise SceneError(source, r.compacted())
     return Scene(
         title=title,
         links=tuple(links),

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -49,6 +50,9 @@ def is_number(value: Any) -> bool:
     """TOML integer or float; a boolean is *not* a number (``True == 1`` in Python)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
+
+# "links[3].segments[1].area_m2": an item of a top-level array of tables, and the key path in it
+_ITEM_KEY = re.compile(r"(?P<array>[A-Za-z_]+)\[(?P<index>\d+)\]\.(?P<rest>.+)")
 
 class Reader:
     """Collects problems while reading a parsed TOML document.
@@ -100,6 +104,31 @@ class Reader:
             if close:
                 return join(section, close[0])
         return None
+
+    def compacted(self) -> list[Problem]:
+        """The problems with the same message about the same key of several items of one array
+        of tables merged into one line, ``links[0, 1, 2].area_m2: missing required key``: a
+        dropped ``[link_defaults]`` header otherwise gives one line per link and key."""
+        groups: dict[tuple[str, str, str], list[str]] = {}
+        order: list[tuple[str, str, str] | Problem] = []
+        for p in self.problems:
+            m = _ITEM_KEY.fullmatch(p.path)
+            if m is None:
+                order.append(p)
+                continue
+            key = (m["array"], m["rest"], p.message)
+            if key not in groups:
+                groups[key] = []
+                order.append(key)
+            groups[key].append(m["index"])
+        out = []
+        for item in order:
+            if isinstance(item, Problem):
+                out.append(item)
+            else:
+                array, rest, message = item
+                out.append(Problem(f"{array}[{', '.join(groups[item])}].{rest}", message))
+        return out
 
     def missing(self, path: str, remark: str = "") -> None:
         self.add(path, "missing required key" + (f" ({remark})" if remark else ""))
