@@ -18,7 +18,7 @@ from fkev_slepc.model.qep import GENERAL
 from fkev_slepc.scene import Damping, parse_scene
 from fkev_slepc.solve.dense import DenseEngine
 from fkev_slepc.solve.modes import postprocess
-from fkev_slepc.solve.dense import all_eigenpairs
+from fkev_slepc.solve.dense import all_eigenvalues
 from fkev_slepc.solve.stability import check_divergence, damping_ratio, det_sign, sym_positive_definite
 from fkev_slepc.status import Status
 
@@ -119,7 +119,7 @@ def random_crank_rockers(n, seed):
 
 
 def _dense_has_real_positive(q):
-    lam = all_eigenpairs(q, want_vectors=False)[0]
+    lam = all_eigenvalues(q)
     lam = lam[np.isfinite(lam)]
     return bool(np.any((np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)))
 

@@ -44,11 +44,6 @@ class StagedStiffness:
         Xp = np.concatenate([X, np.zeros((1, X.shape[1]), X.dtype)])
         return _real_matmul(self.B, Xp[self.dofs])
 
-    def form(self, Y: np.ndarray, X: np.ndarray) -> np.ndarray:
-        """yᴴK_s x for corresponding columns of Y and X (k,), from element strains."""
-        ex = self.strains(X)
-        return self.energy(self.strains(Y) if Y is not X else ex, ex)
-
     def energy(self, ey: np.ndarray, ex: np.ndarray) -> np.ndarray:
         """yᴴK_s x (k,) from the element strains of y and x."""
         return np.einsum("es,esk,esk->k", self.w, ey.conj(), ex)

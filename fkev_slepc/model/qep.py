@@ -132,32 +132,41 @@ def _apply(A, X: np.ndarray) -> np.ndarray:
     return A @ X
 
 
-def staged_residual(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """P(λ)x per column with K_s applied factored (model/energy.py), not from the assembled K.
+def staged_products(qep: QEP, x: np.ndarray):
+    """(K x, M x, C x or None, xᴴKx) of one vector with K_s applied factored (model/energy.py):
+    K_s x and xᴴK_s x from one set of element strains, not from the assembled K.
 
-    Its round-off is a perturbation of the element stresses of relative size ~ε·n_el², which
+    Their round-off is a perturbation of the element stresses of relative size ~ε·n_el², which
     moves the low eigenvalues only by as much; the assembled K's is ~ε·n_el⁴ of them.
     """
-    lam = np.atleast_1d(np.asarray(lam, dtype=complex))
-    X = np.asarray(X, dtype=complex).reshape(qep.n, -1)
-    R = qep.staged.apply(X) + qep.stiffness_rest @ X + lam**2 * (qep.mass @ X)
-    if qep.damping is not None:
-        R += lam * (qep.damping @ X)
-    return R
+    x = np.asarray(x, dtype=complex).ravel()
+    e = qep.staged.strains(x)
+    rest = qep.stiffness_rest @ x
+    Kx = qep.staged.forces(e)[:, 0] + rest
+    xKx = qep.staged.energy(e, e)[0] + np.vdot(x, rest)
+    return Kx, qep.mass @ x, None if qep.damping is None else qep.damping @ x, xKx
 
 
-def polished_pair_error(qep: QEP, lam: complex, x: np.ndarray, solve) -> float:
+def staged_residual(products, lam: complex) -> np.ndarray:
+    """P(λ)x from the :func:`staged_products` of x."""
+    Kx, Mx, Cx, _ = products
+    R = Kx + (lam * lam) * Mx
+    return R if Cx is None else R + lam * Cx
+
+
+def polished_pair_error(qep: QEP, lam: complex, x: np.ndarray, solve, products=None) -> float:
     """Pair error of a pair polished by solve/refine.py: the relative change of direction of x
     that one more residual-inverse-iteration step x - P(σ)⁻¹P(λ)x would make.
 
-    ``solve`` applies P(σ)⁻¹ for the shift σ the polish used. O(1) for a wrong pair (the
-    iteration would turn it toward another eigenvector), ~ε·n_el² for a right one.
-    :func:`pair_error` cannot judge these pairs: on fine meshes the round-off of the assembled K
-    alone gives them ~ε·n_el⁴.
+    ``solve`` applies P(σ)⁻¹ for the shift σ the polish used; ``products`` are x's
+    :func:`staged_products` when the caller has them. O(1) for a wrong pair (the iteration
+    would turn it toward another eigenvector), ~ε·n_el² for a right one. :func:`pair_error`
+    cannot judge these pairs: on fine meshes the round-off of the assembled K alone gives them
+    ~ε·n_el⁴.
     """
     x = np.asarray(x, dtype=complex).ravel()
     piv = np.argmax(np.abs(x))
-    y = x - solve(staged_residual(qep, lam, x[:, None])[:, 0])
+    y = x - solve(staged_residual(products or staged_products(qep, x), lam))
     if y[piv] == 0:
         return float("inf")
     y, x = y / y[piv], x / x[piv]

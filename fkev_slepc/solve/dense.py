@@ -107,17 +107,10 @@ def _spectrum(M: np.ndarray, C: np.ndarray | None, K: np.ndarray, kind: str, hin
     return lam, "dense-qz", scaled, None
 
 
-def all_eigenpairs(qep: QEP, want_vectors: bool = True):
-    """All 2n eigenvalues (and, if asked, eigenvectors, unit 2-norm) of ``qep``: (λ, X or None,
-    method). Used by the whole-spectrum divergence check of the SLEPc engine (solve/stability.py)."""
-    q = as_dense(qep)
-    d = balance(q.mass, q.stiffness)
-    C = None if q.damping is None else d[:, None] * q.damping * d
-    lam, method, (s, Ms, Cs, Ks), V = _spectrum(d[:, None] * q.mass * d, C, d[:, None] * q.stiffness * d, q.kind)
-    if not want_vectors:
-        return lam, None, method
-    X = np.hstack([V, V]) if V is not None else null_vectors(Ms, Cs, Ks, lam / s)
-    return lam, d[:, None] * X, method
+def all_eigenvalues(qep: QEP) -> np.ndarray:
+    """All 2n eigenvalues of ``qep`` (the dense engine's balanced LAPACK path, no eigenvectors).
+    Used by the whole-spectrum divergence check of the SLEPc engine (solve/stability.py)."""
+    return _balanced_spectrum(as_dense(qep), None).lam
 
 
 def qz(M: np.ndarray, C: np.ndarray, K: np.ndarray, hint=None):
@@ -244,7 +237,7 @@ def _eigenvectors(parts: list, used: list) -> list:
         counts = [u.size for u in su]
         Y = null_vectors(*(_per_pair([getattr(p, m) for p in sub], counts) for m in "MCK"), lam,
                          np.concatenate([np.arange(k) for k in counts]))
-        for i, y in zip(inv, np.split(Y, np.cumsum([u.size for u in su])[:-1], axis=1)):
+        for i, y in zip(inv, np.split(Y, np.cumsum(counts)[:-1], axis=1)):
             X[i][:, used[i]] = y
     for x, p, u in zip(X, parts, used):
         x[:, u] *= p.d[:, None]

@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from fkev_slepc.model.qep import QEP, pair_error_floor, polished_pair_error
+from fkev_slepc.model.qep import QEP, pair_error_floor, polished_pair_error, staged_products, staged_residual
 
 # Pairs whose plain pair_error is below this are left as the engine returned them. Measured on
 # Bahgat-Willmert (docs/accuracy.md §2): the frequency error the round-off causes is ~4e-3 of the
@@ -37,28 +37,12 @@ STEP_TOL = 1e-13
 MAX_RESTARTS = 3  # new factorizations at the improved λ when one shift stalls (polish_pair)
 
 
-def _step_terms(qep: QEP, x: np.ndarray):
-    """(K x, M x, C x or None, xᴴKx) of one vector, K x and xᴴK_s x from one set of element
-    strains (model/energy.py): the products a polish step needs, each computed once."""
-    e = qep.staged.strains(x)
-    rest = qep.stiffness_rest @ x
-    Kx = qep.staged.forces(e)[:, 0] + rest
-    xKx = qep.staged.energy(e, e)[0] + np.vdot(x, rest)
-    return Kx, qep.mass @ x, None if qep.damping is None else qep.damping @ x, xKx
-
-
-def _quadratic_root(x: np.ndarray, terms, near: complex) -> complex:
-    """The root nearest ``near`` of xᴴ(λ²M + λC + K)x = 0 (``terms`` from :func:`_step_terms`)."""
-    _, Mx, Cx, xKx = terms
+def _quadratic_root(x: np.ndarray, products, near: complex) -> complex:
+    """The root nearest ``near`` of xᴴ(λ²M + λC + K)x = 0 (``products``: x's
+    :func:`~fkev_slepc.model.qep.staged_products`)."""
+    _, Mx, Cx, xKx = products
     roots = np.roots([np.vdot(x, Mx), 0.0 if Cx is None else np.vdot(x, Cx), xKx])
     return complex(roots[np.argmin(np.abs(roots - near))])
-
-
-def _residual(terms, lam: complex) -> np.ndarray:
-    """P(λ)x from the products of :func:`_step_terms`."""
-    Kx, Mx, Cx, _ = terms
-    R = Kx + (lam * lam) * Mx
-    return R if Cx is None else R + lam * Cx
 
 
 def polish_pair(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray, float]:
@@ -93,9 +77,9 @@ def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray
     lu = spla.splu(sp.csc_matrix(P, dtype=complex))
     prev = np.inf
     for _ in range(MAX_STEPS):
-        terms = _step_terms(qep, x)
-        lam = _quadratic_root(x, terms, lam)
-        x_new = x - lu.solve(_residual(terms, lam))
+        products = staged_products(qep, x)  # each computed once per step
+        lam = _quadratic_root(x, products, lam)
+        x_new = x - lu.solve(staged_residual(products, lam))
         x_new = x_new / x_new[np.argmax(np.abs(x_new))]
         step = np.linalg.norm(x_new - x) / np.linalg.norm(x_new)
         x = x_new
@@ -104,8 +88,9 @@ def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray
         if step < STEP_TOL or step > 0.9 * prev:
             break
         prev = step
-    lam = _quadratic_root(x, _step_terms(qep, x), lam)
-    return lam, x, float(polished_pair_error(qep, lam, x, lu.solve))
+    products = staged_products(qep, x)
+    lam = _quadratic_root(x, products, lam)
+    return lam, x, float(polished_pair_error(qep, lam, x, lu.solve, products))
 
 
 def polish(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray, which: np.ndarray):

@@ -38,7 +38,7 @@ from fkev_slepc.solve.petsc_backend import (
 )
 from fkev_slepc.solve.petsc_init import command_line_options
 from fkev_slepc.solve.refine import POLISH_RATIO, polish_reported
-from fkev_slepc.solve.dense import all_eigenpairs, balanced
+from fkev_slepc.solve.dense import all_eigenvalues, balanced
 from fkev_slepc.solve.modes import check_pairs
 from fkev_slepc.solve.stability import check_divergence
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
@@ -198,7 +198,7 @@ class SlepcEngine:
             ok, msg = False, bad
         self._last["max_pair_error"] = float(worst)
         # Divergence is decided on the whole spectrum, not on the pairs nearest 0 (stability.py).
-        verdict = check_divergence(qep, computed=lam, dense_spectrum=lambda q: all_eigenpairs(q, False)[0])
+        verdict = check_divergence(qep, computed=lam, dense_spectrum=all_eigenvalues)
         return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg, verdict)
 
     def settings(self) -> dict:

@@ -128,7 +128,7 @@ def check_divergence(qep: QEP, spectrum=None, computed=None, dense_spectrum=None
         The eigenvalues an engine computed (a subset); used only above ``dense_limit``.
     dense_spectrum : callable, optional
         qep -> every eigenvalue (the dense engine's LAPACK kernel, solve/dense.py
-        ``all_eigenpairs``); called for an undecided point of at most ``dense_limit`` DOFs.
+        ``all_eigenvalues``); called for an undecided point of at most ``dense_limit`` DOFs.
     imag_tol : float
         |Im λ| <= imag_tol·|λ| is a real eigenvalue.
     dense_limit : int
