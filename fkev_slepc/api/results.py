@@ -113,12 +113,12 @@ class PointResult:
         n = self.raw.shapes.shape[1]
         if not 1 <= k <= n:
             raise ValueError(f"mode: must be 1..{n} (got {k})")
-        from fkev_slepc.plots.shapes import align_phase, guides, node_axes, node_displacement
+        from fkev_slepc.plots.shapes import align_phase, node_displacement
 
         mech, xy = self._model.mechanism, self._model.node_positions(self._theta)
         q = align_phase(self.raw.shapes[:, k - 1], None)
-        # a slider node's translational DOF runs along its guide: node_axes turns it into x, y
-        disp = node_displacement(mech, q, node_axes(mech, xy, guides(self._model.scene.source_text)))
+        # a slider node's translational DOF runs along its guide (mech.node_axis) -> x, y
+        disp = node_displacement(mech, q, mech.node_axis)
         return ModeShape(k, float(self.frequency_hz[k - 1]), complex(self.eigenvalues[k - 1]), xy, disp,
                          np.asarray(mech.node_link), tuple(mech.link_names))
 

@@ -167,8 +167,8 @@ class Study:
         if too_many:
             raise SceneError(sc.source, [too_many])
         theta = float(np.radians(angle_deg))
-        try:
-            pieces = model.pieces(theta)
+        try:  # the rigid-body kinematics (the mesh does not change them) decide assembly
+            kin = model.kinematics(theta)
         except ValueError as err:
             raise SceneError(sc.source, [Problem("angle_deg", f"{err} (got {angle_deg:g})")]) from None
         planned, plan = self._plan(angle_deg, speed_rad_s, case, int(modes), rel_error, solver)
@@ -176,9 +176,8 @@ class Study:
             from fkev_slepc.model.operators import Model
 
             model = Model(planned, cases=(case,))
-            pieces = model.pieces(theta)
-        qep = model.qep(pieces, float(speed_rad_s), case)
-        mu = model.kinematics(theta).transmission
+        qep = model.qep(model.pieces(theta), float(speed_rad_s), case)
+        mu = kin.transmission
         mu_deg = float(np.degrees(mu[0])) if mu is not None else float("nan")
         engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc)
         try:

@@ -214,12 +214,6 @@ def point_local(kin: Kinematics, link: np.ndarray, r: np.ndarray):
                        kin.phi[:, link], kin.dphi[:, link], kin.ddphi[:, link], np.asarray(r, dtype=float))
 
 
-def point_on_link(kin: Kinematics, mech: Mechanism, link: np.ndarray, s: np.ndarray):
-    """Position, d/dθ, d²/dθ² of points at stations ``s`` along the axes of links ``link``."""
-    s = np.broadcast_to(np.asarray(s, dtype=float), np.shape(link))
-    return point_local(kin, link, np.stack([s, np.zeros_like(s)], axis=-1))
-
-
 def assembly_ranges(mech: Mechanism, step_deg: float = 0.25) -> list[tuple[float, float]]:
     """Crank-angle intervals [a°, b°] over one revolution where the linkage cannot be assembled.
 

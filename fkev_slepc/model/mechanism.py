@@ -38,7 +38,6 @@ class Mechanism:
     beam_angle: np.ndarray
     beam_origin: np.ndarray
     node_link: np.ndarray
-    node_beam: np.ndarray
     node_s: np.ndarray  # station along the node's beam from the beam's start, m
     node_local: np.ndarray  # (n_node, 2) link frame
     node_dofs: np.ndarray  # (n_node, 3) free DOF index or -1
@@ -80,11 +79,6 @@ class Mechanism:
     @property
     def n_link(self) -> int:
         return len(self.link_names)
-
-    @property
-    def link_mass(self) -> np.ndarray:
-        """Mass of each link's beams (without lumped masses)."""
-        return np.bincount(self.elem_link, weights=self.elem_rho_a * self.elem_length, minlength=self.n_link)
 
     @property
     def elem_angle(self) -> np.ndarray:
@@ -172,7 +166,7 @@ def build_mechanism(scene: Scene) -> Mechanism:
     return Mechanism(
         scene=scene, link_names=names, length=np.array([lk.length for lk in scene.links], dtype=float),
         beam_link=mesh.beam_link, beam_angle=mesh.beam_angle, beam_origin=mesh.beam_origin,
-        node_link=mesh.node_link, node_beam=mesh.node_beam, node_s=mesh.node_s, node_local=mesh.node_local,
+        node_link=mesh.node_link, node_s=mesh.node_s, node_local=mesh.node_local,
         node_dofs=node_dofs, node_axis=axis, elem_link=mesh.elem_link, elem_beam=mesh.elem_beam,
         elem_nodes=mesh.elem_nodes, elem_length=mesh.elem_length, elem_s0=mesh.elem_s0,
         elem_rho_a=mesh.elem_rho_a, elem_ea=mesh.elem_ea, elem_ei=mesh.elem_ei, elem_dofs=elem_dofs,

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from fkev_slepc.model import elements as el
 from fkev_slepc.model.assembly import Pattern
@@ -48,6 +49,10 @@ class OperatorPieces:
     normal: np.ndarray | None  # per Ω²
     pseudo_normal: tuple[np.ndarray, np.ndarray] | None
     staged: StagedStiffness | None = None  # K_s kept factored (model/energy.py)
+    # the same for every (speed, case) of the angle: M as the CSR matrix every QEP shares (never
+    # modified), and the Rayleigh damping α M + β K_s data (None without [damping])
+    mass_matrix: sp.csr_matrix | None = None
+    rayleigh: np.ndarray | None = None
 
 
 def classify(has_damping: bool, k_symmetric: bool, c_skew: bool = True) -> str:
@@ -102,7 +107,6 @@ class Model:
         self._ks = et.structural(mech.elem_ea, mech.elem_ei, l)
         self._strain_op = et.strains(mech.elem_ea, mech.elem_ei, l)
         self._node_frames = node_frames(mech, et.n_dof)
-        self._mass = (None, None)  # (pieces, their CSR mass matrix): see qep()
 
     # -- per angle -------------------------------------------------------------------------
     def kinematics(self, theta: float):
@@ -142,7 +146,10 @@ class Model:
                 pat.scatter(el.to_global(self.element.axial_force(c_acc, l), T)),
             )
         staged = StagedStiffness(*self._strain_op, T, mech.elem_dofs, mech.n_free)
-        return OperatorPieces(float(theta), mass, structural, coriolis, tangential, normal, pseudo, staged)
+        d = self.scene.damping  # Rayleigh damping: symmetric positive semi-definite (α, β >= 0)
+        rayleigh = d.mass_proportional * mass + d.stiffness_proportional * structural if d.active else None
+        return OperatorPieces(float(theta), mass, structural, coriolis, tangential, normal, pseudo, staged,
+                              pat.matrix(mass), rayleigh)
 
     # -- per speed and case ----------------------------------------------------------------
     def stiffness_terms(self, p: OperatorPieces, case: str, accel: float | None = None):
@@ -199,16 +206,12 @@ class Model:
         if t.keeps("coriolis") and omega != 0.0:
             self._require("coriolis", p.coriolis)
             data = omega * p.coriolis
-        d = self.scene.damping
-        if d.active:  # Rayleigh damping: symmetric positive semi-definite (α, β >= 0)
-            rayleigh = d.mass_proportional * p.mass + d.stiffness_proportional * p.structural
-            data = rayleigh if data is None else data + rayleigh
+        if p.rayleigh is not None:
+            data = p.rayleigh if data is None else data + p.rayleigh
         pat = self.pattern
         C = None if data is None else pat.matrix(data)
-        kind = classify(C is not None, k_sym, c_skew=not d.active)
-        if self._mass[0] is not p:  # one M per angle, shared by its (speed, case) points (never modified)
-            self._mass = (p, pat.matrix(p.mass))
-        return QEP(self._mass[1], C, pat.matrix(p.structural + rest), kind,
+        kind = classify(C is not None, k_sym, c_skew=p.rayleigh is None)
+        return QEP(p.mass_matrix, C, pat.matrix(p.structural + rest), kind,
                    staged=p.staged, stiffness_rest=pat.matrix(rest))
 
     def _require(self, name, piece):

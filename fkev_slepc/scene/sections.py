@@ -11,13 +11,13 @@ The key names carry the units; this is the only place where values are converted
 from __future__ import annotations
 
 import difflib
-import math
 
 from fkev_slepc.scene import parts
 from fkev_slepc.scene.damping import DAMPING_KEYS
 from fkev_slepc.scene.model import END_NAMES, THIRD, Driver, Joint, Link, LinkEnd
 from fkev_slepc.scene.schema import REQUIRED, Reader, join, show
 from fkev_slepc.scene.settings import ANALYSIS_KEYS, SOLVER_KEYS
+from fkev_slepc.scene.units import RAD_S_PER_RPM
 
 # --------------------------------------------------------------------------------------------
 # Schema: the keys of every section. Units live in the key names and are converted once, here.
@@ -242,7 +242,7 @@ def read_driver(r: Reader, doc, link_names: list[str] | None, joints: list[Joint
         speeds = None
     elif "speeds_rpm" in table:
         rpm = r.values(table, "speeds_rpm", "driver")
-        speeds = None if rpm is None else tuple(v * 2.0 * math.pi / 60.0 for v in rpm)
+        speeds = None if rpm is None else tuple(v * RAD_S_PER_RPM for v in rpm)
     else:
         speeds = r.values(table, "speeds_rad_s", "driver", remark="or give speeds_rpm")
     accel = r.number(table, "acceleration_rad_s2", "driver", default=0.0)
