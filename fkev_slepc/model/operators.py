@@ -160,10 +160,7 @@ class Model:
         ``structure`` case has K₂ = 0. ``symmetric`` is False when a tangential part is present
         (T₁, T₂ are skew). :meth:`qep` sums the same terms (in its own order).
         """
-        if case not in CASES:
-            raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
-        t = CASES[case]
-        acc = self.scene.driver.acceleration if accel is None else float(accel)
+        t, acc = self._case(case, accel)
         K0, K2 = p.structural.copy(), np.zeros_like(p.structural)
         k_sym = True
         for name, piece in (("tangential", p.tangential), ("pseudo_normal", p.pseudo_normal)):
@@ -184,10 +181,7 @@ class Model:
         C = Ω G + α_d M + β_d K_s: the Coriolis term (if kept) plus the scene's Rayleigh
         structural damping, which every case keeps (a property of the links, not a motion term).
         """
-        if case not in CASES:
-            raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
-        t = CASES[case]
-        acc = self.scene.driver.acceleration if accel is None else float(accel)
+        t, acc = self._case(case, accel)
         w2 = omega * omega
         rest = np.zeros_like(p.structural)  # every stiffness term but K_s
         moving = t.motion and (omega != 0.0 or acc != 0.0)
@@ -213,6 +207,12 @@ class Model:
         kind = classify(C is not None, k_sym, c_skew=p.rayleigh is None)
         return QEP(p.mass_matrix, C, pat.matrix(p.structural + rest), kind,
                    staged=p.staged, stiffness_rest=pat.matrix(rest))
+
+    def _case(self, case: str, accel: float | None):
+        """The case's term flags (Table 3.1) and the crank acceleration (default the scene's)."""
+        if case not in CASES:
+            raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
+        return CASES[case], self.scene.driver.acceleration if accel is None else float(accel)
 
     def _require(self, name, piece):
         if piece is None:
