@@ -130,7 +130,7 @@ def test_xarray_opens_with_labels(tmp_path):
     xr = pytest.importorskip("xarray")
     part = new_archive(tmp_path)
     write_all(part)
-    out = A.finalize(part, tmp_path / "a.h5", np.zeros(GRID.shape + (3,)), {"n_ranks": 1})
+    out = A.finalize(part, tmp_path / "a.h5", {"n_ranks": 1})
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert set(ds.frequency_hz.dims) == {"crank_angle_deg", "speed_rad_s", "case", "mode"}
         sel = ds.frequency_hz.sel(case="full", speed_rad_s=1000)
@@ -157,7 +157,7 @@ def test_finalize_keeps_newest_error_of_points_still_failed(tmp_path):
     b.errors[0] = ((4, 0, 1), Status.FAILED.code, "second try")
     w.write_block(b)
     w.close()
-    out = A.finalize(part, tmp_path / "a.h5", None, {}, add_wall_time=2.5)
+    out = A.finalize(part, tmp_path / "a.h5", {}, add_wall_time=2.5)
     assert not part.exists() and out.exists()
     with h5py.File(out, "r") as f:
         assert f["errors/index"][()].tolist() == [[4, 0, 1]]
@@ -204,7 +204,7 @@ def test_resume_refuses_changed_scene_and_grid(tmp_path):
 
 def test_finished_archive_is_copied_back_to_partial_for_more_points(tmp_path):
     part = new_archive(tmp_path)
-    out = A.finalize(part, tmp_path / "a.h5", None, {})
+    out = A.finalize(part, tmp_path / "a.h5", {})
     expect = dict(scene_toml=SCENE, elements=np.array([1, 1]), n_free=N_FREE, mode_shapes=1)
     assert A.open_for_resume(out, GRID, expect) == out
     before = out.read_bytes()

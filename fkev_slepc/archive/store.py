@@ -21,8 +21,9 @@ Life cycle of a run:
    written when it completes (mpio) or at the next sync (rank 0); their ``status`` only at the
    sync, after a first flush has put the data on disk, so a point marked done after a crash
    always has its data. Syncs come about every 2 s of work.
-3. :func:`finalize` (rank 0, serial) writes the tracked frequencies and the run attributes,
-   drops stale error rows, and renames the file to its final name.
+3. :func:`finalize` (rank 0, serial) writes the run attributes, drops stale error rows, and
+   renames the file to its final name (the tracked frequencies are already written, by
+   :func:`fkev_slepc.archive.tracks.write_tracking`).
 
 Resuming (:func:`open_for_resume`) reopens the temporary file (or moves a finished archive
 back to it), refuses when the scene or grid differ, and lists the points left to do.
@@ -303,14 +304,11 @@ def read_tracking_inputs(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | Non
         return f["frequency_hz"][()], np.asarray(f["status"][()], dtype=np.uint8), sig
 
 
-def finalize(part, path, tracked: np.ndarray | None, attrs: dict, add_wall_time: float = 0.0) -> Path:
-    """Rank 0, after every rank closed the file: store the tracked frequencies and the run
-    attributes, add ``add_wall_time`` to ``wall_time_s`` (summed over resumed runs), keep one
-    error row per point that still failed (the newest), set ``complete=1`` and rename
-    ``part`` to ``path``."""
+def finalize(part, path, attrs: dict, add_wall_time: float = 0.0) -> Path:
+    """Rank 0, after every rank closed the file: store the run attributes, add ``add_wall_time``
+    to ``wall_time_s`` (summed over resumed runs), keep one error row per point that still
+    failed (the newest), set ``complete=1`` and rename ``part`` to ``path``."""
     with h5py.File(part, "r+") as f:
-        if tracked is not None:
-            f["tracked_frequency_hz"][...] = tracked
         _compact_errors(f)
         _set_attrs(f, attrs)
         f.attrs["wall_time_s"] = float(f.attrs.get("wall_time_s", 0.0)) + float(add_wall_time)

@@ -25,8 +25,8 @@ def read_refined(path) -> dict | None:
         return {k: g[k][()] for k in _REFINED}
 
 
-def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict, refined: dict | None = None,
-                   speed_tracked: np.ndarray | None = None, speed_fallback: np.ndarray | None = None) -> None:
+def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict, speed_tracked: np.ndarray,
+                   refined: dict | None = None, speed_fallback: np.ndarray | None = None) -> None:
     """Rank 0, before :func:`finalize`: store what tracking found (docs/tracking.md).
 
     ``tracked`` goes to ``tracked_frequency_hz`` and ``speed_tracked`` to
@@ -37,11 +37,10 @@ def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict,
     ``/tracking/refined``, its own angle scale first. Earlier tracking results are replaced."""
     with h5py.File(path, "r+") as f:
         f["tracked_frequency_hz"][...] = tracked
-        if speed_tracked is not None:
-            if "speed_tracked_frequency_hz" not in f:  # archives created before it existed
-                gridded(f, "speed_tracked_frequency_hz", tracked.shape, *_GRIDDED["speed_tracked_frequency_hz"],
-                         ("crank_angle_deg", "speed_rad_s", "case", "mode"))
-            f["speed_tracked_frequency_hz"][...] = speed_tracked
+        if "speed_tracked_frequency_hz" not in f:  # archives created before it existed
+            gridded(f, "speed_tracked_frequency_hz", tracked.shape, *_GRIDDED["speed_tracked_frequency_hz"],
+                     ("crank_angle_deg", "speed_rad_s", "case", "mode"))
+        f["speed_tracked_frequency_hz"][...] = speed_tracked
         g = f.require_group("tracking")
         for name in ("fallback", "speed_fallback", "refined"):
             if name in g:

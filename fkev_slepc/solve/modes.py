@@ -172,7 +172,11 @@ def match_modes(prev: np.ndarray, cur: np.ndarray) -> np.ndarray:
     ``prev`` and ``cur`` are (n_lines, n, n_modes); returns ``perm`` (n_lines, n_modes) with
     ``cur[l][:, perm[l, i]]`` the continuation of ``prev[l][:, i]``.
     """
-    m = mac(prev, cur)
+    return greedy_match(mac(prev, cur))
+
+
+def greedy_match(m: np.ndarray) -> np.ndarray:
+    """:func:`match_modes` on a MAC matrix ``m`` (n_lines, n_modes, n_modes), which it overwrites."""
     n_lines, nm = m.shape[0], m.shape[-1]
     perm = np.zeros((n_lines, nm), dtype=int)
     rows = np.arange(n_lines)

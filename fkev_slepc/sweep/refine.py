@@ -33,10 +33,12 @@ class Samples:
         return np.isin(self.status, converged_codes())
 
     @staticmethod
-    def concat(a: "Samples", b: "Samples") -> "Samples":
-        ev = None if a.eigenvalue is None or b.eigenvalue is None else np.concatenate([a.eigenvalue, b.eigenvalue])
-        return Samples(np.concatenate([a.angles_deg, b.angles_deg]), np.concatenate([a.freq, b.freq]),
-                       np.concatenate([a.status, b.status]), np.concatenate([a.sig, b.sig]), ev)
+    def concat(*parts: "Samples") -> "Samples":
+        def cat(name):
+            return np.concatenate([getattr(p, name) for p in parts])
+
+        ev = None if any(p.eigenvalue is None for p in parts) else cat("eigenvalue")
+        return Samples(cat("angles_deg"), cat("freq"), cat("status"), cat("sig"), ev)
 
 
 @dataclass
@@ -74,7 +76,10 @@ def track_angles(main: Samples, extra: Samples | None = None, crit: Criteria = C
                  ambiguous_main: int | None = None):
     """Track along crank angle over ``main`` plus ``extra`` angles; returns the
     :class:`AngleTracking` and the refinement requests ``{angle: (speed, case) mask}``
-    (midpoints of ambiguous links still longer than the main step / 2**max_halvings)."""
+    (midpoints of ambiguous links still longer than the main step / 2**max_halvings).
+
+    ``ambiguous_main``: the count of ambiguous or crossing links of ``main`` alone, from an
+    earlier walk; None counts them on this walk (right only when ``extra`` is None)."""
     allp = main if extra is None else Samples.concat(main, extra)
     na = len(main.angles_deg)
     ns, nc, nm = main.freq.shape[1:]
@@ -107,7 +112,7 @@ def track_angles(main: Samples, extra: Samples | None = None, crit: Criteria = C
     unresolved = int(np.count_nonzero(w.ambiguous) + np.count_nonzero(w.closing_ambiguous))
     if ambiguous_main is None:
         ambiguous_main = int(np.count_nonzero(w.ambiguous | w.crossed)
-                             + np.count_nonzero(w.closing_ambiguous | w.closing_crossed)) if extra is None else track_angles(main, None, crit)[0].ambiguous_main
+                             + np.count_nonzero(w.closing_ambiguous | w.closing_crossed))
     result = AngleTracking(
         tracked=tracked_all[:na], fallback=fallback, open_loop=w.open_loop.reshape(ns, nc),
         ambiguous_main=ambiguous_main, unresolved=unresolved,
@@ -128,9 +133,10 @@ def refine_angles(main: Samples | None, solve, comm, crit: Criteria = Criteria()
     result, amb = None, None
     for _ in range(crit.max_halvings + 2):
         if comm.rank == 0:
-            if amb is None:
+            if amb is None and extra is not None:  # a resumed archive's angles: count main's links alone
                 amb = track_angles(main, None, crit)[0].ambiguous_main
             result, requests = track_angles(main, extra, crit, amb)
+            amb = result.ambiguous_main
             work = list(requests.items())
         else:
             work = None
@@ -140,23 +146,31 @@ def refine_angles(main: Samples | None, solve, comm, crit: Criteria = Criteria()
         mine = [solve(angle, mask) for angle, mask in work[comm.rank::comm.size]]
         got = comm.gather(mine, root=0)
         if comm.rank == 0:
-            for part in got:
-                for s in part:
-                    extra = s if extra is None else _merge(extra, s)
+            extra = _merge(extra, [s for part in got for s in part])
     return result
 
 
-def _merge(have: Samples, new: Samples) -> Samples:
-    """Add one angle's points; an angle already present gets its newly solved lines filled in."""
+def _merge(have: Samples | None, new: list[Samples]) -> Samples | None:
+    """Add one round's angles (one point each) with a single concatenation; an angle already
+    present gets its newly solved lines filled in."""
+    parts = [] if have is None else [have]
+    for s in new:
+        if not any(_fill(old, s) for old in parts):
+            parts.append(s)
+    return None if not parts else parts[0] if len(parts) == 1 else Samples.concat(*parts)
+
+
+def _fill(have: Samples, new: Samples) -> bool:
+    """Fill the lines ``new`` solved into ``have``'s point at the same angle; False: no such angle."""
     hit = np.flatnonzero(np.isclose(have.angles_deg, new.angles_deg[0], rtol=0, atol=1e-9))
     if hit.size == 0:
-        return Samples.concat(have, new)
+        return False
     i, solved = hit[0], new.status[0] != 0
     for name in ("freq", "status", "sig", "eigenvalue"):
         dst, src = getattr(have, name), getattr(new, name)
         if dst is not None and src is not None:
             dst[i][solved] = src[0][solved]
-    return have
+    return True
 
 
 def track_archive(part, sweep, comm, crit: Criteria = Criteria()) -> int | None:
@@ -178,9 +192,8 @@ def track_archive(part, sweep, comm, crit: Criteria = Criteria()) -> int | None:
                                 old["eigenvalue"])
     if not comm.bcast(main is not None, root=0):
         if comm.rank == 0:  # nothing to track (one angle and one speed): the sorted order
-            sorted_f = np.where(np.isin(status, converged_codes())[..., None], freq, np.nan)
-            tracks.write_tracking(part, sorted_f, np.zeros(status.shape[1:], bool), crit.attrs(),
-                                  speed_tracked=sorted_f)
+            sorted_f = track_speeds(freq, status, None)[0]
+            tracks.write_tracking(part, sorted_f, np.zeros(status.shape[1:], bool), crit.attrs(), sorted_f)
             return 0
         return None
     res = refine_angles(main, sweep.solve_samples, comm, crit, extra)
@@ -195,5 +208,5 @@ def track_archive(part, sweep, comm, crit: Criteria = Criteria()) -> int | None:
                    "tracked_frequency_hz": res.refined_tracked[order], "status": r.status[order],
                    "signature": r.sig[order], "eigenvalue": r.eigenvalue[order]}
     attrs = dict(res.attrs(), speed_fallback_lines=int(np.count_nonzero(speed_fallback)))
-    tracks.write_tracking(part, res.tracked, res.fallback, attrs, refined, speed_tracked, speed_fallback)
+    tracks.write_tracking(part, res.tracked, res.fallback, attrs, speed_tracked, refined, speed_fallback)
     return res.open_loops

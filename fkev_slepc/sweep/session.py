@@ -318,8 +318,8 @@ class SweepSession:
 
     # ----------------------------------------------------------------------- 3. finalise
     def finalise(self, plan: OutputPlan, n_solved: int) -> SweepOutcome:
-        """Collective. Rank 0 tracks modes along crank angle, writes the run attributes and
-        renames ``plan.part`` to the output; every rank returns the outcome."""
+        """Collective. Rank 0 writes the run attributes and renames ``plan.part`` to the output
+        (modes were tracked at the end of :meth:`solve`); every rank returns the outcome."""
         self.comm.Barrier()
         result = self._finalise_on_rank0(plan, n_solved) if self.rank0 else None
         return self.comm.bcast(result, root=0)
@@ -331,7 +331,7 @@ class SweepSession:
         attrs = {"n_ranks": self.comm.size, "last_command_line": self.request.command_line,
                  "tracking_open_loops": self._open_loops, "last_solver_settings": self._final_settings}
         wall = time.monotonic() - self.t0
-        store.finalize(plan.part, self.output, None, attrs, add_wall_time=wall)
+        store.finalize(plan.part, self.output, attrs, add_wall_time=wall)
         from fkev_slepc.archive.lock import release
 
         release(self.output)  # taken by open_output

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.solve.modes import mac, match_modes
+from fkev_slepc.solve.modes import greedy_match, mac
 from fkev_slepc.status import converged_codes
 
 TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of smaller models)
@@ -97,7 +97,7 @@ def scored_match(prev: np.ndarray, cur: np.ndarray, crit: Criteria = Criteria())
     its row and column of the MAC matrix (another mode of ``cur`` for ``prev``'s mode i, another
     mode of ``prev`` for its partner)."""
     m = mac(prev, cur)
-    perm = match_modes(prev, cur)
+    perm = greedy_match(m.copy())
     got = np.take_along_axis(m, perm[:, :, None], axis=2)[..., 0]
     own = np.zeros(m.shape, dtype=bool)
     np.put_along_axis(own, perm[:, :, None], True, axis=2)
