@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from fkev_slepc import Status, open as open_archive
+from fkev_slepc.archive.store import status_counts
 from fkev_slepc.solve.modes import mac
 
 HEADER = "| claim | our number (modes 1 / 2 / 3 / 4 unless stated) |\n|---|---|"
@@ -28,11 +29,11 @@ def pct(x) -> str:
     return " / ".join(f"{v:.2f}" for v in np.atleast_1d(x))
 
 
-def status_counts(res) -> dict[str, int]:
-    """Points of each outcome, by status name."""
-    names = res.status_names
-    return {s.value: int(np.sum(names == s)) for s in (Status.OK, Status.UNSTABLE, Status.DIVERGENT,
-                                                       Status.NOT_CONVERGED, Status.FAILED)}
+def outcome_counts(res) -> dict[str, int]:
+    """Points of each outcome (``pending`` left out), by status name, in the table's order."""
+    counts = status_counts(res.status)
+    return {s.value: counts[s.value] for s in (Status.OK, Status.UNSTABLE, Status.DIVERGENT,
+                                               Status.NOT_CONVERGED, Status.FAILED)}
 
 
 def one_turn(angles_deg) -> np.ndarray:
@@ -121,10 +122,10 @@ def claims(out: Path) -> list[tuple[str, str]]:
         at = bw.crank_angle_deg[turn][np.nanargmin(f[turn, s, full], axis=0)]
         row("C12", f"full, Ω = {om:g} rad/s: minimum of each mode at θ = {' / '.join(f'{a:g}' for a in at)}°")
     st = open_archive(out / "bw-stability.h5")
-    counts = status_counts(st)
+    counts = outcome_counts(st)
     row("stability", f"Bahgat-Willmert full, {st.crank_angle_deg.size} angles × {st.speed_rad_s.size} speeds: {counts}; max Re λ = {np.nanmax(st.max_real):.3g} 1/s")
     st = open_archive(out / "tm-stability.h5")
-    counts = status_counts(st)
+    counts = outcome_counts(st)
     divergent = st.status_names == Status.DIVERGENT
     div = st.speed_rad_s[np.argmax(np.any(divergent, axis=(0, 2)))] if divergent.any() else None
     row("stability", f"Turcic-Midha full, {st.crank_angle_deg.size} angles × {st.speed_rad_s.size} speeds: {counts}; first divergent speed {div} rad/s")

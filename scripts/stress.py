@@ -139,7 +139,7 @@ def cmd_toggle(args) -> Tally:
             out = judge(qep, t, f"θlim-{delta:.1e}")
             d, s = out["dense"], out["slepc"]
             warn = mu < TRANSMISSION_WARN_DEG
-            t.add("warned (μ below threshold)" if warn else "not warned")
+            t.add("μ below the warning threshold" if warn else "μ at or above the warning threshold")
             big = max(abs(d.max_real), abs(s.max_real))
             if big > 1e3 and not warn:
                 t.add("divergence rate > 1e3 1/s without a warning")

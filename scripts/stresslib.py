@@ -204,6 +204,8 @@ def mp_real_eigenvalues(qep, dps: int = 40) -> np.ndarray:
     """
     import mpmath as mp
 
+    from fkev_slepc.solve.stability import real_positive
+
     with mp.workdps(dps):
         M, K = (mp.matrix(A.toarray().tolist()) for A in (qep.mass, qep.stiffness))
         Mi, n = mp.inverse(M), qep.n
@@ -215,5 +217,4 @@ def mp_real_eigenvalues(qep, dps: int = 40) -> np.ndarray:
             for j in range(n):
                 L[n + i, j], L[n + i, n + j] = A[i, j], B[i, j]
         ev = np.array([complex(e) for e in mp.eig(L, left=False, right=False)])
-    real = ev[np.abs(ev.imag) <= 1e-9 * np.abs(ev)].real
-    return np.sort(real[real > 0])
+    return real_positive(ev, imag_tol=1e-9)

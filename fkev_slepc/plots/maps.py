@@ -24,6 +24,7 @@ from fkev_slepc.plots.common import (
 )
 from fkev_slepc.archive.reader import SweepResults
 from fkev_slepc.archive.tracks import read_tracking
+from fkev_slepc.scene import SceneError, parse_scene
 
 MAX_DEFAULT_ORDERS = 8
 STATUS_MARKS = (  # status, marker, colour, legend text
@@ -87,14 +88,14 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
 
 def _damping_label(res: SweepResults) -> str:
     """``, Rayleigh damping α = 40 1/s, β = 1e-06 s`` when the archived scene declares any."""
-    import tomllib
-
-    try:
-        table = tomllib.loads(res.scene_toml).get("damping", {}) if res.scene_toml else {}
-    except tomllib.TOMLDecodeError:
+    if not res.scene_toml:
         return ""
-    a, b = table.get("mass_proportional_1_s", 0.0), table.get("stiffness_proportional_s", 0.0)
-    return f", Rayleigh damping α = {a:g} 1/s, β = {b:g} s" if (a or b) else ""
+    try:
+        damping = parse_scene(res.scene_toml, "archive").damping
+    except SceneError:
+        return ""
+    a, b = damping.mass_proportional, damping.stiffness_proportional
+    return f", Rayleigh damping α = {a:g} 1/s, β = {b:g} s" if damping.active else ""
 
 
 def crossings(speed: np.ndarray, freq: np.ndarray, k: float) -> tuple[np.ndarray, np.ndarray]:
