@@ -80,8 +80,10 @@ def check_archive_output(out: str | Path, *, resume: bool, force: bool, flag: st
     ------
     PathProblem
     """
+    from fkev_slepc.archive.store import partial_path
+
     p = check_output(out, (".h5",), flag, make_parent=make_parent)
-    part = p.with_name(p.name + ".part")
+    part = partial_path(p)
     if resume or force:
         if part.is_dir():
             raise PathProblem(f"{flag} {p}: {part} is a directory")

@@ -77,7 +77,7 @@ def to_xarray(res):
         "frequency_hz": (dims4, res.frequency(order="sorted")),
         "tracked_frequency_hz": (dims4, res.frequency(order="tracked")),
         "eigenvalue": (dims4, lam),
-        "damping_ratio": (dims4, -lam.real / np.abs(lam)),
+        "damping_ratio": (dims4, np.where(conv[..., None], res.damping_ratio, np.nan)),
         "residual": (dims4, np.where(conv[..., None], res.residual, np.nan)),
         "max_real": (dims3, res.max_real),
         "status": (dims3, res.status_names.astype(str)),

@@ -52,26 +52,13 @@ def run(args) -> int:
     return EXIT_OK
 
 
-def damping_ratio(res) -> np.ndarray:
-    """(angle, speed, case, mode) damping ratio: the archive's, else −Re λ / |λ|."""
-    import h5py
-
-    with h5py.File(res.path, "r") as f:
-        if "damping_ratio" in f:
-            return np.asarray(f["damping_ratio"][()], dtype=float)
-    lam = res.eigenvalue
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return -lam.real / np.abs(lam)
-
-
 def table(res) -> dict[str, np.ndarray]:
     """The columns of the long table, each a flat array over (angle, speed, case, mode)."""
     na, ns, nc = res.status.shape
     nm = len(res.modes)
     ia, js, kc, lm = np.meshgrid(np.arange(na), np.arange(ns), np.arange(nc), np.arange(nm), indexing="ij")
-    conv = np.broadcast_to(res.converged[..., None], (na, ns, nc, nm))
-    freq = np.where(conv, res.frequency_hz, np.nan)
-    zeta = np.where(conv & np.isfinite(freq), damping_ratio(res), np.nan)
+    freq = res.frequency()
+    zeta = np.where(np.isfinite(freq), res.damping_ratio, np.nan)
     names = np.broadcast_to(res.status_names[..., None], (na, ns, nc, nm))
     return {"crank_angle_deg": res.crank_angle_deg[ia].ravel(), "speed_rad_s": res.speed_rad_s[js].ravel(),
             "case": np.asarray(res.cases)[kc].ravel(), "mode": res.modes[lm].ravel(),

@@ -214,11 +214,10 @@ def _severity(res, status, mask, js, jc, speed) -> str:
 
 def _tracking(res) -> list[str]:
     """What mode tracking found (``/tracking`` attributes, docs/tracking.md)."""
-    import h5py
+    from fkev_slepc.archive.tracks import read_tracking
 
-    with h5py.File(res.path, "r") as f:
-        t = dict(f["tracking"].attrs) if "tracking" in f else {}
-        fb = f["tracking/fallback"][()] if "tracking/fallback" in f else None
+    tracking = read_tracking(res.path)
+    t, fb = tracking["attrs"], tracking["fallback"]
     if "mac_min" not in t:
         if "tracking_open_loops" in res.attrs:  # archives written before refinement existed
             return [f"  tracking    MAC along crank angle; {int(res.attrs['tracking_open_loops'])} (speed, case) "

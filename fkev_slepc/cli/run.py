@@ -15,10 +15,10 @@ import shlex
 import sys
 from pathlib import Path
 
-from fkev_slepc.scene import SceneError, load_scene, with_elements
+from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT
 from fkev_slepc.sweep.session import default_output
-from .common import add_accuracy_arguments, add_elements_argument
+from .common import add_accuracy_arguments, add_elements_argument, load_checked
 from .launch import NP_VARIABLE
 
 
@@ -68,9 +68,7 @@ def run(args) -> int:
     install_abort_hook()
     rank0 = comm.rank == 0
     try:
-        scene = load_scene(args.scene)
-        if args.elements is not None:
-            scene = with_elements(scene, args.elements)
+        scene = load_checked(args.scene, args.elements, check_angles=False)  # configure checks the grid's angles
         scene = configure(scene, angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm,
                           cases=args.cases, modes=args.modes, mode_shapes=args.mode_shapes, element=args.element,
                           rel_error=args.rel_error, names=CLI_NAMES)
