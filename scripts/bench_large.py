@@ -199,7 +199,7 @@ def main(argv=None) -> int:
         m.destroy()
     engine.close()
     print(f"\ntime split, seconds (first point; median of points 1..{args.repeats}, which reuse PETSc objects);"
-          "\n'engine rest' = copying values in, eigenvector extraction, pair errors, polish (solve/refine.py)")
+          "\n'engine rest' = copying values in, eigenvector extraction, pair errors, polish (solve/polish.py)")
     keys = ["kinematics", "element matrices", "assembly", "factorization", "eigen-solve", "  SLEPc setup+solve",
             "  engine rest", "point"]
     for k in keys:

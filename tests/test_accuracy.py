@@ -14,7 +14,7 @@ from fkev_slepc.model.qep import polished_pair_error
 from fkev_slepc.scene import load_scene, with_elements
 from fkev_slepc.solve.dense import DenseEngine
 from fkev_slepc.solve.engines import cross_check, frequencies
-from fkev_slepc.solve.refine import polish_pair
+from fkev_slepc.solve.polish import polish_pair
 from fkev_slepc.solve.slepc import SlepcEngine
 
 BW = load_scene("runs/bahgat-willmert-1976.toml")

@@ -246,7 +246,7 @@ def test_cross_check_measures_the_engines_disagreement():
 def test_max_pair_error_option_decides_what_counts_as_converged():
     """At 9000 DOFs roundoff limits every unpolished pair to η ~ 7.5e-4 (f₁ still within 1e-4):
     flagged under max_pair_error 1e-4, accepted when the user raises the threshold in [solver.petsc]. (Without
-    the factored K_s, so no polish: solve/refine.py; tests/test_accuracy.py covers the polish.)"""
+    the factored K_s, so no polish: solve/polish.py; tests/test_accuracy.py covers the polish.)"""
     model = Model(with_elements(load_scene("runs/bahgat-willmert-1976.toml"), 1000), cases=("full",))
     q = model.qep(model.pieces(np.radians(10)), 500.0, "full")
     q = dataclasses.replace(q, staged=None, stiffness_rest=None)
@@ -371,7 +371,7 @@ def test_pair_error_exposes_a_wrong_pair_that_backward_error_passes():
 def test_wrong_pairs_are_never_reported_as_converged(monkeypatch):
     """SLEPc 3.18's qarnoldi returns pairs with pair error 0.6-0.8 (frequencies and real
     eigenvalues), flagged converged, at divergent points (measured); the engine's pair-error
-    check turns that into not-converged. Polished (solve/refine.py: reported frequencies and real
+    check turns that into not-converged. Polished (solve/polish.py: reported frequencies and real
     eigenvalues whose pair error exceeds 1e-8) the same pairs become the dense engine's, to 1e-13."""
     import fkev_slepc.solve.slepc as slepc_module
 

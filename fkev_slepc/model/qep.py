@@ -25,7 +25,7 @@ KINDS = (LINEAR_SYMMETRIC, LINEAR, GYROSCOPIC, GENERAL)
 # Measured (README, "SLEPc engine"): right pairs give 1e-14..1e-5 up to a few thousand DOFs,
 # wrong pairs 0.1..1; on over-refined models (>~1e4 DOFs) every unpolished pair drifts toward 1,
 # because the round-off in the assembled K grows like n_el⁴. Models keep K_s factored, and the
-# engines polish such pairs (solve/refine.py), judged by polished_pair_error instead.
+# engines polish such pairs (solve/polish.py), judged by polished_pair_error instead.
 MAX_PAIR_ERROR = 1e-3
 # ... and no more than this multiple of what one-ulp changes of the matrix entries explain
 # (pair_error_floor): the accuracy contract of docs/numerical-stability.md. Measured there
@@ -45,7 +45,7 @@ class QEP:
     stiffness: sp.csr_matrix
     kind: str
     # K = K_s + stiffness_rest with K_s also kept factored (model/energy.py): lets a solution be
-    # polished beyond the round-off of the assembled K (solve/refine.py). None when not built.
+    # polished beyond the round-off of the assembled K (solve/polish.py). None when not built.
     staged: StagedStiffness | None = None
     stiffness_rest: sp.csr_matrix | None = None
 
@@ -155,7 +155,7 @@ def staged_residual(products, lam: complex) -> np.ndarray:
 
 
 def polished_pair_error(qep: QEP, lam: complex, x: np.ndarray, solve, products=None) -> float:
-    """Pair error of a pair polished by solve/refine.py: the relative change of direction of x
+    """Pair error of a pair polished by solve/polish.py: the relative change of direction of x
     that one more residual-inverse-iteration step x - P(σ)⁻¹P(λ)x would make.
 
     ``solve`` applies P(σ)⁻¹ for the shift σ the polish used; ``products`` are x's

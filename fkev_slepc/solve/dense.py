@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg as la
 
-from fkev_slepc.solve.refine import polish_reported
+from fkev_slepc.solve.polish import polish_reported
 from fkev_slepc.solve.modes import check_pairs, reported
 from fkev_slepc.solve.stability import check_divergence
 from fkev_slepc.model.qep import GENERAL, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
@@ -180,7 +180,7 @@ def _start(n: int) -> np.ndarray:
 def _vector_pairs(lam: np.ndarray, n_modes: int) -> np.ndarray:
     """Indices of the pairs whose eigenvectors a point needs: the ones it reports
     (:func:`modes.reported`: the ``n_modes`` lowest oscillatory ones and every real one), the
-    only ones :func:`refine.polish_reported` polishes."""
+    only ones :func:`polish.polish_reported` polishes."""
     osc, is_real = reported(lam, max(n_modes, 1))
     return np.concatenate([osc, np.flatnonzero(is_real & np.isfinite(lam))])
 

@@ -37,7 +37,7 @@ from fkev_slepc.solve.petsc_backend import (
     listing_options, positive_option, unknown_option_problems,
 )
 from fkev_slepc.solve.petsc_init import command_line_options
-from fkev_slepc.solve.refine import POLISH_RATIO, polish_reported
+from fkev_slepc.solve.polish import POLISH_RATIO, polish_reported
 from fkev_slepc.solve.dense import all_eigenvalues, balanced
 from fkev_slepc.solve.modes import check_pairs
 from fkev_slepc.solve.stability import check_divergence
@@ -190,7 +190,7 @@ class SlepcEngine:
             return EigenSolution(np.zeros(0, complex), np.zeros(0), None, False, self.name, msg)
         X = d[:, None] * X
         err = pair_error(qep, lam, X) if lam.size else np.zeros(0)
-        lam, X, err = polish_reported(qep, lam, X, err, n_modes, POLISH_RATIO)  # TOAR: 2-3 digits short (refine.py)
+        lam, X, err = polish_reported(qep, lam, X, err, n_modes, POLISH_RATIO)  # TOAR: 2-3 digits short (polish.py)
         worst, bad = check_pairs(qep, lam, X, err, n_modes, self.max_pair_error)
         if ok and bad:
             # "converged" by SLEPc's own test, yet a pair the point reports does not satisfy the
