@@ -95,6 +95,36 @@ class Study:
         n = len(self.scene.links)
         return f"Study({self.scene.title!r}: {n} link{'s' if n != 1 else ''}, {self._model('full').n_free} free DOFs)"
 
+    def replace(self, key, value=None) -> Study:
+        """A new study of this scene with the value at a key path changed (``None`` removes it),
+        or with several: ``replace({"links[1].length_m": 0.35, "links[rod].area_m2": 2e-4})``.
+
+        Any key of the scene file, as a dotted path (``links[1].length_m``, ``links[rod].elements``,
+        ``driver.speeds_rpm``, ``joints[3].position_m[0]``), in the scene's units; the edited scene
+        is validated exactly as a file (:mod:`fkev_slepc.scene.edit`) and this study is unchanged.
+
+        Raises
+        ------
+        SceneError
+            Every problem of the edited scene, or a key path that leads nowhere, named with the
+            key and the value.
+
+        Examples
+        --------
+        >>> bw = load(RUNS / "bahgat-willmert-1976.toml")
+        >>> bw.replace("links[coupler].length_m", 0.3).scene.links[1].length
+        0.3
+        >>> bw.replace("links[1].length_m", -0.3)
+        Traceback (most recent call last):
+        ...
+        fkev_slepc.scene.model.SceneError: ... with links[1].length_m = -0.3: 1 problem
+          links[1].length_m: must be > 0 (got -0.3)
+        """
+        from fkev_slepc.scene.edit import replace_values
+
+        changes = dict(key) if isinstance(key, dict) else {key: value}
+        return Study(replace_values(self.scene, changes), self.path)
+
     def _model(self, case: str):
         if case not in self._models:
             from fkev_slepc.model.operators import Model
