@@ -31,9 +31,19 @@ def newton_euler_residual(mech, theta, omega, alpha):
     loads = solve_loads(mech, kin)
     f = omega**2 * loads.end_force[0] + alpha * loads.end_force[1]  # (n, link, point, 2)
     torque = omega**2 * loads.torque[0] + alpha * loads.torque[1]
+    return newton_euler_of(mech, kin, f, torque, omega, alpha)
+
+
+def newton_euler_of(mech, kin, f, torque, omega, alpha, gravity=(0.0, 0.0)):
+    """The same residual for given link-point forces ``f`` (n, link, point, 2; NaN or 0 where a
+    link has no such point) and driving torque, under gravity ``gravity`` (m/s²): ΣF + Σ m g =
+    Σ m a and ΣM_root + Σ r × m g = Σ (r × m a + J φ̈)."""
+    theta = kin.theta
+    f = np.nan_to_num(f)
+    g = np.asarray(gravity, dtype=float)
     link, local, mass, inertia = _pieces(mech)
     _, dp, ddp = point_local(kin, link, local)
-    acc = omega**2 * ddp + alpha * dp
+    acc = omega**2 * ddp + alpha * dp - g  # D'Alembert: gravity as the acceleration -g
     th_dd = omega**2 * kin.ddphi + alpha * kin.dphi
     pts = np.nan_to_num(mech.link_points)
     x_pts = point_local(kin, np.repeat(np.arange(mech.n_link), 3), pts.reshape(-1, 2))[0]

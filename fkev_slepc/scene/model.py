@@ -142,6 +142,7 @@ class Analysis:
     damping_tol: float = DAMPING_TOL
     element: str = "thesis"  # one of ELEMENT_NAMES
     rel_error: float | None = None  # requested relative frequency error (solve/accuracy.py)
+    gravity_m_s2: tuple[float, float] = (0.0, 0.0)  # ground frame; loads and response only (docs/response.md)
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from fkev_slepc.scene.model import DAMPING_TOL, ELEMENT_NAMES, Analysis, Solver
 from fkev_slepc.scene.schema import Reader, is_number, join, show
 
 ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "damping_tol", "element",
-                 "rel_error")
+                 "rel_error", "gravity_m_s2")
 SOLVER_KEYS = ("method", "petsc")
 SOLVER_METHODS = ("auto", "slepc", "dense")
 _PETSC_PREFIXES = ("pep_", "eps_", "st_", "ksp_", "pc_", "bv_", "ds_", "rg_", "fn_", "mat_", "log_")
@@ -37,6 +37,8 @@ def read_analysis(r: Reader, doc) -> Analysis | None:
         imag_tol=r.number(table, "imag_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
         damping_tol=r.number(table, "damping_tol", "analysis", default=DAMPING_TOL, minimum=0.0, below=1.0),
         element=r.string(table, "element", "analysis", default="thesis", choices=ELEMENT_NAMES),
+        # ground-frame gravity [gx, gy] for loads and response (fkev loads/response; not the eigen-analysis)
+        gravity_m_s2=r.point(table, "gravity_m_s2", "analysis", default=(0.0, 0.0)),
     )
     rel_error = None
     if "rel_error" in table:  # optional: None means "use the scene's meshes as given"
