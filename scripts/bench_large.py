@@ -74,10 +74,10 @@ def instrument(timers: Timers) -> None:
     """Attribute the model's per-point work to categories by wrapping the functions it calls."""
     from fkev_slepc.model import assembly
     from fkev_slepc.model import elements
-    from fkev_slepc.model import operators
-    timers.wrap(operators, "solve_kinematics", "kinematics")
-    timers.wrap(operators, "solve_loads", "kinematics")  # rigid-body kinetostatics
-    timers.wrap(operators, "axial_polynomials", "kinematics")
+    from fkev_slepc.model import stacks  # the angle state: kinematics, kinetostatics, rotations
+    timers.wrap(stacks, "solve_kinematics", "kinematics")
+    timers.wrap(stacks, "solve_loads", "kinematics")  # rigid-body kinetostatics
+    timers.wrap(stacks, "axial_polynomials", "kinematics")
     for name in ("rotation", "to_global", "axial_force_local"):
         timers.wrap(elements, name, "element matrices")
     for name in ("scatter", "add_diagonal", "matrix"):

@@ -3,7 +3,9 @@
 The pattern (the union of all element blocks, restricted to free DOFs) is built once per
 mechanism; afterwards each assembly is one ``np.bincount`` into the CSR data array, so every
 operator of a model shares ``indptr``/``indices`` and PETSc matrices can be updated in place.
-Constrained DOFs (index -1) are simply dropped: that is the elimination of §9.3.
+Constrained DOFs (index -1) are simply dropped: that is the elimination of §9.3. Load vectors
+(model/loads.py) are scattered onto the same free-DOF numbering by :meth:`Pattern.scatter_vector`.
+Every scatter takes stacks with leading crank-angle axes and scatters all angles in one call.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ class Pattern:
     """CSR pattern of ``elem_dofs`` (n_el, n_dof) over ``n_free`` DOFs, with scatter positions."""
 
     def __init__(self, elem_dofs: np.ndarray, n_free: int):
+        self.elem_dofs = elem_dofs = np.asarray(elem_dofs)
         k = elem_dofs.shape[1]
         rows = np.repeat(elem_dofs, k, axis=1).ravel()
         cols = np.tile(elem_dofs, (1, k)).ravel()
@@ -36,18 +39,42 @@ class Pattern:
         self.diag_position = diag
 
     def scatter(self, stack: np.ndarray) -> np.ndarray:
-        """CSR data array Σ_e Aᵀ k_e A of an (n_el, n_dof, n_dof) stack."""
-        w = stack.reshape(-1)[self.valid]
-        return np.bincount(self.position, weights=w, minlength=self.nnz)
+        """CSR data array Σ_e Aᵀ k_e A of an (..., n_el, n_dof, n_dof) stack: (..., nnz).
+
+        Leading axes (crank angles) are scattered in one ``np.bincount``, each angle's entries
+        summed in the same order as on its own (the same numbers to the last bit)."""
+        lead = stack.shape[:-3]
+        w = stack.reshape(-1, self.valid.size)[:, self.valid]
+        return self._bincount(self.position, w, self.nnz).reshape(lead + (self.nnz,))
+
+    def scatter_vector(self, values: np.ndarray, dofs: np.ndarray | None = None) -> np.ndarray:
+        """Vector Σ_e Aᵀ f_e over the free DOFs, (..., n) for values (..., n_el, n_dof) on
+        ``dofs`` (n_el, n_dof; default the elements' DOFs). Entries on constrained DOFs (-1) are
+        dropped; leading axes (crank angles) are kept."""
+        dofs = self.elem_dofs if dofs is None else np.asarray(dofs)
+        keep = dofs.ravel() >= 0
+        lead = values.shape[: values.ndim - dofs.ndim]
+        w = values.reshape((-1, dofs.size))[:, keep]
+        return self._bincount(dofs.ravel()[keep], w, self.n).reshape(lead + (self.n,))
+
+    @staticmethod
+    def _bincount(position: np.ndarray, w: np.ndarray, size: int) -> np.ndarray:
+        """Row-wise bincount of the (n_rows, k) weights ``w`` at ``position`` (k,): (n_rows, size)."""
+        if w.shape[0] == 1:
+            return np.bincount(position, weights=w[0], minlength=size)[None]
+        idx = (position[None, :] + size * np.arange(w.shape[0])[:, None]).ravel()
+        return np.bincount(idx, weights=w.ravel(), minlength=size * w.shape[0]).reshape(-1, size)
 
     def add_diagonal(self, data: np.ndarray, dofs: np.ndarray, values: np.ndarray) -> np.ndarray:
-        """``data`` with ``values`` added on the diagonal at ``dofs`` (entries with dof -1 skipped)."""
+        """``data`` (..., nnz) with ``values`` added on the diagonal at ``dofs`` (entries with dof
+        -1 skipped), the same for every leading index."""
         dofs = np.asarray(dofs)
         vals = np.broadcast_to(np.asarray(values, dtype=float), dofs.shape).ravel()
         dofs = dofs.ravel()
         keep = dofs >= 0
         out = data.copy()
-        np.add.at(out, self.diag_position[dofs[keep]], vals[keep])
+        flat = out.reshape(-1, self.nnz)
+        np.add.at(flat, (slice(None), self.diag_position[dofs[keep]]), vals[keep])
         return out
 
     def matrix(self, data: np.ndarray) -> sp.csr_matrix:

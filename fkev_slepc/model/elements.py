@@ -96,5 +96,6 @@ def rotation(phi: np.ndarray, n_dof: int = 6) -> np.ndarray:
 
 
 def to_global(k_local: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Tᵀ k T for a stack of element matrices."""
-    return np.swapaxes(T, 1, 2) @ k_local @ T
+    """Tᵀ k T for a stack of element matrices (..., n_dof, n_dof); T may carry extra leading
+    axes (crank angles) that broadcast against ``k_local``'s."""
+    return np.swapaxes(T, -1, -2) @ k_local @ T

@@ -25,18 +25,17 @@ class StagedStiffness:
     T : (n_el, n_dof, n_dof) rotations (q_local = T q_global).
     elem_dofs : (n_el, n_dof) free DOF index of each element DOF, -1 where constrained.
     n_free : number of free DOFs.
+    gather : optional, :func:`gather_matrix` of ``elem_dofs`` (angle-independent: a model
+        builds it once and hands it to the StagedStiffness of every angle).
     """
 
-    def __init__(self, B_local, w, T, elem_dofs, n_free: int):
+    def __init__(self, B_local, w, T, elem_dofs, n_free: int, gather=None):
         self.B = B_local @ T  # strains from global element DOFs
         self.Bt = np.ascontiguousarray(self.B.transpose(0, 2, 1))
         self.w = w
         self.dofs = np.where(elem_dofs >= 0, elem_dofs, n_free)  # constrained -> a zero row
         self.n = n_free
-        # summing element forces into nodes as one sparse product: np.add.at cost 3x more
-        # (35 vs 13 ms per apply at 50,400 DOFs, scripts/bench_large.py's model)
-        self.gather = sp.csr_matrix((np.ones(self.dofs.size), (self.dofs.ravel(), np.arange(self.dofs.size))),
-                                    shape=(n_free + 1, self.dofs.size))
+        self.gather = gather_matrix(elem_dofs, n_free) if gather is None else gather
 
     def strains(self, X: np.ndarray) -> np.ndarray:
         """Element strains (n_el, n_s, k) of the columns of X (n, k)."""
@@ -56,6 +55,14 @@ class StagedStiffness:
         """Nodal forces K_s x (n, k) from the element strains e = B x (n_el, n_s, k)."""
         f = _real_matmul(self.Bt, self.w[:, :, None] * e)
         return (self.gather @ f.reshape(-1, e.shape[-1]))[:-1]
+
+
+def gather_matrix(elem_dofs: np.ndarray, n_free: int) -> sp.csr_matrix:
+    """(n_free + 1, n_el·n_dof) 0/1 matrix summing element DOF values into the free DOFs (the last
+    row collects the constrained ones). Summing element forces into nodes as one sparse product:
+    np.add.at cost 3x more (35 vs 13 ms per apply at 50,400 DOFs, scripts/bench_large.py's model)."""
+    dofs = np.where(elem_dofs >= 0, elem_dofs, n_free).ravel()
+    return sp.csr_matrix((np.ones(dofs.size), (dofs, np.arange(dofs.size))), shape=(n_free + 1, dofs.size))
 
 
 def _real_matmul(A: np.ndarray, X: np.ndarray) -> np.ndarray:

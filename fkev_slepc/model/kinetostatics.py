@@ -35,8 +35,8 @@ class Loads:
     beam_accel: tuple[np.ndarray, np.ndarray]  # (n_ang, n_beam) axial rigid accel. of each beam's start
 
 
-def _unknowns(mech: Mechanism) -> tuple[np.ndarray, dict[int, int], int]:
-    """Coefficients (n_link, 3, 2, n_unknown) of each link point's force in the unknown vector,
+def unknowns(mech: Mechanism) -> tuple[np.ndarray, dict[int, int], int]:
+    """Angle-independent: coefficients (n_link, 3, 2, n_unknown) of each link point's force in the unknown vector,
     the slot of each prismatic joint's reaction, and the number of unknowns (torque last)."""
     slot, reaction, n_unk = {}, {}, 0
     for jj, here in enumerate(mech.attach):
@@ -64,9 +64,11 @@ def _unknowns(mech: Mechanism) -> tuple[np.ndarray, dict[int, int], int]:
     return coef, reaction, n_unk + 1
 
 
-def solve_loads(mech: Mechanism, kin: Kinematics) -> Loads:
-    """Joint forces, driving torque, guide reactions and element axial forces (§7)."""
-    coef, reaction, n_unk = _unknowns(mech)
+def solve_loads(mech: Mechanism, kin: Kinematics, plan=None) -> Loads:
+    """Joint forces, driving torque, guide reactions and element axial forces (§7) at every angle
+    of ``kin``. ``plan``: :func:`unknowns` of ``mech`` when the caller keeps it (it does not
+    depend on the angle; a Model builds it once)."""
+    coef, reaction, n_unk = unknowns(mech) if plan is None else plan
     n_ang, n_link = kin.theta.size, mech.n_link
     if 3 * n_link != n_unk:
         raise ValueError(f"kinetostatics: {3 * n_link} equations for {n_unk} unknowns")
@@ -135,17 +137,20 @@ def _axial_right(mech: Mechanism, end_force, acc_mid, acc_mass, e_beam) -> np.nd
     return np.einsum("aec,aec->ae", far - dist, e_beam[:, beam])
 
 
-def axial_polynomials(mech: Mechanism, kin: Kinematics, loads: Loads, ang: int):
-    """Coefficients (c₀, c₁, c₂) of F(ξ) = c₀ + c₁ξ + c₂ξ² for every element at angle index ``ang``
-    (docs/theory.md §5.4, §7.3), as (per-Ω² part, per-α part), each (n_el, 3)."""
+def axial_polynomials(mech: Mechanism, kin: Kinematics, loads: Loads, ang: int | None = None):
+    """Coefficients (c₀, c₁, c₂) of F(ξ) = c₀ + c₁ξ + c₂ξ² for every element (docs/theory.md §5.4,
+    §7.3), as (per-Ω² part, per-α part): each (n_el, 3) at angle index ``ang``, or
+    (n_ang, n_el, 3) at every angle of ``kin`` when ``ang`` is None."""
     lk = mech.elem_link
     rho_a, l, s0 = mech.elem_rho_a, mech.elem_length, mech.elem_s0
+    at = slice(None) if ang is None else ang
+    dphi2 = kin.dphi[at, lk] ** 2
     out = []
-    for part, w2 in ((0, kin.dphi[ang, lk] ** 2), (1, np.zeros(lk.size))):
-        F_r = loads.axial_right[part][ang]
-        a0 = loads.beam_accel[part][ang, mech.elem_beam] - w2 * s0
+    for part, w2 in ((0, dphi2), (1, np.zeros_like(dphi2))):
+        F_r = loads.axial_right[part][at]
+        a0 = loads.beam_accel[part][at, mech.elem_beam] - w2 * s0
         c0 = F_r - rho_a * a0 * l + 0.5 * rho_a * w2 * l**2
         c1 = rho_a * a0 * l
         c2 = -0.5 * rho_a * w2 * l**2
-        out.append(np.stack([c0, c1, c2], axis=1))
+        out.append(np.stack([c0, c1, c2], axis=-1))
     return out[0], out[1]

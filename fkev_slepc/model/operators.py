@@ -1,58 +1,47 @@
-"""Operators of the instantaneous structure: per-angle pieces, combined per speed and case.
+"""Operators of the instantaneous structure: the Model, which builds the layers of
+docs/engine.md "Vectorised pieces" once per mechanism and serves them per angle and per point.
 
-At a fixed crank angle, with crank speed Ω and crank acceleration α (docs/theory.md §6-7):
+1. angle-independent data, once: element stacks (model/stacks.py), the CSR pattern and its
+   scatter positions (model/assembly.py), the kinetostatic unknowns, the gather matrix of the
+   factored K_s (model/energy.py), the lumped-mass diagonal;
+2. :meth:`Model.angle_state`: the rigid motion at an array of crank angles;
+3. :meth:`Model.piece_stack`: the named pieces as CSR data (n_θ, nnz), and
+   :meth:`Model.load_pieces`: the rigid-body inertia loads (n_θ, n_free) (model/loads.py);
+4. :func:`~fkev_slepc.model.pieces.combine`, the one sum of the pieces per (Ω, α, case), behind
+   :meth:`Model.qep` and :meth:`Model.stiffness_terms`.
 
-    M                       (angle only)
-    C = Ω · G               G  = Σ 2φ'_j m_a                     (Coriolis)
-      + α_d M + β_d K_s                                          (Rayleigh structural damping)
-    K = K_s                                                     (structural)
-      + Ω² T₂ + α T₁,       T₂ = Σ φ''_j m_a, T₁ = Σ φ'_j m_a    (tangential)
-      + Ω² N₂,              N₂ = -Σ φ'_j² m                      (normal)
-      + Ω² P₂ + α P₁,       k_g of the per-Ω² / per-α axial forces (pseudo-normal)
-
-so the pieces are assembled once per angle and only summed per (Ω, case). Pieces of terms that
-no requested case keeps are never assembled.
+:meth:`Model.pieces` (one angle, what the per-point solvers take) is row 0 of a one-angle stack.
+Pieces of terms that no requested case keeps are never assembled.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from functools import cached_property
 
 import numpy as np
-import scipy.sparse as sp
 
-from fkev_slepc.model import elements as el
 from fkev_slepc.model.assembly import Pattern
 from fkev_slepc.model.element_types import element_type
-from fkev_slepc.model.energy import StagedStiffness
-from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
+from fkev_slepc.model.energy import StagedStiffness, gather_matrix
 from fkev_slepc.model.kinematics import point_local, solve_kinematics
-from fkev_slepc.model.kinetostatics import axial_polynomials, solve_loads
+from fkev_slepc.model.kinetostatics import unknowns
 from fkev_slepc.model.mechanism import build_mechanism
+from fkev_slepc.model.pieces import OperatorPieces, PieceStack, assemble_pieces, combine
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
+from fkev_slepc.model.stacks import AngleState, angle_state, element_stacks, node_frames
 from fkev_slepc.scene import Scene
+from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
+
+__all__ = ["AssemblyError", "Model", "OperatorPieces", "PieceStack", "classify", "node_frames"]
+
+# Angles per block of a vectorised call: a block's element temporaries (n_angle, n_el, n_dof,
+# n_dof) stay near 2**21 floats (16 MB) each, whatever the mesh.
+BLOCK_FLOATS = 2**21
 
 
 class AssemblyError(ValueError):
     """The linkage cannot be assembled (or is at a dead centre) at the requested crank angle."""
-
-
-@dataclass(frozen=True)
-class OperatorPieces:
-    """CSR data arrays (on ``Model.pattern``) of one crank angle. Pairs are (per Ω², per α)."""
-
-    theta: float
-    mass: np.ndarray
-    structural: np.ndarray
-    coriolis: np.ndarray | None  # per unit Ω
-    tangential: tuple[np.ndarray, np.ndarray] | None
-    normal: np.ndarray | None  # per Ω²
-    pseudo_normal: tuple[np.ndarray, np.ndarray] | None
-    staged: StagedStiffness | None = None  # K_s kept factored (model/energy.py)
-    # the same for every (speed, case) of the angle: M as the CSR matrix every QEP shares (never
-    # modified), and the Rayleigh damping α M + β K_s data (None without [damping])
-    mass_matrix: sp.csr_matrix | None = None
-    rayleigh: np.ndarray | None = None
 
 
 def classify(has_damping: bool, k_symmetric: bool, c_skew: bool = True) -> str:
@@ -63,23 +52,6 @@ def classify(has_damping: bool, k_symmetric: bool, c_skew: bool = True) -> str:
     if not has_damping:
         return LINEAR_SYMMETRIC if k_symmetric else LINEAR
     return GYROSCOPIC if k_symmetric and c_skew else GENERAL
-
-
-def node_frames(mech, n_dof: int = 6) -> np.ndarray | None:
-    """Per element blockdiag(Cₙ₁, 1, Cₙ₂, 1, I), Cₙ = [a, a⊥] with a = ``node_axis``: the node's
-    translations taken along/normal to a slider's guide (docs/linkages.md); internal DOFs of
-    higher-order elements (beyond the sixth) are unchanged. None if no node has a rotated frame
-    (then the element transformation is T alone)."""
-    a = mech.node_axis
-    if np.all(a[:, 0] == 1.0):
-        return None
-    C = np.zeros((mech.elem_nodes.shape[0], n_dof, n_dof))
-    C[:, 6:, 6:] = np.eye(n_dof - 6)
-    for o, nodes in ((0, mech.elem_nodes[:, 0]), (3, mech.elem_nodes[:, 1])):
-        ax, ay = a[nodes, 0], a[nodes, 1]
-        C[:, o, o], C[:, o, o + 1], C[:, o + 1, o], C[:, o + 1, o + 1] = ax, -ay, ay, ax
-        C[:, o + 2, o + 2] = 1.0
-    return C
 
 
 class Model:
@@ -101,12 +73,54 @@ class Model:
         self.cases = tuple(cases or scene.analysis.cases)
         self.terms = terms_used(self.cases)
         self.element = et = element_type(scene.analysis.element)
-        l = mech.elem_length
-        self._m = et.mass(mech.elem_rho_a, l)
-        self._ma = et.skew_mass(mech.elem_rho_a, l)
-        self._ks = et.structural(mech.elem_ea, mech.elem_ei, l)
-        self._strain_op = et.strains(mech.elem_ea, mech.elem_ei, l)
-        self._node_frames = node_frames(mech, et.n_dof)
+        self.stacks = element_stacks(mech, et)
+        # lumped masses and rotary inertias on the mass diagonal, added in this order
+        self._lumped = ((mech.mass_dofs[:, :2], mech.mass_value[:, None]), (mech.mass_dofs[:, 2], mech.mass_inertia))
+
+    @cached_property
+    def kinetostatic_plan(self):
+        """The kinetostatic unknowns of the mechanism (angle-independent; kinetostatics.unknowns)."""
+        return unknowns(self.mechanism)
+
+    @cached_property
+    def _gather(self):
+        return gather_matrix(self.mechanism.elem_dofs, self.n_free)
+
+    # -- many angles -----------------------------------------------------------------------
+    def angle_state(self, theta, with_loads: bool | None = None) -> AngleState:
+        """The rigid motion at crank angles ``theta`` (rad, scalar or array; model/stacks.py).
+        ``with_loads`` (default: when the pseudo-normal term is needed) adds the kinetostatics."""
+        if with_loads is None:
+            with_loads = "pseudo_normal" in self.terms
+        return angle_state(self.mechanism, self.stacks, theta, with_loads,
+                           self.kinetostatic_plan if with_loads else None)
+
+    def piece_stack(self, theta) -> PieceStack:
+        """Every piece the model's cases need at crank angles ``theta`` (rad): CSR data
+        (n_θ, nnz) on :attr:`pattern` (NaN rows where ``ok`` is False). Computed in blocks of
+        angles whose temporaries stay near :data:`BLOCK_FLOATS` floats each."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float)).ravel()
+        step = max(1, BLOCK_FLOATS // (self.stacks.n_el * self.stacks.n_dof**2))
+        blocks = [assemble_pieces(self.stacks, self.pattern, self.angle_state(theta[i : i + step]), self.terms,
+                                  self._lumped, self.scene.damping) for i in range(0, max(theta.size, 1), step)]
+        return blocks[0] if len(blocks) == 1 else _concatenate(blocks)
+
+    def pieces_at(self, stack: PieceStack, i: int) -> OperatorPieces:
+        """Angle ``i`` of ``stack`` as the :class:`OperatorPieces` the per-point solvers take
+        (with K_s factored and M as a CSR matrix); AssemblyError where the linkage cannot be
+        assembled."""
+        if not stack.ok[i]:
+            raise AssemblyError(
+                f"the linkage cannot be assembled at crank angle {np.degrees(stack.theta[i]):g} deg"
+            )
+        mech = self.mechanism
+        staged = StagedStiffness(self.stacks.strain, self.stacks.strain_weight, stack.state.T[i], mech.elem_dofs,
+                                 mech.n_free, self._gather)
+        row = (lambda a: None if a is None else a[i])  # noqa: E731
+        pair = (lambda a: None if a is None else (a[0][i], a[1][i]))  # noqa: E731
+        return OperatorPieces(float(stack.theta[i]), stack.mass[i], stack.structural[i], row(stack.coriolis),
+                              pair(stack.tangential), row(stack.normal), pair(stack.pseudo_normal), staged,
+                              self.pattern.matrix(stack.mass[i]), row(stack.rayleigh))
 
     # -- per angle -------------------------------------------------------------------------
     def kinematics(self, theta: float):
@@ -119,60 +133,23 @@ class Model:
 
     def pieces(self, theta: float) -> OperatorPieces:
         """Assemble every piece needed by the model's cases at crank angle ``theta`` (rad)."""
-        mech, pat, terms = self.mechanism, self.pattern, self.terms
-        kin = self.kinematics(theta)
-        lk = mech.elem_link
-        T = el.rotation(kin.phi[0, lk] + mech.elem_angle, self.element.n_dof)
-        if self._node_frames is not None:
-            T = T @ self._node_frames
-        m_g = el.to_global(self._m, T)
-        mass = pat.add_diagonal(pat.scatter(m_g), mech.mass_dofs[:, :2], mech.mass_value[:, None])
-        mass = pat.add_diagonal(mass, mech.mass_dofs[:, 2], mech.mass_inertia)
-        structural = pat.scatter(el.to_global(self._ks, T))
-        dphi, ddphi = kin.dphi[0, lk][:, None, None], kin.ddphi[0, lk][:, None, None]
-        ma_g = el.to_global(self._ma, T) if terms & {"coriolis", "tangential"} else None
-        coriolis = pat.scatter(2.0 * dphi * ma_g) if "coriolis" in terms else None
-        tangential = (
-            (pat.scatter(ddphi * ma_g), pat.scatter(dphi * ma_g)) if "tangential" in terms else None
-        )
-        normal = pat.scatter(-(dphi**2) * m_g) if "normal" in terms else None
-        pseudo = None
-        if "pseudo_normal" in terms:
-            loads = solve_loads(mech, kin)
-            c_w2, c_acc = axial_polynomials(mech, kin, loads, 0)
-            l = mech.elem_length
-            pseudo = (
-                pat.scatter(el.to_global(self.element.axial_force(c_w2, l), T)),
-                pat.scatter(el.to_global(self.element.axial_force(c_acc, l), T)),
-            )
-        staged = StagedStiffness(*self._strain_op, T, mech.elem_dofs, mech.n_free)
-        d = self.scene.damping  # Rayleigh damping: symmetric positive semi-definite (α, β >= 0)
-        rayleigh = d.mass_proportional * mass + d.stiffness_proportional * structural if d.active else None
-        return OperatorPieces(float(theta), mass, structural, coriolis, tangential, normal, pseudo, staged,
-                              pat.matrix(mass), rayleigh)
+        return self.pieces_at(self.piece_stack(theta), 0)
 
     # -- per speed and case ----------------------------------------------------------------
-    def stiffness_terms(self, p: OperatorPieces, case: str, accel: float | None = None):
+    def stiffness_terms(self, p, case: str, accel: float | None = None):
         """(K₀, K₂, symmetric) CSR data with K(Ω) = K₀ + Ω² K₂ at the crank acceleration
-        ``accel`` (default the scene's), held fixed while Ω varies.
+        ``accel`` (default the scene's), held fixed while Ω varies; ``p`` is one angle's
+        :class:`OperatorPieces` or a :class:`PieceStack` (then (n_θ, nnz) and (n_θ,) arrays).
 
         K₀ = K_s + α (T₁ + P₁) and K₂ = T₂ + N₂ + P₂ with the terms the case keeps; the
         ``structure`` case has K₂ = 0. ``symmetric`` is False when a tangential part is present
-        (T₁, T₂ are skew). :meth:`qep` sums the same terms (in its own order).
+        (T₁, T₂ are skew). Both come from :func:`~fkev_slepc.model.pieces.combine`, as
+        :meth:`qep`'s K does.
         """
         t, acc = self._case(case, accel)
-        K0, K2 = p.structural.copy(), np.zeros_like(p.structural)
-        k_sym = True
-        for name, piece in (("tangential", p.tangential), ("pseudo_normal", p.pseudo_normal)):
-            if t.keeps(name):
-                self._require(name, piece)
-                K2 += piece[0]
-                K0 += acc * piece[1]
-                k_sym &= name != "tangential" or not (np.any(piece[0]) or (acc != 0.0 and np.any(piece[1])))
-        if t.keeps("normal"):
-            self._require("normal", p.normal)
-            K2 += p.normal
-        return K0, K2, k_sym
+        per_w2 = combine(p, 1.0, t, 0.0, with_damping=False)
+        at_rest = combine(p, 0.0, t, acc, with_damping=False)
+        return p.structural + at_rest.rest, per_w2.rest, per_w2.k_symmetric & at_rest.k_symmetric
 
     def qep(self, p: OperatorPieces, omega: float, case: str, accel: float | None = None) -> QEP:
         """The QEP at crank speed ``omega`` (rad/s), crank acceleration ``accel`` (rad/s²;
@@ -182,31 +159,12 @@ class Model:
         structural damping, which every case keeps (a property of the links, not a motion term).
         """
         t, acc = self._case(case, accel)
-        w2 = omega * omega
-        rest = np.zeros_like(p.structural)  # every stiffness term but K_s
-        moving = t.motion and (omega != 0.0 or acc != 0.0)
-        k_sym = True
-        for name, piece in (("tangential", p.tangential), ("pseudo_normal", p.pseudo_normal)):
-            if moving and t.keeps(name):
-                self._require(name, piece)
-                part = w2 * piece[0] + acc * piece[1]
-                rest += part
-                # a tangential term that vanishes (e.g. a lone crank at constant speed) keeps K symmetric
-                k_sym &= name != "tangential" or not np.any(part)
-        if moving and t.keeps("normal") and w2 != 0.0:
-            self._require("normal", p.normal)
-            rest += w2 * p.normal
-        data = None
-        if t.keeps("coriolis") and omega != 0.0:
-            self._require("coriolis", p.coriolis)
-            data = omega * p.coriolis
-        if p.rayleigh is not None:
-            data = p.rayleigh if data is None else data + p.rayleigh
+        c = combine(p, omega, t, acc)
         pat = self.pattern
-        C = None if data is None else pat.matrix(data)
-        kind = classify(C is not None, k_sym, c_skew=p.rayleigh is None)
-        return QEP(p.mass_matrix, C, pat.matrix(p.structural + rest), kind,
-                   staged=p.staged, stiffness_rest=pat.matrix(rest))
+        C = None if c.damping is None else pat.matrix(c.damping)
+        kind = classify(C is not None, c.k_symmetric, c_skew=p.rayleigh is None)
+        return QEP(p.mass_matrix, C, pat.matrix(p.structural + c.rest), kind,
+                   staged=p.staged, stiffness_rest=pat.matrix(c.rest))
 
     def _case(self, case: str, accel: float | None):
         """The case's term flags (Table 3.1) and the crank acceleration (default the scene's)."""
@@ -214,15 +172,23 @@ class Model:
             raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
         return CASES[case], self.scene.driver.acceleration if accel is None else float(accel)
 
-    def _require(self, name, piece):
-        if piece is None:
-            raise ValueError(
-                f"term {name!r} was not assembled: build the Model with the cases that need it"
-            )
-
     # -- geometry for drawing --------------------------------------------------------------
     def node_positions(self, theta: float) -> np.ndarray:
         """Undeformed node positions (n_node, 2) at crank angle ``theta`` (rad)."""
         mech = self.mechanism
         kin = self.kinematics(theta)
         return point_local(kin, mech.node_link, mech.node_local)[0][0]
+
+
+def _concatenate(items):
+    """Blocks of dataclasses of per-angle arrays (PieceStack, AngleState, Kinematics, Loads)
+    joined along their leading (angle) axis."""
+    first = items[0]
+    if first is None:
+        return None
+    if isinstance(first, tuple):
+        return tuple(_concatenate([it[k] for it in items]) for k in range(len(first)))
+    if dataclasses.is_dataclass(first):
+        return dataclasses.replace(first, **{f.name: _concatenate([getattr(it, f.name) for it in items])
+                                             for f in dataclasses.fields(first)})
+    return np.concatenate(items)
