@@ -94,6 +94,36 @@ class PointResult:
         return (f"PointResult(θ={self.angle_deg:g}°, Ω={self.speed_rad_s:g} rad/s, case {self.case}: "
                 f"{self.status.value}{msg}; f = [{f}] Hz; max Re λ = {self.max_real:.3g} 1/s)")
 
+    def sensitivity(self, key: str):
+        """d f_k/d p and d ζ_k/d p of every reported mode for the numeric scene key ``key``
+        (``"links[1].length_m"``, per unit of the key in the scene's units) at this point, from
+        the left and right eigenvectors (:mod:`fkev_slepc.solve.sensitivity`).
+
+        Returns
+        -------
+        fkev_slepc.solve.sensitivity.Sensitivity
+            ``frequency_hz``, ``damping_ratio``, ``eigenvalue`` (dλ/dp), ``relative_frequency``
+            ((p/f) df/dp); ``as_dict()`` is the JSON of ``fkev point --sensitivity KEY``.
+
+        Examples
+        --------
+        A longer crank lowers the Bahgat-Willmert linkage's frequencies at rest:
+
+        >>> from fkev_slepc import load
+        >>> s = load(RUNS / "bahgat-willmert-1976.toml").point(10, 0, "structure").sensitivity("links[0].length_m")
+        >>> bool(np.all(s.frequency_hz < 0)), s.method
+        (True, 'adjoint')
+        """
+        from fkev_slepc.api.study import Study
+        from fkev_slepc.solve.sensitivity import point_sensitivity
+
+        def solve(scene):
+            engine = next((m for m in ("dense", "slepc") if self.solver.startswith(m)), None)
+            return Study(scene).point(self.angle_deg, self.speed_rad_s, self.case, modes=len(self.eigenvalues),
+                                      solver=engine).eigenvalues
+
+        return point_sensitivity(self._model, self._theta, self.speed_rad_s, self.case, self.eigenvalues, key, solve)
+
     def mode_shape(self, k: int) -> ModeShape:
         """Mode ``k`` (1-based) at every node; needs ``shapes=True`` in :meth:`~fkev_slepc.api.study.Study.point`.
 

@@ -8,6 +8,7 @@ import sys
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from fkev_slepc.scene.units import RAD_S_PER_RPM, speeds_given_in_rpm, with_rpm
+from .sensitivity_table import add_sensitivity_argument, print_sensitivities, sensitivities
 from .common import (
     add_accuracy_arguments, add_elements_argument, apply_element, load_checked, report_scene_error,
     transmission_warning,
@@ -29,6 +30,7 @@ def add_parser(sub) -> None:
     p.add_argument("--modes", type=int, help="number of modes (default: the scene's)")
     add_elements_argument(p)
     add_accuracy_arguments(p)
+    add_sensitivity_argument(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default: the scene's)")
     p.add_argument("--cross-check", action="store_true", help="solve with SLEPc and dense QZ and compare")
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -53,14 +55,21 @@ def run(args) -> int:
         return report_scene_error(SceneError(err.source, [Problem(flags.get(p.path, p.path), p.message)
                                                           for p in err.problems]))
     transmission_warning(res.transmission_angle_deg, res.angle_deg)
+    try:
+        sens = sensitivities(res, args.sensitivity)
+    except SceneError as err:
+        return report_scene_error(err)
     rpm = args.speed_rpm is not None or (args.speed is None and speeds_given_in_rpm(scene.source_text))
     out = res.as_dict()
     out["speed_rpm"] = res.speed_rad_s / RAD_S_PER_RPM if rpm else None
+    if sens:
+        out["sensitivity"] = sens
     if args.json:
         json.dump(out, sys.stdout, indent=1)
         print()
     else:
         _print_table(out)
+        print_sensitivities(sens)
     return EXIT_OK if res.status in CONVERGED else EXIT_NOT_CONVERGED
 
 

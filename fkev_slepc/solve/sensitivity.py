@@ -1,0 +1,265 @@
+"""Eigenvalue sensitivities d λ_k / d p to a numeric scene key p at one operating point.
+
+For P(λ; p) = λ² M(p) + λ C(p) + K(p) with right and left eigenvectors P(λ)x = 0, yᴴP(λ) = 0
+of a simple eigenvalue λ, differentiating P(λ(p); p) x(p) = 0 and multiplying by yᴴ gives
+
+    dλ/dp = - yᴴ (λ² ∂M/∂p + λ ∂C/∂p + ∂K/∂p) x / yᴴ (2λ M + C) x.
+
+The matrices are real, so yᴴ = zᵀ with Pᵀ z = 0: both vectors come from one sparse LU of
+P(λ) (two steps of inverse iteration, ``trans="T"`` for z). ∂M/∂p, ∂C/∂p, ∂K/∂p are the
+assembled operators of the scene with p ± h differenced (central, h = 1e-6·|p|): every piece
+(kinematics at the fixed crank angle, axial forces, element matrices) moves with p, and the
+truncation error of the difference is O(h²) ~ 1e-12 relative. A key that changes the mesh's
+connectivity (a node moving past another, a DOF count) has no operator derivative on one
+pattern; there dλ/dp is the central difference of the whole point's eigenvalues (h = 1e-4·|p|,
+each mode matched to the nearest eigenvalue). Integer keys (``elements``) have no derivative.
+
+Frequency f = Im λ / 2π and damping ratio ζ = -Re λ / |λ| follow:
+df = Im dλ / 2π, dζ = -Re dλ / |λ| + Re λ · Re(λ̄ dλ) / |λ|³. Derivatives are per unit of the
+key in the scene's units (per m for ``length_m``, per Pa for ``youngs_modulus_pa``).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.scene.edit import canonical_key, parse_key, replace_values
+from fkev_slepc.scene.schema import is_number, show
+
+REL_STEP = 1e-6  # operator differences: truncation h² ~ 1e-12, round-off ε/h ~ 1e-10 of the derivative
+REL_STEP_POINTS = 1e-4  # whole-point differences: eigenvalue errors ~1e-12 / h stay ~1e-8
+# keys a scene may leave out, with the value the reader then uses
+DEFAULTS = {"driver.acceleration_rad_s2": 0.0, "damping.mass_proportional_1_s": 0.0,
+            "damping.stiffness_proportional_s": 0.0}
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """d/dp of each reported mode's eigenvalue, frequency and damping ratio at one point."""
+
+    key: str  # as given
+    value: float  # p at the point (scene units)
+    step: float  # h of the central difference
+    method: str  # "adjoint" (operators differenced) or "points" (whole points differenced)
+    eigenvalue: np.ndarray  # complex (n_modes,), dλ/dp (1/s per unit of p)
+    frequency_hz: np.ndarray  # df/dp (Hz per unit of p)
+    damping_ratio: np.ndarray  # dζ/dp (per unit of p)
+    frequency: np.ndarray  # f (Hz) at the point, for relative sensitivities
+
+    @property
+    def relative_frequency(self) -> np.ndarray:
+        """(p / f) df/dp: % change of f per % change of p (dimensionless)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.value * self.frequency_hz / self.frequency
+
+    def as_dict(self) -> dict:
+        """The JSON of ``fkev point --sensitivity KEY --json`` (None for a missing mode)."""
+        num = lambda a: [None if not np.isfinite(v) else float(v) for v in a]  # noqa: E731
+        return {"value": self.value, "step": self.step, "method": self.method,
+                "frequency_hz": num(self.frequency_hz), "damping_ratio": num(self.damping_ratio),
+                "relative_frequency": num(self.relative_frequency),
+                "eigenvalue": [[v.real, v.imag] if np.isfinite(v) else None for v in self.eigenvalue]}
+
+
+def key_value(scene: Scene, key: str) -> float:
+    """The number at ``key`` in ``scene`` (a link key left to ``[link_defaults]`` read there).
+
+    Raises
+    ------
+    SceneError
+        The key leads nowhere, holds no number, or is an integer setting.
+    """
+    doc = tomllib.loads(scene.source_text) if scene.source_text else {}
+    try:
+        path = canonical_key(doc, key)
+        parts = parse_key(path)
+    except (ValueError, SceneError) as err:
+        problems = err.problems if isinstance(err, SceneError) else [Problem(key, str(err))]
+        raise SceneError(scene.source, problems) from None
+    node = doc
+    for part in parts:
+        node = node[part] if isinstance(node, (dict, list)) and _has(node, part) else None
+    if node is None and len(parts) == 3 and parts[0] == "links":
+        node = doc.get("link_defaults", {}).get(parts[2])
+    if node is None:
+        node = DEFAULTS.get(path)
+    if node is None:
+        raise SceneError(scene.source, [Problem(key, "is not set in the scene: set it first (Study.replace)")])
+    if not is_number(node):
+        raise SceneError(scene.source, [Problem(key, f"is not a number (got {show(node)}): no derivative")])
+    if isinstance(node, int) and parts[-1] in ("elements", "third_elements", "modes"):
+        raise SceneError(scene.source, [Problem(key, f"is an integer setting (got {node}): no derivative")])
+    return float(node)
+
+
+def _has(node, part) -> bool:
+    return (isinstance(node, dict) and part in node) or (isinstance(node, list) and isinstance(part, int)
+                                                         and -len(node) <= part < len(node))
+
+
+def eigenvectors(qep, lam: complex, iterations: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Right x and (transposed) left z with P(λ)x ≈ 0, P(λ)ᵀz ≈ 0, from one LU of P(λ)."""
+    n = qep.n
+    P = _pencil(qep, lam)
+    try:
+        lu = spla.splu(P)
+    except RuntimeError:  # exactly singular at λ: shift by a rounding error
+        lu = spla.splu(_pencil(qep, lam * (1 + 1e-13)))
+    rng = np.random.default_rng(0)
+    x = rng.standard_normal(n) + 1j * rng.standard_normal(n)
+    z = x.copy()
+    for _ in range(iterations):
+        x, z = lu.solve(x), lu.solve(z, trans="T")
+        x, z = x / np.linalg.norm(x), z / np.linalg.norm(z)
+    return x, z
+
+
+def _pencil(qep, lam: complex) -> sp.csc_matrix:
+    P = (lam * lam) * qep.mass.astype(complex) + qep.stiffness
+    if qep.damping is not None:
+        P = P + lam * qep.damping
+    return sp.csc_matrix(P)
+
+
+def adjoint_derivative(qep, dM, dC, dK, lam: complex) -> complex:
+    """dλ/dp = -zᵀ(λ²dM + λdC + dK)x / zᵀ(2λM + C)x for one simple eigenvalue λ of ``qep``."""
+    x, z = eigenvectors(qep, lam)
+    num = lam * lam * (dM @ x) + dK @ x
+    den = 2.0 * lam * (qep.mass @ x)
+    if dC is not None:
+        num = num + lam * (dC @ x)
+    if qep.damping is not None:
+        den = den + qep.damping @ x
+    return complex(-(z @ num) / (z @ den))
+
+
+def mode_derivatives(lam: np.ndarray, dlam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(df/dp, dζ/dp) from λ and dλ/dp, elementwise."""
+    a = np.abs(lam)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dzeta = -dlam.real / a + lam.real * (lam.conj() * dlam).real / a**3
+    return dlam.imag / (2 * np.pi), dzeta
+
+
+def _operators(model, theta: float, speed: float, case: str):
+    """(QEP, [M, C, K_s, K - K_s]) of ``model`` at one point, C = 0 when absent. K_s and the
+    rest are apart so that each is differenced against its own size: a key that leaves K_s
+    alone (an acceleration, a damping) differences to an exact zero there."""
+    pieces = model.pieces(theta)
+    qep = model.qep(pieces, speed, case)
+    C = qep.damping if qep.damping is not None else model.pattern.matrix(np.zeros(model.pattern.nnz))
+    return qep, [qep.mass, C, model.pattern.matrix(pieces.structural), qep.stiffness_rest]
+
+
+def _change(plus, minus) -> float:
+    """Largest relative change ‖A₊ - A₋‖ / ‖A‖ over the operator parts (0: none changes)."""
+    out = 0.0
+    for a, b in zip(plus, minus):
+        size = max(spla.norm(a), spla.norm(b))
+        if size > 0:
+            out = max(out, spla.norm(a - b) / size)
+    return out
+
+
+def _operator_derivative(model, key: str, p: float, h: float, theta: float, speed: float, case: str):
+    """(dM, dC, dK, h, how) by differencing the operators at p ± h (forward from p where p - h is
+    out of range), or None where the key changes the mesh. A step that moves no part by more
+    than ~1e-9 relative (a zero-valued key, whose unit sets no scale) is rescaled once so the
+    largest part moves by ~1e-7: round-off stays ~ε/1e-7 ~ 2e-9 of the derivative."""
+    base = None
+    for attempt in range(2):
+        plus, minus = _moved(model, key, p + h, case), _moved(model, key, p - h, case, must=False)
+        if not same_mesh(model, plus) or (minus is not None and not same_mesh(model, minus)):
+            return None
+        if minus is None:
+            base = base or _operators(model, theta, speed, case)[1]
+            hi, lo, width, how = _operators(plus, theta, speed, case)[1], base, h, "adjoint (forward difference)"
+        else:
+            hi, lo, width, how = (_operators(plus, theta, speed, case)[1], _operators(minus, theta, speed, case)[1],
+                                  2 * h, "adjoint")
+        r = _change(hi, lo)
+        if attempt == 1 or r == 0.0 or r > 1e-9:
+            break
+        h *= min(1e-7 / r, 1e8)
+    dM, dC, dKs, dKr = ((a - b) / width for a, b in zip(hi, lo))
+    return dM, dC, dKs + dKr, h, how
+
+
+def same_mesh(a, b) -> bool:
+    """Whether two models' DOFs mean the same (connectivity and pattern identical)."""
+    ma, mb = a.mechanism, b.mechanism
+    return (a.n_free == b.n_free and ma.elem_dofs.shape == mb.elem_dofs.shape
+            and np.array_equal(ma.elem_dofs, mb.elem_dofs) and a.pattern.nnz == b.pattern.nnz
+            and np.array_equal(a.pattern.indices, b.pattern.indices))
+
+
+def point_sensitivity(model, theta: float, speed: float, case: str, eigenvalues: np.ndarray, key: str,
+                      solve_point=None, rel_step: float | None = None) -> Sensitivity:
+    """d/d``key`` of the reported modes ``eigenvalues`` of ``model`` at (θ rad, Ω rad/s, case).
+
+    ``solve_point(scene) -> eigenvalues`` solves the same point on another scene: only needed
+    (and only called) when the key changes the mesh (then whole points are differenced).
+
+    Raises
+    ------
+    SceneError
+        A bad key (named, with its value), or a scene at p ± h that is invalid or cannot be
+        assembled at this crank angle.
+    """
+    from fkev_slepc.model.operators import AssemblyError
+
+    scene = model.scene
+    p = key_value(scene, key)
+    lam = np.asarray(eigenvalues, dtype=complex)
+    found = np.isfinite(lam)
+    scale = abs(p) if p != 0 else 1.0
+    h = (rel_step or REL_STEP) * scale
+    try:
+        op = _operator_derivative(model, key, p, h, theta, speed, case)
+        if op is not None:
+            dM, dC, dK, h, method = op
+            qep = model.qep(model.pieces(theta), speed, case)
+            dlam = np.full(lam.shape, complex(np.nan, np.nan))
+            dlam[found] = [adjoint_derivative(qep, dM, dC, dK, z) for z in lam[found]]
+        else:
+            h = (rel_step or REL_STEP_POINTS) * scale
+            if solve_point is None or _moved(model, key, p - h, case, must=False) is None:
+                raise SceneError(scene.source, [Problem(key, "changes the mesh: whole points are differenced, "
+                                                        "which needs a point solver and p - h in range")])
+            plus, minus = (np.asarray(solve_point(replace_values(scene, {key: v})), dtype=complex)
+                           for v in (p + h, p - h))
+            dlam = (_nearest(lam, plus) - _nearest(lam, minus)) / (2 * h)
+            method = "points (the key changes the mesh: central difference of the point's eigenvalues)"
+    except AssemblyError as err:
+        raise SceneError(scene.source, [Problem(key, f"at {p:g} ± {h:.3g}: {err}")]) from None
+    df, dz = mode_derivatives(lam, dlam)
+    return Sensitivity(key, p, h, method, dlam, df, dz, lam.imag / (2 * np.pi))
+
+
+def _moved(model, key: str, value: float, case: str, must: bool = True):
+    """The model of ``model``'s scene with ``key`` at ``value`` (None when out of range and not ``must``)."""
+    from fkev_slepc.model.operators import Model
+
+    try:
+        return Model(replace_values(model.scene, {key: value}), cases=(case,))
+    except SceneError as err:
+        if not must:
+            return None
+        raise SceneError(model.scene.source, [Problem(key, f"cannot be moved to {value:.17g} for the derivative")]
+                         + err.problems) from None
+
+
+def _nearest(ref: np.ndarray, cand: np.ndarray) -> np.ndarray:
+    """For each ``ref`` eigenvalue the nearest of ``cand`` (NaN for a missing one)."""
+    out = np.full(ref.shape, complex(np.nan, np.nan))
+    ok = np.isfinite(cand)
+    for i, z in enumerate(ref):
+        if np.isfinite(z) and ok.any():
+            out[i] = cand[ok][np.argmin(np.abs(cand[ok] - z))]
+    return out
