@@ -54,7 +54,7 @@ class Pattern:
         dofs = self.elem_dofs if dofs is None else np.asarray(dofs)
         keep = dofs.ravel() >= 0
         lead = values.shape[: values.ndim - dofs.ndim]
-        w = values.reshape((-1, dofs.size))[:, keep]
+        w = values.reshape((int(np.prod(lead)), dofs.size))[:, keep]
         return self._bincount(dofs.ravel()[keep], w, self.n).reshape(lead + (self.n,))
 
     @staticmethod

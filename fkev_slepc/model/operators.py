@@ -26,6 +26,7 @@ from fkev_slepc.model.element_types import element_type
 from fkev_slepc.model.energy import StagedStiffness, gather_matrix
 from fkev_slepc.model.kinematics import point_local, solve_kinematics
 from fkev_slepc.model.kinetostatics import unknowns
+from fkev_slepc.model.loads import LoadPieces, assemble_loads
 from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.model.pieces import OperatorPieces, PieceStack, assemble_pieces, combine
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
@@ -33,7 +34,7 @@ from fkev_slepc.model.stacks import AngleState, angle_state, element_stacks, nod
 from fkev_slepc.scene import Scene
 from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
 
-__all__ = ["AssemblyError", "Model", "OperatorPieces", "PieceStack", "classify", "node_frames"]
+__all__ = ["AssemblyError", "LoadPieces", "Model", "OperatorPieces", "PieceStack", "classify", "node_frames"]
 
 # Angles per block of a vectorised call: a block's element temporaries (n_angle, n_el, n_dof,
 # n_dof) stay near 2**21 floats (16 MB) each, whatever the mesh.
@@ -99,10 +100,22 @@ class Model:
         """Every piece the model's cases need at crank angles ``theta`` (rad): CSR data
         (n_θ, nnz) on :attr:`pattern` (NaN rows where ``ok`` is False). Computed in blocks of
         angles whose temporaries stay near :data:`BLOCK_FLOATS` floats each."""
+        return self._by_blocks(theta, lambda state: assemble_pieces(
+            self.stacks, self.pattern, state, self.terms, self._lumped, self.scene.damping))
+
+    def load_pieces(self, theta) -> LoadPieces:
+        """The rigid-body inertia loads at crank angles ``theta`` (rad; model/loads.py): vectors
+        (n_θ, n_free) on the DOFs of :attr:`pattern`, per Ω², per crank acceleration α and per
+        unit gravity along -Y (``LoadPieces.total(Ω, α, g)`` sums them)."""
+        return self._by_blocks(theta, lambda state: assemble_loads(self.mechanism, self.stacks, self.pattern, state),
+                               with_loads=False)
+
+    def _by_blocks(self, theta, build, with_loads=None):
+        """``build(angle_state)`` over blocks of the angles ``theta`` whose element temporaries
+        stay near :data:`BLOCK_FLOATS` floats each, joined along the angle axis."""
         theta = np.atleast_1d(np.asarray(theta, dtype=float)).ravel()
         step = max(1, BLOCK_FLOATS // (self.stacks.n_el * self.stacks.n_dof**2))
-        blocks = [assemble_pieces(self.stacks, self.pattern, self.angle_state(theta[i : i + step]), self.terms,
-                                  self._lumped, self.scene.damping) for i in range(0, max(theta.size, 1), step)]
+        blocks = [build(self.angle_state(theta[i : i + step], with_loads)) for i in range(0, max(theta.size, 1), step)]
         return blocks[0] if len(blocks) == 1 else _concatenate(blocks)
 
     def pieces_at(self, stack: PieceStack, i: int) -> OperatorPieces:
