@@ -27,3 +27,40 @@ def test_benchmark_slider_crank_has_the_classical_proportions():
     slider = [j for j in sc.joints if j.prismatic]
     assert len(slider) == 1 and slider[0].slider_mass == 0.0 and slider[0].guide_angle == 0.0
     assert 150.0 in sc.driver.speeds
+
+
+def test_frozen_time_outputs_say_so_and_point_to_floquet():
+    """fkev point labels its verdict frozen-time, prints no growth "per crank revolution" stretched
+    from a frozen eigenvalue, and names the fkev floquet command of the cycle verdict; its JSON
+    carries stability_scope.time and no growth_per_revolution; fkev critical's speeds are frozen-time."""
+    import json
+
+    from clitools import BW, fkev
+
+    r = fkev("point", BW, "--angle", "10", "--speed", "1000", "--case", "full")
+    assert r.returncode == 0, r.stderr
+    assert "frozen-time status: unstable" in r.stdout and "per crank revolution is" not in r.stdout
+    assert "per crank revolution)" not in r.stdout and " x1.0" not in r.stdout
+    assert f"fkev floquet {BW} --speeds 1000 --case full" in r.stdout
+    out = json.loads(fkev("point", BW, "--angle", "10", "--speed", "1000", "--case", "full", "--json").stdout)
+    assert "growth_per_revolution" not in out and out["stability_scope"]["time"].startswith("frozen-time")
+    rest = fkev("point", BW, "--angle", "10", "--speed", "0", "--case", "structure")
+    assert rest.returncode == 0 and "fkev floquet" not in rest.stdout  # at rest the frozen verdict is exact
+    crit = fkev("critical", RUNS / "turcic-midha-1984.toml", "--case", "full", "--angle", "10")
+    assert "frozen-time flutter" in crit.stdout and "fkev floquet" in crit.stdout, crit.stderr
+
+
+def test_info_labels_its_regions_frozen_time(tmp_path):
+    """fkev info: the unstable regions are frozen-time, with no growth per revolution stretched from a
+    frozen eigenvalue, and a 'cycle' line names the fkev floquet command of the archived speeds."""
+    from clitools import BW, fkev
+
+    out = tmp_path / "bw.h5"
+    r = fkev("run", BW, "-q", "-o", out, "--angles", "0,10", "--speeds", "0,1000", "--cases", "full")
+    assert r.returncode == 0, r.stderr
+    info = fkev("info", out).stdout
+    assert "unstable/divergent regions (frozen-time):" in info
+    region = next(ln for ln in info.splitlines() if ln.strip().startswith("unstable  full at 1000 rad/s"))
+    assert "frozen-time, not a growth per revolution" in region and " x1." not in region
+    cycle = next(ln for ln in info.splitlines() if ln.strip().startswith("cycle"))
+    assert cycle.endswith(f"fkev floquet {BW} --speeds 1000")

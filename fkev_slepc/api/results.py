@@ -7,10 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.solve.stability import growth_per_revolution
 
 from fkev_slepc.archive import reader
 from fkev_slepc.solve import modes as _modes
+from fkev_slepc.solve.stability import FROZEN_TIME
 from fkev_slepc.status import CONVERGED
 
 __all__ = ["PointResult", "ModeShape"]
@@ -181,11 +181,9 @@ class PointResult:
                "residual": [num(v) for v in self.pair_error],
                "damping_ratio": [num(v) for v in self.damping_ratio],
                "max_real": num(self.max_real), "divergent": [float(v) for v in self.divergent],
-               "growth_per_revolution": num(growth_per_revolution(float(np.nanmax(self.eigenvalues.real))
-                                                                  if np.any(np.isfinite(self.eigenvalues)) else np.nan,
-                                                                  self.speed_rad_s)),
                "stability_scope": {"divergence": self.raw.divergence_check,
-                                   "flutter": f"modes 1-{len(self.frequency_hz)} (damping ratio of the reported modes)"},
+                                   "flutter": f"modes 1-{len(self.frequency_hz)} (damping ratio of the reported modes)",
+                                   "time": FROZEN_TIME},
                "status": self.status.value, "message": self.message,
                # what the status combines, apart: the pairs' acceptance (accuracy) and stability
                "pairs_accepted": self.converged, "max_pair_error": num(self.max_pair_error),

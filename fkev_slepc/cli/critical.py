@@ -1,4 +1,7 @@
-"""``fkev critical``: from what crank speed does the linkage buckle (divergence) or flutter?
+"""``fkev critical``: from what crank speed does the linkage buckle (divergence) or flutter, frozen-time?
+
+Both are frozen-time speeds: the matrices held at a crank angle. Whether vibration grows over a
+crank revolution, and in which speed bands, is ``fkev floquet``'s answer.
 
 Wiring only; the physics is in fkev_slepc/solve/critical.py (docs/stability.md).
 """
@@ -47,6 +50,7 @@ def _check_flags(args) -> None:
 
 def run(args) -> int:
     from fkev_slepc.api import Study
+    from fkev_slepc.solve.stability import FROZEN_TIME
 
     try:
         _check_flags(args)
@@ -56,7 +60,8 @@ def run(args) -> int:
     except SceneError as err:
         return report_scene_error(_as_flags(err))
     n_free = study._model(case).n_free
-    out = {"scene": scene.title, "n_free": n_free, **found.as_dict(), "max_speed_rad_s": args.max_speed}
+    out = {"scene": scene.title, "n_free": n_free, **found.as_dict(), "max_speed_rad_s": args.max_speed,
+           "stability_scope": {"time": FROZEN_TIME}}
     if args.json:
         json.dump(out, sys.stdout, indent=1)
         print()
@@ -69,10 +74,12 @@ def _print(o: dict) -> None:
     def speed(v, a):
         return "none" if v is None else f"{v:.10g} rad/s ({v * 30 / np.pi:.6g} rpm) at θ = {a:g}°"
 
-    print(f"{o['scene']}: case {o['case']}, {o['n_free']} DOFs, {len(o['per_angle'])} crank angle(s)")
+    print(f"{o['scene']}: case {o['case']}, {o['n_free']} DOFs, {len(o['per_angle'])} crank angle(s); frozen-time "
+          "critical speeds (the matrices held at each crank angle)")
     print(f"  divergence (K singular) from {speed(o['divergence_speed_rad_s'], o['divergence_angle_deg'])}")
-    print(f"  flutter (min ζ of {o['modes']} modes < -{o['damping_tol']:g}) from "
-          f"{speed(o['flutter_speed_rad_s'], o['flutter_angle_deg'])}")
+    print(f"  frozen-time flutter (min ζ of {o['modes']} modes < -{o['damping_tol']:g}) from "
+          f"{speed(o['flutter_speed_rad_s'], o['flutter_angle_deg'])}; unstable speed bands over a revolution: "
+          "fkev floquet")
     for note in sorted({n for r in o["per_angle"] for n in r["notes"]}):
         print(f"  note: {note}")
 

@@ -1,7 +1,8 @@
 """``fkev info ARCHIVE``: what a sweep archive holds, in a few lines.
 
 Grid, cases, counts by status (every point accounted for), per-mode frequency range of each
-case, unstable and divergent regions as crank-angle intervals, failure messages, solver
+case, unstable and divergent regions as crank-angle intervals (frozen-time verdicts; the line
+``cycle`` points to ``fkev floquet`` for the verdict over a revolution), failure messages, solver
 settings (a short table) and run time; with ``--crossings`` the crank speeds at which each
 mode's frequency meets a crank-order line k·Ω/2π (the circles of the Campbell diagram). The
 archive is verified first (``fkev verify``): exit code 0 for an intact archive, 2 for a
@@ -116,7 +117,8 @@ def report(res, n_errors: int = 5) -> list[str]:
         lo[have], hi[have] = np.nanmin(f[:, have], axis=0), np.nanmax(f[:, have], axis=0)
         cells = [f"{m}: {a:.6g}-{b:.6g}" if np.isfinite(a) else f"{m}: -" for m, a, b in zip(res.modes, lo, hi)]
         lines.append(f"    {case:<17} " + "; ".join(cells))
-    lines.append("  damping ratio, smallest over the reported modes of converged points (< 0: growing):")
+    lines.append("  damping ratio, smallest over the reported modes of converged points (frozen-time; < 0: growing "
+                 "while frozen):")
     zeta = np.where(conv[..., None], res.damping_ratio, np.nan)
     for jc, case in enumerate(res.cases):
         z = zeta[:, :, jc]
@@ -130,8 +132,12 @@ def report(res, n_errors: int = 5) -> list[str]:
                     regions.append(f"    {status.value:<9} {case} at {speed:g} rad/s: "
                                    f"{intervals(res.crank_angle_deg, mask)} ({int(mask.sum())} points, "
                                    f"{_severity(res, status, mask, js, jc, speed)})")
-    lines.append("  unstable/divergent regions:" + ("" if regions else " none"))
+    lines.append("  unstable/divergent regions (frozen-time):" + ("" if regions else " none"))
     lines.extend(regions)
+    if np.any(res.speed_rad_s != 0):
+        moving = ",".join(f"{w:g}" for w in res.speed_rad_s if w != 0)
+        lines.append("  cycle       frozen-time verdicts hold the matrices at each crank angle; whether vibration grows "
+                     f"over a revolution: fkev floquet {at.get('scene_source') or 'SCENE'} --speeds {moving}")
     lines.extend(_errors(res, n_errors))
     settings = solver_settings(res)
     lines.extend(settings_table(settings))
@@ -201,15 +207,17 @@ def crossing_lines(res, angle: float | None = None, orders: int | None = None) -
 
 
 def _severity(res, status, mask, js, jc, speed) -> str:
-    """Unstable: smallest ζ and the worst mode's growth per crank revolution; divergent: max Re λ."""
-    from fkev_slepc.solve.stability import growth_per_revolution
+    """Unstable: smallest ζ and the worst frozen Re λ; divergent: the largest real eigenvalue.
+    No growth per crank revolution: a frozen eigenvalue holds for a fraction of a turn (the
+    growth over a revolution is ``fkev floquet``'s multiplier)."""
     from fkev_slepc.status import Status
 
     if status == Status.DIVERGENT:
         return f"largest real eigenvalue {np.nanmax(res.max_real[:, js, jc][mask]):.4g} 1/s"
     zmin = np.nanmin(res.damping_ratio[:, js, jc][mask])
     worst = np.nanmax(res.eigenvalue[:, js, jc][mask].real)
-    return f"min damping ratio {zmin:.3g}, worst mode x{growth_per_revolution(worst, speed):.6g} per revolution"
+    return (f"min damping ratio {zmin:.3g}, max Re λ {worst:.4g} 1/s; frozen-time, not a growth per revolution: "
+            "fkev floquet")
 
 
 def _tracking(res) -> list[str]:

@@ -1,4 +1,7 @@
-"""``fkev point``: frequencies, eigenvalues and stability at one operating point (``Study.point``)."""
+"""``fkev point``: frequencies, eigenvalues and frozen-time stability at one operating point (``Study.point``).
+
+The stability verdict is frozen-time (the matrices held at the crank angle); the verdict over a
+crank revolution is ``fkev floquet``'s (docs/stability.md)."""
 
 from __future__ import annotations
 
@@ -20,7 +23,8 @@ FLAGS = {"angle_deg": "--angle", "speed_rad_s": "--speed", "case": "--case", "mo
 
 def add_parser(sub) -> None:
     p = sub.add_parser("point", help="solve one operating point (angle, speed, case)",
-                       description="Natural frequencies and stability at one crank angle, speed and case.")
+                       description="Natural frequencies and frozen-time stability at one crank angle, speed and case "
+                       "(the verdict over a crank revolution: fkev floquet).")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--angle", type=float, help="crank angle, deg (default: the scene's first)")
     speed = p.add_mutually_exclusive_group()
@@ -68,12 +72,12 @@ def run(args) -> int:
         json.dump(out, sys.stdout, indent=1)
         print()
     else:
-        _print_table(out)
+        _print_table(out, args.scene)
         print_sensitivities(sens)
     return EXIT_OK if res.status in CONVERGED else EXIT_NOT_CONVERGED
 
 
-def _print_table(o: dict) -> None:
+def _print_table(o: dict, scene: str = "SCENE") -> None:
     print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {with_rpm(o['speed_rad_s'], o['speed_rpm'] is not None)}, "
           f"case {o['case']}, {o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
     print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'ζ':>11} {'residual':>10}")
@@ -82,10 +86,8 @@ def _print_table(o: dict) -> None:
         fmt = lambda v, w: f"{v:{w}.6g}" if v is not None else f"{'—':>{w}}"  # noqa: E731
         zeta = f"{z:11.3e}" if z is not None else f"{'—':>11}"
         print(f"{i:>4} {fmt(f, 14)} {fmt(re, 14)} {fmt(im, 14)} {zeta} {fmt(r, 10) if r is None else f'{r:10.1e}'}")
-    growth = o["growth_per_revolution"]
-    print(f"max Re λ = {o['max_real']!r} 1/s"
-          + (f" (x{growth:.6g} per crank revolution)" if growth is not None else "")
-          + f"; divergence: {o['stability_scope']['divergence']}; status: {o['status']}"
+    print(f"max Re λ = {o['max_real']!r} 1/s; divergence: {o['stability_scope']['divergence']}; "
+          f"frozen-time status: {o['status']}"
           + (f"; divergent (real) eigenvalues: {o['divergent']}" if o["divergent"] else "")
           + (f" ({o['message']})" if o["message"] else ""))
     worst = max((r for r in o["residual"] if r is not None), default=None)
@@ -94,7 +96,10 @@ def _print_table(o: dict) -> None:
     grow = o["unstable_modes"]
     grows = (f"mode{'s' if len(grow) > 1 else ''} {', '.join(map(str, grow))} grow "
              "(damping ratio < -analysis.damping_tol)") if grow else "no reported mode grows"
-    print(f"accuracy: {pairs}; stability: {grows}")
+    print(f"accuracy: {pairs}; frozen-time stability: {grows}")
+    if o["speed_rad_s"] != 0:
+        print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; whether vibration grows over a crank "
+              f"revolution is the Floquet verdict: fkev floquet {scene} --speeds {o['speed_rad_s']:g} --case {o['case']}")
     if "rel_error_estimate" in o:
         a = o["accuracy"]
         print(f"requested rel_error {a['rel_error']:g}: element {a['element']}, {a['elements_per_link']} elements per "

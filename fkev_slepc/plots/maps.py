@@ -35,8 +35,10 @@ STATUS_MARKS = (  # status, marker, colour, legend text
 
 
 def stability(res: SweepResults, case: str | int | None = None) -> Figure:
-    """Map of the smallest damping ratio ζ = -Re λ/|λ| of the reported modes over (crank angle,
-    speed) for one case (default ``full``), divergent and unconverged points marked.
+    """Map of the smallest frozen-time damping ratio ζ = -Re λ/|λ| of the reported modes over
+    (crank angle, speed) for one case (default ``full``), divergent and unconverged points marked.
+    Frozen-time: each point holds the matrices at its crank angle; the verdict over a crank
+    revolution is the Floquet one (``fkev floquet``, :mod:`fkev_slepc.plots.floquet`).
 
     Colour: a diverging, symmetric-log scale centred on ζ = 0: red is growth (unstable), blue
     decay; ±damping_tol (the ``unstable`` threshold) is the linear core, so round-off is
@@ -65,7 +67,7 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
         ax.pcolormesh(a_edges, speed_edges, np.where(div > 0, 1.0, np.nan).T, cmap="Greys", vmin=0, vmax=2.5,
                       shading="flat")
     mesh = ax.pcolormesh(a_edges, speed_edges, zmin.T, norm=norm, shading="flat", cmap="RdBu")
-    cb = fig.colorbar(mesh, ax=ax, label="min damping ratio ζ of the reported modes")
+    cb = fig.colorbar(mesh, ax=ax, label="min frozen-time damping ratio ζ of the reported modes")
     cb.ax.axhline(-tol, color="k", lw=0.8)
     for status, marker, color, label in STATUS_MARKS:
         ia, i_s = np.nonzero(st == status.code)
@@ -81,8 +83,9 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
         rpm_axis(ax, "y")
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=8, loc="upper right", framealpha=0.85)
-    set_title(fig, res, f"stability map, case {res.cases[c]}{_damping_label(res)}\n{n_unst} unstable "
-                        f"(ζ < -{tol:g}), {int(div.sum())} divergent of {st.size} points")
+    set_title(fig, res, f"frozen-time stability map, case {res.cases[c]}{_damping_label(res)}\n{n_unst} unstable "
+                        f"(ζ < -{tol:g}), {int(div.sum())} divergent of {st.size} points "
+                        "(matrices held at each angle; over a revolution: fkev floquet)")
     return fig
 
 

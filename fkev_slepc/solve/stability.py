@@ -37,6 +37,10 @@ from fkev_slepc.model.qep import QEP, Divergence
 # (companion size 2n; measured ~0.1 s at n = 100 and a few s at n = 1000 on this machine).
 DENSE_LIMIT = 1000
 WHOLE = "whole spectrum"
+# What every verdict of this module covers in time (docs/stability.md, "Frozen-time and cycle verdicts"):
+# exp(2π Re λ/Ω) is not the growth over a revolution, the Floquet multipliers are (solve/floquet.py).
+FROZEN_TIME = ("frozen-time: the matrices held at this crank angle and speed; whether vibration grows over a "
+               "crank revolution is the Floquet verdict (fkev floquet)")
 
 
 def damping_ratio(lam) -> np.ndarray:
@@ -47,11 +51,6 @@ def damping_ratio(lam) -> np.ndarray:
         return np.where(mag > 0, -lam.real / np.where(mag > 0, mag, 1.0), np.nan)
 
 
-def growth_per_revolution(max_real: float, omega: float) -> float:
-    """Amplitude factor exp(2π·Re λ/Ω) over one crank revolution (NaN at Ω = 0 or unknown)."""
-    if not (np.isfinite(max_real) and np.isfinite(omega)) or omega == 0.0:
-        return float("nan")
-    return float(np.exp(2.0 * np.pi * max_real / abs(omega)))
 
 
 def sym_positive_definite(K) -> bool:
