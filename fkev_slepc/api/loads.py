@@ -107,8 +107,22 @@ def checked_angles(scene: Scene, mech, angles_deg, name="angles_deg") -> np.ndar
 
 def study_loads(scene: Scene, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None,
                 names=None) -> LoadsResult:
-    """The code path of ``Study.loads`` and ``fkev loads``; ``names`` maps argument names to
-    the caller's (flags) in messages."""
+    """Rigid-body kinetostatics over the crank cycle: the code path of ``Study.loads`` and ``fkev loads``.
+
+    Joint forces (ground frame, and along/normal to each link), guide reactions, link axial
+    forces and the driving torque with the power check τΩ = dE/dt (docs/response.md §1) at
+    crank speed ``speed_rad_s``, crank acceleration ``accel_rad_s2`` (default the scene's)
+    and gravity ``gravity_m_s2`` ([gx, gy], default the scene's ``analysis.gravity_m_s2``),
+    at ``angles_deg`` (default the scene's). ``names`` maps argument names to the caller's
+    (flags) in messages. Returns a :class:`LoadsResult` (``as_dict()``, ``save(path)``, ``plot()``).
+
+    Examples
+    --------
+    >>> from fkev_slepc import load
+    >>> sc = load(RUNS / "slider-crank.toml").loads(314.16, [45])
+    >>> round(float(sc.torque[0]), 3), sc.power_residual < 1e-12
+    (74.896, True)
+    """
     from fkev_slepc.model.mechanism import build_mechanism
 
     names = names or {}

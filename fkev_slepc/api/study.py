@@ -306,25 +306,9 @@ class Study:
         finally:
             engine.close()
 
-    def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2: float | None = None,
-              gravity_m_s2=None):
-        """Rigid-body kinetostatics over the crank cycle: the code path of ``fkev loads``.
-
-        Joint forces (ground frame, and along/normal to each link), guide reactions, link axial
-        forces and the driving torque with the power check τΩ = dE/dt (docs/response.md §1) at
-        crank speed ``speed_rad_s``, crank acceleration ``accel_rad_s2`` (default the scene's)
-        and gravity ``gravity_m_s2`` ([gx, gy], default the scene's ``analysis.gravity_m_s2``),
-        at ``angles_deg`` (default the scene's). Returns a
-        :class:`fkev_slepc.api.loads.LoadsResult` (``as_dict()``, ``save(path)``, ``plot()``).
-
-        Examples
-        --------
-        >>> sc = load(RUNS / "slider-crank.toml").loads(314.16, [45])
-        >>> round(float(sc.torque[0]), 3), sc.power_residual < 1e-12
-        (74.896, True)
-        """
+    def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
+        """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
         from fkev_slepc.api.loads import study_loads
-
         return study_loads(self.scene, speed_rad_s, angles_deg, accel_rad_s2, gravity_m_s2)
 
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
