@@ -55,6 +55,7 @@ class Segment:
     density: float
     area: float
     second_moment: float
+    fibre_distance: float | None = None  # m, extreme fibre from the neutral axis (None: not given)
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,7 @@ class Link:
     segments: tuple[Segment, ...] = ()
     third: tuple[float, float] | None = None  # m, link frame
     third_elements: int = 2
+    fibre_distance: float | None = None  # m, extreme fibre (scene/shapes.py; None: not given)
 
     @property
     def pieces(self) -> tuple[Segment, ...]:
@@ -84,7 +86,7 @@ class Link:
         if self.segments:
             return self.segments
         return (Segment(self.length, self.elements, self.youngs_modulus, self.density, self.area,
-                        self.second_moment),)
+                        self.second_moment, self.fibre_distance),)
 
 
 @dataclass(frozen=True)

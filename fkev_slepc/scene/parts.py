@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 from fkev_slepc.scene.model import THIRD, Joint, Link, LumpedMass, Segment
+from fkev_slepc.scene import shapes
 from fkev_slepc.scene.schema import REQUIRED, Reader, join, show
 
 SEGMENT_PROPERTIES = {  # TOML key -> Segment field (finite, > 0)
@@ -19,7 +20,7 @@ SEGMENT_PROPERTIES = {  # TOML key -> Segment field (finite, > 0)
     "area_m2": "area",
     "second_moment_m4": "second_moment",
 }
-SEGMENT_KEYS = ("length_m", *SEGMENT_PROPERTIES, "elements")
+SEGMENT_KEYS = ("length_m", *SEGMENT_PROPERTIES, "elements", shapes.SECTION_KEY, shapes.FIBRE_KEY)
 TERNARY_KEYS = ("third_joint_m", "third_elements")
 PRISMATIC_KEYS = ("guide_angle_deg", "slider_mass_kg")
 PRISMATIC_ASSEMBLIES = ("ahead", "behind")
@@ -37,10 +38,12 @@ def read_segments(r: Reader, item, path: str, link_values: dict, inherited: dict
     out, ok = [], True
     for spath, seg in r.tables(item, "segments", path, required=True):
         r.check_keys(seg, spath, SEGMENT_KEYS)
+        seg = shapes.expand(r, seg, spath)
         values = {}
         for key in ("length_m", *SEGMENT_PROPERTIES, "elements"):
             given = link_values.get(key)
-            default = given if given is not None else (None if inherited.get(key) else REQUIRED)
+            default = given if given is not None else (None if inherited.get(key) or shapes.reported(seg, key)
+                                                        else REQUIRED)
             if key == "length_m":
                 default = REQUIRED
             remark = "set it here, in the link or in [link_defaults]" if key != "length_m" else ""
@@ -48,11 +51,12 @@ def read_segments(r: Reader, item, path: str, link_values: dict, inherited: dict
                 values[key] = r.integer(seg, key, spath, default=default, minimum=1, remark=remark)
             else:
                 values[key] = r.number(seg, key, spath, positive=True, default=default, remark=remark)
-        if None in values.values():
+        fibre = r.number(seg, shapes.FIBRE_KEY, spath, positive=True, default=link_values.get(shapes.FIBRE_KEY))
+        if None in values.values() or (fibre is None and (shapes.FIBRE_KEY in seg or shapes.reported(seg, "area_m2"))):
             ok = False
             continue
         out.append(Segment(values["length_m"], values["elements"], values["youngs_modulus_pa"],
-                           values["density_kg_m3"], values["area_m2"], values["second_moment_m4"]))
+                           values["density_kg_m3"], values["area_m2"], values["second_moment_m4"], fibre))
     return tuple(out) if ok and out else None
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import difflib
 
-from fkev_slepc.scene import parts
+from fkev_slepc.scene import parts, shapes
 from fkev_slepc.scene.damping import DAMPING_KEYS
 from fkev_slepc.scene.model import END_NAMES, THIRD, Driver, Joint, Link, LinkEnd
 from fkev_slepc.scene.schema import REQUIRED, Reader, join, show
@@ -29,7 +29,7 @@ LINK_PROPERTIES = {  # TOML key -> Link field; all must be finite and > 0
     "area_m2": "area",
     "second_moment_m4": "second_moment",
 }
-LINK_DEFAULT_KEYS = (*LINK_PROPERTIES, "elements")
+LINK_DEFAULT_KEYS = (*LINK_PROPERTIES, "elements", shapes.SECTION_KEY, shapes.FIBRE_KEY)
 LINK_KEYS = ("name", *LINK_DEFAULT_KEYS, "segments", *parts.TERNARY_KEYS)
 JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISMATIC_KEYS)
 JOINT_TYPES = ("revolute", "prismatic")
@@ -59,20 +59,24 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set
     table = r.table(doc, "link_defaults", "")
     if table:
         r.check_keys({k: v for k, v in table.items() if k != "name"}, "link_defaults", LINK_DEFAULT_KEYS)
+        table = shapes.expand(r, table, "link_defaults")
         if "name" in table:
             r.add("link_defaults.name", "links need their own names; set name in each [[links]]")
         # A bad default is reported once, here, and then stays silent (None) in every link.
         for key in LINK_PROPERTIES:
-            if key in table:
-                defaults[key] = r.number(table, key, "link_defaults", positive=True)
+            if key in table or shapes.reported(table, key):
+                defaults[key] = r.number(table, key, "link_defaults", positive=True, default=None)
         if "elements" in table:
             defaults["elements"] = r.integer(table, "elements", "link_defaults", minimum=1)
+        if shapes.FIBRE_KEY in table or shapes.reported(table, shapes.FIBRE_KEY):
+            defaults[shapes.FIBRE_KEY] = r.number(table, shapes.FIBRE_KEY, "link_defaults", positive=True)
     out: list[Link | None] = []
     seen: dict[str, str] = {}
     ternary: set[str] = set()
     remark = "set it here or in [link_defaults]"
     for path, item in r.tables(doc, "links", "", required=True):
         r.check_keys(item, path, LINK_KEYS)
+        item = shapes.expand(r, item, path)
         name = r.string(item, "name", path)
         if name is not None:
             name = _check_name(r, join(path, "name"), name, seen, "link")
@@ -82,11 +86,14 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set
         given = {}  # TOML key -> value (None: absent, or bad and already reported)
         for key in (*LINK_PROPERTIES, "elements"):
             # A stepped link's own section keys are optional defaults for its segments.
-            default = defaults.get(key, None if stepped else REQUIRED)
+            default = defaults.get(key, None if stepped or shapes.reported(item, key) else REQUIRED)
             if key == "elements":
                 given[key] = r.integer(item, key, path, default=default, minimum=1, remark=remark)
             elif not (stepped and key == "length_m"):
                 given[key] = r.number(item, key, path, positive=True, remark=remark, default=default)
+        given[shapes.FIBRE_KEY] = fibre = r.number(item, shapes.FIBRE_KEY, path, positive=True,
+                                                   default=defaults.get(shapes.FIBRE_KEY))
+        fibre_ok = fibre is not None or (shapes.FIBRE_KEY not in item and not shapes.reported(item, "area_m2"))
         segments = ()
         if stepped:
             inherited = {k: k in item or k in defaults for k in given}
@@ -95,15 +102,16 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set
                 first = segments[0]
                 given.update(youngs_modulus_pa=first.youngs_modulus, density_kg_m3=first.density,
                              area_m2=first.area, second_moment_m4=first.second_moment,
+                             fibre_distance_m=first.fibre_distance,
                              length_m=parts.stepped_length(r, item, path, segments),
                              elements=sum(s.elements for s in segments))
         third, third_el, third_ok = parts.read_third(r, item, path, given.get("length_m"), given.get("elements"))
         values = {field_: given.get(key) for key, field_ in LINK_PROPERTIES.items()}
         elements = given.get("elements")
         ok = name is not None and elements is not None and None not in values.values()
-        ok = ok and segments is not None and third_ok
+        ok = ok and segments is not None and third_ok and fibre_ok
         link = Link(name=name, elements=elements, segments=segments or (), third=third,
-                    third_elements=third_el or 2, **values) if ok else None
+                    third_elements=third_el or 2, fibre_distance=given[shapes.FIBRE_KEY], **values) if ok else None
         out.append(link)
     if not isinstance(doc.get("links"), list):
         return out, None, ternary  # no usable [[links]]: references to links cannot be judged
