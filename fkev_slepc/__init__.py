@@ -9,8 +9,12 @@ The Python API (docs/api.md): :func:`load` a scene into a :class:`Study`, solve 
 initialise it with its options first) nor MPI.
 """
 
-from fkev_slepc._version import __version__
-from fkev_slepc.api import PointResult, Study, SweepResults, load, open
-from fkev_slepc.status import Status
+from fkev_slepc import _threads
+
+_threads.pin_for_cli()  # before numpy is imported: one BLAS thread per process on the command line
+
+from fkev_slepc._version import __version__  # noqa: E402
+from fkev_slepc.api import PointResult, Study, SweepResults, load, open  # noqa: E402
+from fkev_slepc.status import Status  # noqa: E402
 
 __all__ = ["__version__", "load", "open", "Study", "PointResult", "SweepResults", "Status"]

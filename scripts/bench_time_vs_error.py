@@ -71,21 +71,19 @@ def reference(scene, point):
     from fkev_slepc.solve.accuracy import with_element
     from fkev_slepc.solve.engines import make_engine
 
-    from fkev_slepc.solve import polish
+    from fkev_slepc.solve.thresholds import SolveSettings
 
     meshes = (32, 64, 128, 256)
-    engine = make_engine("slepc", 10**6, scene.solver.petsc)
-    f = []
-    # Every pair polished, not only those above polish.POLISH_ABOVE: an unpolished pair error of
+    # Every pair polished, not only those above polish_above (1e-8): an unpolished pair error of
     # 9.6e-9 (cubic, 64 per link) leaves f₁ 1.8e-10 off, which showed as a Richardson ratio of
     # 15.1 instead of 16 and a reference error estimate of 2.7e-11 instead of ~1e-12.
-    threshold, polish.POLISH_ABOVE = polish.POLISH_ABOVE, 0.0
+    engine = make_engine("slepc", 10**6, scene.solver.petsc, settings=SolveSettings(polish_above=0.0))
+    f = []
     try:
         for n in meshes:
             model = Model(with_elements(with_element(scene, "cubic"), n), cases=(point[2],))
             f.append(solve_point(model, engine, point).frequency_hz)
     finally:
-        polish.POLISH_ABOVE = threshold
         engine.close()
     f = np.array(f)
     extrap, rates = [], []

@@ -180,7 +180,7 @@ def newton_refined(qep, sol, n_modes: int, steps: int = 3) -> np.ndarray:
 
 def pair_ratio(qep, sol, n_modes: int) -> float:
     """Largest pair_error / pair_error_floor over the pairs a point reports."""
-    from fkev_slepc.model.qep import pair_error, pair_error_floor
+    from fkev_slepc.solve.acceptance import pair_error, pair_error_floor
     from fkev_slepc.solve.modes import reported
 
     osc, is_real = reported(sol.eigenvalues, n_modes)

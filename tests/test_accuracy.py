@@ -10,7 +10,7 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from fkev_slepc.model.operators import Model
-from fkev_slepc.model.qep import polished_pair_error
+from fkev_slepc.solve.acceptance import polished_pair_error
 from fkev_slepc.scene import load_scene, with_elements
 from fkev_slepc.solve.dense import DenseEngine
 from fkev_slepc.solve.engines import cross_check, frequencies

@@ -106,7 +106,7 @@ def test_mode_shape_is_the_eigenvector_at_the_nodes():
     """Node displacements satisfy the QEP: the free-DOF vector gathered back from the nodes is
     an eigenvector with a pair error at round-off (docs/theory.md §10)."""
     from fkev_slepc.model.operators import Model
-    from fkev_slepc.model.qep import pair_error
+    from fkev_slepc.solve.acceptance import pair_error
 
     study = fk.load(BW)
     r = study.point(30, 500, "full", shapes=True, solver="dense")

@@ -69,7 +69,7 @@ def test_missing_modes_are_nan_not_zero():
     """A point that finds fewer modes than asked reports them as missing (null), never as 0 Hz."""
     from fkev_slepc.solve.modes import postprocess
     from fkev_slepc.status import Status
-    from fkev_slepc.model.qep import EigenSolution
+    from fkev_slepc.solve.protocol import EigenSolution
 
     sol = EigenSolution(np.array([-3.0 + 100j, -3.0 - 100j]), np.array([1e-12, 1e-12]), None, True, "test")
     r = postprocess(sol, 3)

@@ -22,7 +22,8 @@ from fkev_slepc.solve.engines import CROSSOVER_N_FREE, cross_check, make_engine
 from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.status import Status
 from fkev_slepc.model.operators import Model
-from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP, pair_error
+from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
+from fkev_slepc.solve.acceptance import pair_error
 from fkev_slepc.scene import SceneError, load_scene, with_elements
 
 ALU = dict(E=7.1e10, rho=2710.0, A=1e-4, I=1e-9, L=1.0)
@@ -387,7 +388,7 @@ def test_wrong_pairs_are_never_reported_as_converged(monkeypatch):
             assert rel(got.frequency_hz, ref.frequency_hz) < 1e-13
             np.testing.assert_allclose(got.divergent, ref.divergent, rtol=1e-12)
         with monkeypatch.context() as m:  # the raw pairs: the check must reject them
-            m.setattr(slepc_module, "polish_reported", lambda q, lam, X, err, *args: (lam, X, err))
+            m.setattr(slepc_module, "polish_reported", lambda q, lam, X, err, *args, **kw: (lam, X, err, ""))
             for q in qeps:
                 sol = engine.solve(q, 10)
                 assert not sol.converged and "pair error" in sol.message

@@ -5,7 +5,7 @@ import numpy as np
 from fkev_slepc.solve.modes import mac, match_modes, postprocess
 
 from fkev_slepc.status import Status
-from fkev_slepc.model.qep import EigenSolution
+from fkev_slepc.solve.protocol import EigenSolution
 
 
 def _sol(lam, converged=True):

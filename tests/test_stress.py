@@ -269,15 +269,15 @@ def test_acceptance_rejects_pairs_less_accurate_than_their_conditioning():
     under the absolute 1e-3, but 6.5e8 times its one-ulp floor: rejected; the engines' pairs pass."""
     import scipy.linalg as la
 
-    from fkev_slepc.model.qep import MAX_FLOOR_RATIO, MAX_PAIR_ERROR, pair_error
-    from fkev_slepc.solve.modes import check_pairs
+    from fkev_slepc.solve.acceptance import check_pairs, pair_error
+    from fkev_slepc.solve.thresholds import MAX_FLOOR_RATIO, MAX_PAIR_ERROR, SolveSettings
 
     q = _rhombus(1e6, 1e4)
     mu, V = la.eigh(q.stiffness.toarray(), q.mass.toarray())
     lam = np.concatenate([1j * np.sqrt(mu), -1j * np.sqrt(mu)])
     X = np.hstack([V, V]).astype(complex)
     err = pair_error(q, lam, X)
-    worst, msg = check_pairs(q, lam, X, err, 2, MAX_PAIR_ERROR)
+    worst, msg = check_pairs(q, lam, X, err, 2, SolveSettings())
     assert worst < MAX_PAIR_ERROR and "less accurate than their conditioning" in msg
     assert f"> {MAX_FLOOR_RATIO:g}" in msg
     for engine in (DenseEngine(), SlepcEngine()):
@@ -312,7 +312,7 @@ def test_near_a_toggle_both_engines_find_the_same_divergence(campaigns):
     gave the real eigenvalues right (40-digit mpmath: 5.18590162e4 and 5.10809609e5 1/s) but
     vectors of pair error 0.17 and 0.79, so it said not_converged where SLEPc said divergent.
     Polished, both engines are divergent with accepted pairs and the same real eigenvalues."""
-    from fkev_slepc.model.qep import pair_error_floor
+    from fkev_slepc.solve.acceptance import pair_error_floor
     from fkev_slepc.solve.modes import reported
     from fkev_slepc.solve.stability import det_sign
 

@@ -176,6 +176,7 @@ class Study:
         """
         from fkev_slepc.solve.engines import cross_check as _cross_check
         from fkev_slepc.solve.engines import make_engine
+        from fkev_slepc.solve.thresholds import SolveSettings
         from fkev_slepc.sweep.grid import check_modes, modes_problem
         from fkev_slepc.sweep.runner import recoverable_errors
 
@@ -209,7 +210,8 @@ class Study:
         qep = model.qep(model.pieces(theta), float(speed_rad_s), case)
         mu = kin.transmission
         mu_deg = float(np.degrees(mu[0])) if mu is not None else float("nan")
-        engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc)
+        settings = SolveSettings.from_scene(sc)
+        engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc, settings=settings)
         try:
             sol = engine.solve(qep, int(modes), want_vectors=shapes)
             res = _modes.postprocess(sol, int(modes), an.imag_tol, an.damping_tol, want_shapes=shapes)
@@ -217,7 +219,7 @@ class Study:
             res = _modes.failed(int(modes), f"{type(exc).__name__}: {exc}", engine.name)
         finally:
             engine.close()
-        diff = _cross_check(qep, int(modes), sc.solver.petsc) if cross_check else None
+        diff = _cross_check(qep, int(modes), sc.solver.petsc, settings) if cross_check else None
         return PointResult(float(angle_deg), float(speed_rad_s), case, res, sc.title, model.n_free, qep.kind,
                            mu_deg, model, theta, diff, plan, engine.max_pair_error, an.damping_tol)
 
@@ -275,6 +277,7 @@ class Study:
         from fkev_slepc.model.operators import AssemblyError
         from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
         from fkev_slepc.solve.engines import make_engine
+        from fkev_slepc.solve.thresholds import SolveSettings
         from fkev_slepc.sweep.grid import check_modes, modes_problem
 
         sc, an = self.scene, self.scene.analysis
@@ -297,7 +300,8 @@ class Study:
         if too_many:
             raise SceneError(sc.source, [too_many])
         angles = an.crank_angles_deg if angle_deg is None else (float(angle_deg),)
-        engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc)
+        engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc,
+                             settings=SolveSettings.from_scene(sc))
         try:
             return scan(engine, model, angles, case, n_modes, an.damping_tol, max_speed_rad_s,
                         DEFAULT_MAX_FACTOR * max(abs(s) for s in sc.driver.speeds))

@@ -184,15 +184,15 @@ def _tup2(f: np.ndarray) -> tuple[tuple[float, ...], ...]:
 class EngineCache:
     """``engine_for(n_free)``: one dense and one SLEPc engine, made on first use and reused."""
 
-    def __init__(self, method: str, petsc_options=()):
-        self.method, self.petsc, self._engines = method, petsc_options, {}
+    def __init__(self, method: str, petsc_options=(), settings=None):
+        self.method, self.petsc, self.settings, self._engines = method, petsc_options, settings, {}
 
     def __call__(self, n_free: int):
-        from fkev_slepc.solve.engines import CROSSOVER_N_FREE, make_engine
+        from fkev_slepc.solve.engines import engine_kind, make_engine
 
-        kind = "dense" if self.method == "dense" or (self.method == "auto" and n_free < CROSSOVER_N_FREE) else "slepc"
+        kind = engine_kind(self.method, n_free)
         if kind not in self._engines:
-            self._engines[kind] = make_engine(kind, n_free, self.petsc)
+            self._engines[kind] = make_engine(kind, n_free, self.petsc, settings=self.settings)
         return self._engines[kind]
 
     def close(self) -> None:
@@ -215,7 +215,9 @@ def planned_scene(scene: Scene, points, n_modes: int, rel_error: float, method: 
     >>> plan.element, plan.elements                                          # doctest: +SKIP
     ('cubic', 31)
     """
-    engines = EngineCache(method, scene.solver.petsc)
+    from fkev_slepc.solve.thresholds import SolveSettings
+
+    engines = EngineCache(method, scene.solver.petsc, SolveSettings.from_scene(scene))
     try:
         plan = plan_point(scene, points, n_modes, rel_error, engines)
     finally:

@@ -27,6 +27,7 @@ from scipy.optimize import brentq
 from fkev_slepc.scene.cases import CASES
 from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.solve.stability import DENSE_LIMIT
+from fkev_slepc.solve.thresholds import IMAG_TOL
 from fkev_slepc.status import CONVERGED
 
 FLUTTER_RTOL = 1e-8
@@ -45,7 +46,8 @@ class CriticalSpeeds:
     notes: tuple[str, ...] = field(default_factory=tuple)
 
 
-def divergence_speed(model, pieces, case: str, accel: float | None = None, max_speed: float = np.inf) -> float:
+def divergence_speed(model, pieces, case: str, accel: float | None = None, max_speed: float = np.inf,
+                     imag_tol: float = IMAG_TOL) -> float:
     """Lowest Ω > 0 (rad/s) at which K(Ω) = K₀ + Ω² K₂ is singular; NaN if none <= ``max_speed``.
 
     Dense generalized eigenvalues up to :data:`~fkev_slepc.solve.stability.DENSE_LIMIT` free
@@ -66,18 +68,17 @@ def divergence_speed(model, pieces, case: str, accel: float | None = None, max_s
         eta = spla.eigs(op, k=min(24, n - 2), which="LR", return_eigenvectors=False)
     eta = np.asarray(eta, dtype=complex)
     eta = eta[np.isfinite(eta)]
-    real = eta.real[(np.abs(eta.imag) <= 1e-9 * np.abs(eta)) & (eta.real > 0)]
+    real = eta.real[(np.abs(eta.imag) <= imag_tol * np.abs(eta)) & (eta.real > 0)]  # real η, as real λ
     if not real.size:
         return float("nan")
     speed = float(np.sqrt(1.0 / real.max()))
     return speed if speed <= max_speed else float("nan")
 
 
-def min_damping_ratio(engine, model, pieces, case: str, omega: float, n_modes: int, accel=None,
-                      imag_tol: float = 1e-9) -> float:
+def min_damping_ratio(engine, model, pieces, case: str, omega: float, n_modes: int, accel=None) -> float:
     """Smallest damping ratio ζ of the ``n_modes`` reported modes at speed ``omega`` (NaN if
-    the point did not converge)."""
-    res = postprocess(engine.solve(model.qep(pieces, omega, case, accel), n_modes), n_modes, imag_tol)
+    the point did not converge); real eigenvalues by the engine's ``imag_tol``."""
+    res = postprocess(engine.solve(model.qep(pieces, omega, case, accel), n_modes), n_modes)
     return res.min_damping_ratio if res.status in CONVERGED else float("nan")
 
 
@@ -125,7 +126,7 @@ def critical_speeds(engine, model, angle_deg: float, case: str, n_modes: int, da
     """
     pieces = model.pieces(np.radians(angle_deg))
     bound = np.inf if max_speed is None else float(max_speed)
-    div = divergence_speed(model, pieces, case, accel, bound)
+    div = divergence_speed(model, pieces, case, accel, bound, engine.solve_settings.imag_tol)
     top = bound if max_speed is not None else (div if np.isfinite(div) else float(default_max))
     notes = []
     if top > 0 and np.isfinite(top):

@@ -9,17 +9,19 @@ when K is symmetric), which is exact and cheaper.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as la
 
+from fkev_slepc.model.qep import GENERAL, LINEAR_SYMMETRIC, QEP
+from fkev_slepc.solve.acceptance import DenseQEP, check_pairs, pair_error
+from fkev_slepc.solve.modes import reported
 from fkev_slepc.solve.polish import polish_reported
-from fkev_slepc.solve.modes import check_pairs, reported
+from fkev_slepc.solve.protocol import EigenSolution
 from fkev_slepc.solve.stability import check_divergence
-from fkev_slepc.model.qep import GENERAL, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
+from fkev_slepc.solve.thresholds import IMAG_TOL, SolveSettings
 
 
 def _lambda_from_mu(mu: np.ndarray) -> np.ndarray:
@@ -84,11 +86,11 @@ def symmetric_low_modes(M: np.ndarray, K: np.ndarray, eigvals_only: bool = False
     return (la.eigh(K, M, eigvals_only=True), None) if eigvals_only else la.eigh(K, M)
 
 
-def as_dense(qep: QEP) -> QEP:
+def as_dense(qep: QEP) -> DenseQEP:
     """``qep`` with numpy arrays (pair errors and certificates of small models without sparse
-    overhead, which cost more than the solve at thesis size); K_s stays factored."""
+    overhead, which cost more than the solve at thesis size)."""
     C = None if qep.damping is None else qep.damping.toarray()
-    return replace(qep, mass=qep.mass.toarray(), damping=C, stiffness=qep.stiffness.toarray())
+    return DenseQEP(qep.mass.toarray(), C, qep.stiffness.toarray(), qep.kind)
 
 
 def _spectrum(M: np.ndarray, C: np.ndarray | None, K: np.ndarray, kind: str, hint=None):
@@ -177,11 +179,11 @@ def _start(n: int) -> np.ndarray:
     return rng.uniform(0.5, 1.5, (_N_START, n)) * np.exp(2j * np.pi * rng.uniform(size=(_N_START, n)))
 
 
-def _vector_pairs(lam: np.ndarray, n_modes: int) -> np.ndarray:
+def _vector_pairs(lam: np.ndarray, n_modes: int, imag_tol: float = IMAG_TOL) -> np.ndarray:
     """Indices of the pairs whose eigenvectors a point needs: the ones it reports
     (:func:`modes.reported`: the ``n_modes`` lowest oscillatory ones and every real one), the
     only ones :func:`polish.polish_reported` polishes."""
-    osc, is_real = reported(lam, max(n_modes, 1))
+    osc, is_real = reported(lam, max(n_modes, 1), imag_tol)
     return np.concatenate([osc, np.flatnonzero(is_real & np.isfinite(lam))])
 
 
@@ -203,7 +205,7 @@ class _Spectrum(NamedTuple):
     d: np.ndarray
 
 
-def _balanced_spectrum(q: QEP, hint) -> _Spectrum:
+def _balanced_spectrum(q: DenseQEP, hint) -> _Spectrum:
     d = balance(q.mass, q.stiffness)
     C = None if q.damping is None else d[:, None] * q.damping * d
     lam, method, (s, Ms, Cs, Ks), V = _spectrum(d[:, None] * q.mass * d, C, d[:, None] * q.stiffness * d, q.kind, hint)
@@ -247,8 +249,8 @@ def _eigenvectors(parts: list, used: list) -> list:
 def _pair_errors(dense: list, parts: list, X: list, used: list) -> list:
     """Each problem's pair errors (NaN where no vector), all problems' pairs in one evaluation."""
     counts = [u.size for u in used]
-    q = QEP(*(_per_pair([getattr(q, m) for q in dense], counts) for m in ("mass", "damping", "stiffness")),
-            dense[0].kind if len(dense) == 1 else GENERAL)
+    q = DenseQEP(*(_per_pair([getattr(q, m) for q in dense], counts) for m in ("mass", "damping", "stiffness")),
+                 dense[0].kind if len(dense) == 1 else GENERAL)
     lam = np.concatenate([p.lam[u] for p, u in zip(parts, used)])
     cols = np.concatenate([x[:, u] for x, u in zip(X, used)], axis=1)
     flat = pair_error(q, lam, cols)
@@ -277,12 +279,21 @@ class DenseEngine:
     Every path solves a diagonally balanced problem (:func:`balance`) in an inverted variable,
     so the low modes are the *largest* eigenvalues LAPACK computes (docs/numerical-stability.md).
     Eigenvectors (and pair errors) only of the pairs a point reports (:func:`null_vectors`).
+    Implements :class:`~fkev_slepc.solve.protocol.Engine`; ``settings`` are the thresholds
+    (default: the code defaults; ``max_pair_error`` overrides theirs).
     """
 
     name = "dense"
 
-    def __init__(self, max_pair_error: float = MAX_PAIR_ERROR):
-        self.max_pair_error = float(max_pair_error)
+    def __init__(self, settings: SolveSettings | None = None, *, max_pair_error: float | None = None):
+        settings = SolveSettings() if settings is None else settings
+        if max_pair_error is not None:
+            settings = settings.replace(max_pair_error=float(max_pair_error))
+        self.solve_settings = settings
+
+    @property
+    def max_pair_error(self) -> float:
+        return self.solve_settings.max_pair_error
 
     def solve(self, qep: QEP, n_modes: int = 0, want_vectors: bool = False, hint=None) -> EigenSolution:
         """Every eigenvalue of ``qep``; eigenvectors (and pair errors) of the pairs a point
@@ -302,26 +313,29 @@ class DenseEngine:
         return self._solve_all(qeps, n_modes, want_vectors, hints)
 
     def _solve_all(self, qeps: list, n_modes: int, want_vectors: bool, hints: list) -> list:
+        st = self.solve_settings
         dense = [as_dense(q) for q in qeps]
         parts = [_balanced_spectrum(q, h) for q, h in zip(dense, hints)]
-        used = [_vector_pairs(p.lam, n_modes) for p in parts]
+        used = [_vector_pairs(p.lam, n_modes, st.imag_tol) for p in parts]
         X = _eigenvectors(parts, used)
         errors = _pair_errors(dense, parts, X, used)
         definite = _sym_definite(dense) if len(dense) > 1 else [None]
         out = []
         for qep, q, p, x, err, pd in zip(qeps, dense, parts, X, errors, definite):
-            lam, x, err = polish_reported(qep, p.lam, x, err, n_modes)  # beyond the assembled K's round-off
+            # beyond the assembled K's round-off
+            lam, x, err, note = polish_reported(qep, p.lam, x, err, n_modes, st)
             # LAPACK always "converges"; the pairs still have to satisfy the QEP (the same check
             # as the SLEPc engine's: on over-refined meshes the assembled K no longer determines them).
-            msg = check_pairs(q, lam, x, err, max(n_modes, 1), self.max_pair_error)[1]
+            msg = "; ".join(m for m in (note, check_pairs(q, lam, x, err, max(n_modes, 1), st)[1]) if m)
             # The whole spectrum is at hand: the divergence check uses it when no certificate decides.
-            verdict = check_divergence(q, spectrum=lam, sym_definite=pd)
-            out.append(EigenSolution(lam, err, x if want_vectors else None, not msg, p.method, msg, verdict))
+            verdict = check_divergence(q, spectrum=lam, sym_definite=pd, imag_tol=st.imag_tol)
+            out.append(EigenSolution(lam, err, x if want_vectors else None, not msg, p.method, msg, verdict,
+                                     st.imag_tol))
         return out
 
     def settings(self) -> dict:
         return {"engine": "dense", "method": "LAPACK (scipy.linalg): eigh / eig / QZ of a scaled reversed companion",
-                "max_pair_error": self.max_pair_error}
+                "max_pair_error": self.max_pair_error, "thresholds": self.solve_settings.as_dict()}
 
     def close(self) -> None:
         pass

@@ -1,7 +1,8 @@
 """Choosing an eigen-engine (``--solver auto|slepc|dense``) and cross-checking the two.
 
-Both engines follow one protocol: ``solve(qep, n_modes, want_vectors=False, hint=None) ->
-EigenSolution``, ``settings() -> dict``, ``close()``, ``name``. ``auto`` picks by model size:
+Every engine implements :class:`~fkev_slepc.solve.protocol.Engine` (``solve``, ``solve_many``,
+``settings``, ``close``, ``name``, ``solve_settings``, ``max_pair_error``) and decides with the
+run's :class:`~fkev_slepc.solve.thresholds.SolveSettings`. ``auto`` picks by model size:
 below :data:`CROSSOVER_N_FREE` free DOFs LAPACK's dense QZ (all 2n eigenvalues) costs less per
 point than a sparse factorization plus a Krylov solve; above it SLEPc wins, by a margin that
 grows like n³ (measured by ``scripts/bench_crossover.py``; numbers in docs/engine.md).
@@ -12,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from fkev_slepc.model.qep import QEP
+from fkev_slepc.solve.protocol import EigenSolution, Engine
+from fkev_slepc.solve.thresholds import SolveSettings, max_pair_error_option
 
 METHODS = ("auto", "slepc", "dense")
 
@@ -20,7 +23,15 @@ METHODS = ("auto", "slepc", "dense")
 CROSSOVER_N_FREE = 24
 
 
-def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = CROSSOVER_N_FREE, **slepc_kw):
+def engine_kind(method: str, n_free: int, crossover: int = CROSSOVER_N_FREE) -> str:
+    """``"dense"`` or ``"slepc"``: the engine ``method`` means for a model of ``n_free`` DOFs."""
+    if method not in METHODS:
+        raise ValueError(f"solver method must be one of {', '.join(METHODS)} (got {method!r})")
+    return "dense" if method == "dense" or (method == "auto" and n_free < crossover) else "slepc"
+
+
+def make_engine(method: str, n_free: int, petsc_options=(), *, settings: SolveSettings | None = None,
+                crossover: int = CROSSOVER_N_FREE, max_pair_error: float | None = None) -> Engine:
     """The engine for ``method`` and a model of ``n_free`` DOFs.
 
     Parameters
@@ -30,21 +41,26 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
     n_free : int
         Free DOFs of the model.
     petsc_options : iterable of (name, value)
-        The scene's ``[solver.petsc]`` table (used by the SLEPc engine only).
+        The scene's ``[solver.petsc]`` table (PETSc options: the SLEPc engine's; ``max_pair_error``:
+        every engine's).
+    settings : SolveSettings, optional
+        The run's thresholds (:meth:`SolveSettings.from_scene`); default the code defaults.
     crossover : int
         Model size from which ``auto`` uses SLEPc.
-    **slepc_kw
-        Passed to :class:`~fkev_slepc.solve.slepc.SlepcEngine` (e.g. ``max_pair_error``).
+    max_pair_error : float, optional
+        Code default of ``max_pair_error`` (the options override it).
 
     Returns
     -------
-    engine
+    Engine
         A :class:`~fkev_slepc.solve.dense.DenseEngine` or :class:`~fkev_slepc.solve.slepc.SlepcEngine`.
 
     Raises
     ------
     SceneError
-        When PETSc/SLEPc reject the options (scene ``[solver.petsc]`` or ``-fkev_...``).
+        When PETSc/SLEPc reject the options (scene ``[solver.petsc]`` or ``-fkev_...``): checked
+        for the dense engine too (a misspelt option is an error whichever engine runs), without
+        building a SLEPc engine, and without PETSc at all when no PETSc option was given.
 
     Examples
     --------
@@ -54,57 +70,50 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, crossover: int = 
     >>> engine.name                                  # doctest: +SKIP
     'slepc'
     """
-    if method not in METHODS:
-        raise ValueError(f"solver method must be one of {', '.join(METHODS)} (got {method!r})")
-    if method == "dense" or (method == "auto" and n_free < crossover):
+    settings = SolveSettings() if settings is None else settings
+    if engine_kind(method, n_free, crossover) == "dense":
         from fkev_slepc.solve.dense import DenseEngine
 
-        check_petsc_options(petsc_options)  # a misspelt option is an error whichever engine runs
-        return DenseEngine(_max_pair_error(petsc_options, slepc_kw.get("max_pair_error")))
-    return _slepc_engine(petsc_options, **slepc_kw)
+        check_petsc_options(petsc_options)
+        code = settings.max_pair_error if max_pair_error is None else max_pair_error
+        return DenseEngine(settings.replace(max_pair_error=max_pair_error_option(petsc_options, code)))
+    return _slepc_engine(petsc_options, max_pair_error=max_pair_error, settings=settings)
 
 
-def _slepc_engine(petsc_options, **slepc_kw):
+def _slepc_engine(petsc_options, **kw):
     from fkev_slepc.solve.slepc import OptionsError, SlepcEngine  # imports PETSc: only now, after the CLI initialised it
     from fkev_slepc.scene import Problem, SceneError
 
     try:
-        return SlepcEngine(petsc_options, **slepc_kw)
+        return SlepcEngine(petsc_options, **kw)
     except OptionsError as err:  # reported like any bad scene value (exit code 2), not a traceback
         raise SceneError("PETSc options", [Problem(p, m) for p, m in err.problems]) from None
 
 
 def check_petsc_options(petsc_options=()) -> None:
     """Raise SceneError when PETSc/SLEPc reject the options or some option is read by no solver
-    object (a misspelt name: PETSc itself would ignore it). Builds and destroys a SLEPc engine."""
-    _slepc_engine(petsc_options).close()
-
-
-def _max_pair_error(petsc_options, explicit) -> float:
-    """``max_pair_error`` for the dense engine, with the SLEPc engine's precedence:
-    command line (-fkev_max_pair_error) > scene [solver.petsc] > code default."""
+    object (a misspelt name: PETSc itself would ignore it). Only fkev's own options given (or
+    none): nothing to check, PETSc is not even imported. Otherwise the solver objects are
+    configured with the options and destroyed (solve/slepc.py ``check_options``)."""
     from fkev_slepc.solve.petsc_init import command_line_options
-    from fkev_slepc.model.qep import MAX_PAIR_ERROR
+
+    fkev_keys = {"max_pair_error"}
+    scene = [k for k, _ in petsc_options if str(k).lstrip("-").removeprefix("fkev_") not in fkev_keys]
+    argv = command_line_options()
+    cmd = [t for i, t in enumerate(argv) if t.startswith("-") and t.lstrip("-").removeprefix("fkev_") not in fkev_keys
+           and not (i > 0 and argv[i - 1].lstrip("-").removeprefix("fkev_") in fkev_keys)]
+    if not scene and not cmd:
+        return
+    from fkev_slepc.solve.slepc_options import OptionsError, check_options
     from fkev_slepc.scene import Problem, SceneError
 
-    value, source = (MAX_PAIR_ERROR, "default") if explicit is None else (explicit, "code")
-    scene = {k.removeprefix("-").removeprefix("fkev_"): v for k, v in dict(petsc_options).items()}
-    if "max_pair_error" in scene:
-        value, source = scene["max_pair_error"], "solver.petsc.max_pair_error"
-    argv = command_line_options()
-    for i, tok in enumerate(argv[:-1]):
-        if tok in ("-fkev_max_pair_error", "--fkev_max_pair_error"):
-            value, source = argv[i + 1], "-fkev_max_pair_error"
     try:
-        out = float(value)
-    except ValueError:
-        out = float("nan")
-    if not out > 0:
-        raise SceneError("PETSc options", [Problem(source, f"must be a number > 0 (got {value!r})")])
-    return out
+        check_options(petsc_options)
+    except OptionsError as err:
+        raise SceneError("PETSc options", [Problem(p, m) for p, m in err.problems]) from None
 
 
-def frequencies(engine, qep: QEP, n_modes: int) -> np.ndarray:
+def frequencies(engine: Engine, qep: QEP, n_modes: int) -> np.ndarray:
     """The ``n_modes`` lowest frequencies (Hz) one engine finds (NaN where it found fewer)."""
     from fkev_slepc.solve.modes import postprocess
 
@@ -119,7 +128,7 @@ def relative_difference(f_a: np.ndarray, f_b: np.ndarray) -> float:
     return float(np.inf) if not np.all(np.isfinite(diff)) else float(diff.max())
 
 
-def cross_check(qep: QEP, n_modes: int, petsc_options=()) -> float:
+def cross_check(qep: QEP, n_modes: int, petsc_options=(), settings: SolveSettings | None = None) -> float:
     """Largest relative difference of the ``n_modes`` lowest frequencies, SLEPc vs dense QZ.
 
     Examples
@@ -130,12 +139,13 @@ def cross_check(qep: QEP, n_modes: int, petsc_options=()) -> float:
     from fkev_slepc.solve.dense import DenseEngine
     from fkev_slepc.solve.slepc import SlepcEngine
 
-    slepc = SlepcEngine(petsc_options)
+    settings = SolveSettings() if settings is None else settings
+    slepc = SlepcEngine(petsc_options, settings=settings)
     try:
         f_slepc = frequencies(slepc, qep, n_modes)
     finally:
         slepc.close()
-    return relative_difference(f_slepc, frequencies(DenseEngine(), qep, n_modes))
+    return relative_difference(f_slepc, frequencies(DenseEngine(settings), qep, n_modes))
 
 
 class CrossCheckEngine:
@@ -144,26 +154,38 @@ class CrossCheckEngine:
     The results returned (and archived) are the primary engine's; ``max_rel_diff`` is the
     largest relative frequency difference seen so far (over points where both converged),
     ``n_points`` how many points were compared and ``n_skipped`` how many were not (one side
-    did not converge: that point's status already says so).
+    did not converge: that point's status already says so). Implements
+    :class:`~fkev_slepc.solve.protocol.Engine` with the primary's thresholds.
     """
 
-    def __init__(self, primary, other):
+    def __init__(self, primary: Engine, other: Engine):
         self.primary, self.other = primary, other
         self.name = primary.name
+        self.solve_settings = primary.solve_settings
         self.max_rel_diff, self.n_points, self.n_skipped = 0.0, 0, 0
 
-    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint=None):
+    @property
+    def max_pair_error(self) -> float:
+        return self.primary.max_pair_error
+
+    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint=None) -> EigenSolution:
+        return self.solve_many([qep], n_modes, want_vectors, [hint])[0]
+
+    def solve_many(self, qeps: list, n_modes: int, want_vectors: bool = False, hints=None) -> list[EigenSolution]:
+        sols = self.primary.solve_many(qeps, n_modes, want_vectors, hints)
+        for sol, ref in zip(sols, self.other.solve_many(qeps, n_modes, False, hints)):
+            self._compare(sol, ref, n_modes)
+        return sols
+
+    def _compare(self, sol: EigenSolution, ref: EigenSolution, n_modes: int) -> None:
         from fkev_slepc.solve.modes import postprocess
 
-        sol = self.primary.solve(qep, n_modes, want_vectors=want_vectors, hint=hint)
-        ref = self.other.solve(qep, n_modes, hint=hint)
         if sol.converged and ref.converged:
             d = relative_difference(postprocess(sol, n_modes).frequency_hz, postprocess(ref, n_modes).frequency_hz)
             self.max_rel_diff = max(self.max_rel_diff, d)
             self.n_points += 1
         else:
             self.n_skipped += 1
-        return sol
 
     def settings(self) -> dict:
         out = dict(self.primary.settings())
@@ -176,8 +198,9 @@ class CrossCheckEngine:
         self.other.close()
 
 
-def make_cross_check_engine(method: str, n_free: int, petsc_options=()) -> CrossCheckEngine:
+def make_cross_check_engine(method: str, n_free: int, petsc_options=(), *,
+                            settings: SolveSettings | None = None) -> CrossCheckEngine:
     """``make_engine(method, ...)`` paired with the other kind of engine."""
-    primary = make_engine(method, n_free, petsc_options)
+    primary = make_engine(method, n_free, petsc_options, settings=settings)
     other_method = "slepc" if primary.name == "dense" else "dense"
-    return CrossCheckEngine(primary, make_engine(other_method, n_free, petsc_options))
+    return CrossCheckEngine(primary, make_engine(other_method, n_free, petsc_options, settings=settings))

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.model.qep import MAX_FLOOR_RATIO, EigenSolution, pair_error_floor
+from fkev_slepc.solve.protocol import EigenSolution
+from fkev_slepc.solve.thresholds import IMAG_TOL
 from fkev_slepc.scene import DAMPING_TOL
 from fkev_slepc.status import Status
 
@@ -21,7 +22,7 @@ from fkev_slepc.status import Status
 class PointResult:
     eigenvalue: np.ndarray  # complex (n_modes,), NaN where fewer modes were found
     frequency_hz: np.ndarray  # (n_modes,)
-    residual: np.ndarray  # (n_modes,) qep.pair_error of each mode
+    residual: np.ndarray  # (n_modes,) acceptance.pair_error of each mode
     max_real: float  # max Re λ over the reported modes and the located real eigenvalues (NaN if none)
     divergent: np.ndarray  # the positive real eigenvalues located (1/s)
     status: Status
@@ -38,8 +39,8 @@ class PointResult:
         return float(np.nanmin(z)) if z is not None and np.any(np.isfinite(z)) else float("nan")
 
 
-# hoisted: np.finfo costs microseconds per call, and reported() and check_pairs() run per point
-_TINY, _EPS = np.finfo(float).tiny, np.finfo(float).eps
+# hoisted: np.finfo costs microseconds per call, and reported() runs several times per point
+_TINY = np.finfo(float).tiny
 CNAN = complex(np.nan, np.nan)  # a missing eigenvalue: NaN in both parts (NaN + 0j has Im = 0)
 
 
@@ -52,7 +53,7 @@ def failed(n_modes: int, message: str, solver: str = "") -> PointResult:
 def postprocess(
     sol: EigenSolution,
     n_modes: int,
-    imag_tol: float = 1e-9,
+    imag_tol: float | None = None,
     damping_tol: float = DAMPING_TOL,
     want_shapes: bool = False,
 ) -> PointResult:
@@ -60,12 +61,18 @@ def postprocess(
 
     Status: convergence first; then ``divergent`` from the whole-spectrum verdict
     (``sol.divergence``; without one, from the real eigenvalues among those computed);
-    then ``unstable`` if a reported mode has ζ < -damping_tol; else ``ok``.
+    then ``unstable`` if a reported mode has ζ < -damping_tol; else ``ok``. ``imag_tol`` is
+    the one the engine decided with (``sol.imag_tol``; another one given is an error), so that
+    the modes selected here and the engine's divergence verdict and acceptance agree on what is real.
     """
     from fkev_slepc.solve.stability import damping_ratio, real_positive
 
     lam = np.asarray(sol.eigenvalues, dtype=complex)
     err = np.asarray(sol.errors, dtype=float)
+    if imag_tol is not None and imag_tol != sol.imag_tol:  # the verdict and acceptance used the engine's
+        raise ValueError(f"imag_tol {imag_tol:g} differs from the {sol.imag_tol:g} the engine decided with "
+                         "(build the engine with the same SolveSettings)")
+    imag_tol = sol.imag_tol
     osc, _ = reported(lam, n_modes, imag_tol)
     k = osc.size
 
@@ -102,47 +109,13 @@ def postprocess(
     return PointResult(eig, freq, res, max_real, real_pos, status, msg, shapes, sol.solver, zeta, check)
 
 
-def reported(lam: np.ndarray, n_modes: int, imag_tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+def reported(lam: np.ndarray, n_modes: int, imag_tol: float = IMAG_TOL) -> tuple[np.ndarray, np.ndarray]:
     """What a point reports: indices of the ``n_modes`` lowest oscillatory eigenvalues
     (Im λ > 0, sorted by Im λ) and the mask of real (divergence) eigenvalues."""
     lam = np.asarray(lam, dtype=complex)
     is_real = np.abs(lam.imag) <= imag_tol * np.maximum(np.abs(lam), _TINY)
     osc = np.flatnonzero(~is_real & (lam.imag > 0))
     return osc[np.argsort(lam.imag[osc], kind="stable")][:n_modes], is_real
-
-
-def check_pairs(qep, lam: np.ndarray, X: np.ndarray, err: np.ndarray, n_modes: int,
-                max_pair_error: float) -> tuple[float, str]:
-    """The acceptance test of both engines: (largest reported pair error, '' or why the pairs fail).
-
-    A point's reported pairs (the ``n_modes`` lowest frequencies and every real eigenvalue) must
-    have pair error ≤ ``max_pair_error`` *and* ≤ ``MAX_FLOOR_RATIO`` times what one-ulp changes
-    of the matrices explain (:func:`~fkev_slepc.model.qep.pair_error_floor`): accurate to their
-    conditioning (docs/numerical-stability.md). The floor is at least ε (‖|A||x|‖ ≥ ‖Ax‖), so
-    pairs with error ≤ ``MAX_FLOOR_RATIO``·ε pass without computing it (most pairs, at a
-    fair share of a small model's solve).
-    """
-    osc, is_real = reported(lam, n_modes)
-    used = np.concatenate([osc, np.flatnonzero(is_real)])
-    worst = float(np.asarray(err)[used].max()) if used.size else np.inf
-    msg = untrustworthy(worst, max_pair_error)
-    if not msg:
-        suspect = used[np.asarray(err)[used] > 0.5 * MAX_FLOOR_RATIO * _EPS]  # 0.5: the floor's own rounding
-        ratio = 0.0
-        if suspect.size:
-            ratio = float(np.max(np.asarray(err)[suspect] / pair_error_floor(qep, lam[suspect], X[:, suspect])))
-        if ratio > MAX_FLOOR_RATIO:
-            msg = (f"pair error {worst:.1e} is {ratio:.1e} times what one-ulp changes of the matrices explain "
-                   f"(> {MAX_FLOOR_RATIO:g}): eigenpairs less accurate than their conditioning allows")
-    return worst, msg
-
-
-def untrustworthy(worst: float, max_pair_error: float) -> str:
-    """Message for a solve whose reported pairs fail the pair-error check ('' if they pass)."""
-    if worst <= max_pair_error:
-        return ""
-    return (f"pair error {worst:.1e} > max_pair_error {max_pair_error:g}: eigenpairs not trustworthy"
-            " (with -fkev_pep_type other than toar, try toar; on a very fine mesh, use fewer elements)")
 
 
 def normalize_shapes(X: np.ndarray) -> np.ndarray:

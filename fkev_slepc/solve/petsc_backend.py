@@ -272,6 +272,7 @@ def unknown_option_problems(scene_keys: Iterable[str], cmdline: Iterable[str], k
             return
         close = difflib.get_close_matches(key, sorted(valid), n=1, cutoff=0.8)
         hint = f"did you mean {close[0]}?" if close else "misspelt, or meant for another solver type"
+        hint = _HINTS.get(key, hint)
         out.append((path, f"unknown PETSc/SLEPc option: no solver object reads it ({hint})"))
 
     for name in scene_keys:
@@ -285,6 +286,13 @@ def unknown_option_problems(scene_keys: Iterable[str], cmdline: Iterable[str], k
         elif bare.startswith(_SOLVER_FAMILIES):
             out.append((tok, f"fkev's solver options carry the prefix {PREFIX} (did you mean -{PREFIX}{bare}?)"))
     return out
+
+
+_HINTS = {  # options users try that SLEPc spells otherwise
+    "pep_problem_type": f"SLEPc sets it by a flag; fkev lets you force only -{PREFIX}pep_general",
+    "eps_problem_type": f"SLEPc sets it by a flag; fkev lets you force only -{PREFIX}eps_gen_non_hermitian "
+                        f"or -{PREFIX}eps_pos_gen_non_hermitian",
+}
 
 
 def _is_number(tok: str) -> bool:

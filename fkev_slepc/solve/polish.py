@@ -10,7 +10,7 @@ polished by residual inverse iteration (Neumaier 1985),
 with σ the engine's eigenvalue and P(σ) factored once (scipy's SuperLU, complex). The factored
 P(σ) only has to be a contraction; the accuracy comes from the residual P(λ)x and the stiffness
 form xᴴKx, both evaluated with K_s kept factored (model/energy.py: element strains first). The
-pair error of a polished pair is :func:`~fkev_slepc.model.qep.polished_pair_error`: the size of
+pair error of a polished pair is :func:`~fkev_slepc.solve.acceptance.polished_pair_error`: the size of
 the step a further iteration would take (O(1) for a wrong pair, ~ε·n_el² for a right one).
 """
 
@@ -20,36 +20,26 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from fkev_slepc.model.qep import QEP, pair_error_floor, polished_pair_error, staged_products, staged_residual
+from fkev_slepc.model.qep import QEP
+from fkev_slepc.solve.acceptance import pair_error_floor, polished_pair_error, staged_products, staged_residual
+from fkev_slepc.solve.thresholds import SolveSettings
 
-# Pairs whose plain pair_error is below this are left as the engine returned them. Measured on
-# Bahgat-Willmert (docs/accuracy.md §2): the frequency error the round-off causes is ~4e-3 of the
-# pair error (η 3e-8 -> 1e-10 at 64 elements per link, 3e-3 -> 7e-6 at 1,024), so below 1e-8
-# the floor is under ~1e-10 and a polish (an LU per mode) would cost more than the solve.
-POLISH_ABOVE = 1e-8
-# ... or above this multiple of their one-ulp floor (SLEPc engine only). Measured with heavy
-# lumped masses at B (scripts/stress.py conditioning): TOAR's pairs with pair error below 1e-8
-# had up to 9.5e5 times their floor and frequencies up to 1,560x the conditioning floor off the
-# Newton-refined ones; polished, within 3x. Refined meshes' right pairs stay below 10x.
-POLISH_RATIO = 100.0
-MAX_STEPS = 8
-STEP_TOL = 1e-13
-MAX_RESTARTS = 3  # new factorizations at the improved λ when one shift stalls (polish_pair)
+_DEFAULT = SolveSettings()
 
 
 def _quadratic_root(x: np.ndarray, products, near: complex) -> complex:
     """The root nearest ``near`` of xᴴ(λ²M + λC + K)x = 0 (``products``: x's
-    :func:`~fkev_slepc.model.qep.staged_products`)."""
+    :func:`~fkev_slepc.solve.acceptance.staged_products`)."""
     _, Mx, Cx, xKx = products
     roots = np.roots([np.vdot(x, Mx), 0.0 if Cx is None else np.vdot(x, Cx), xKx])
     return complex(roots[np.argmin(np.abs(roots - near))])
 
 
-def polish_pair(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray, float]:
+def polish_pair(qep: QEP, lam: complex, x: np.ndarray, settings: SolveSettings = _DEFAULT) -> tuple[complex, np.ndarray, float]:
     """One eigenpair polished by residual inverse iteration; returns (λ, x, pair error).
 
-    When the iteration stalls above :data:`POLISH_ABOVE`, P is factored again at the improved λ,
-    up to :data:`MAX_RESTARTS` times. Measured on Bahgat-Willmert with 4,000 cubic elements per
+    When the iteration stalls above ``settings.polish_above``, P is factored again at the improved
+    λ, up to ``settings.polish_max_restarts`` times. Measured on Bahgat-Willmert with 4,000 cubic elements per
     link (60,000 DOFs, θ = 10°, Ω = 1000 rad/s, full): TOAR's f₁ pair had pair error 0.12; one
     factorization, stopping when a step shrank by less than 0.3, left 5.8e-4 and f₁ 6.8e-6 off
     (flagged not_converged); going on while steps shrink by 0.9 and refactoring gives 5.5e-9 and
@@ -62,21 +52,21 @@ def polish_pair(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndar
     """
     x = np.asarray(x, dtype=complex).ravel()
     x = x / x[np.argmax(np.abs(x))]
-    for _ in range(1 + MAX_RESTARTS):
-        lam, x, err = _iterate(qep, lam, x)
-        if err <= POLISH_ABOVE:
+    for _ in range(1 + settings.polish_max_restarts):
+        lam, x, err = _iterate(qep, lam, x, settings)
+        if err <= settings.polish_above:
             break
     return lam, x, err
 
 
-def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray, float]:
+def _iterate(qep: QEP, lam: complex, x: np.ndarray, settings: SolveSettings) -> tuple[complex, np.ndarray, float]:
     """Residual inverse iteration with P(σ) factored once at σ = ``lam``."""
     P = qep.stiffness + lam * lam * qep.mass
     if qep.damping is not None:
         P = P + lam * qep.damping
     lu = spla.splu(sp.csc_matrix(P, dtype=complex))
     prev = np.inf
-    for _ in range(MAX_STEPS):
+    for _ in range(settings.polish_max_steps):
         products = staged_products(qep, x)  # each computed once per step
         lam = _quadratic_root(x, products, lam)
         x_new = x - lu.solve(staged_residual(products, lam))
@@ -85,7 +75,7 @@ def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray
         x = x_new
         # converged, or no longer contracting (noise level). A slow contraction goes on: on very
         # fine meshes the LU of P(σ) is itself only a few digits good and contracts by ~0.5/step
-        if step < STEP_TOL or step > 0.9 * prev:
+        if step < settings.polish_step_tol or step > 0.9 * prev:
             break
         prev = step
     products = staged_products(qep, x)
@@ -93,34 +83,69 @@ def _iterate(qep: QEP, lam: complex, x: np.ndarray) -> tuple[complex, np.ndarray
     return lam, x, float(polished_pair_error(qep, lam, x, lu.solve, products))
 
 
-def polish(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray, which: np.ndarray):
-    """Polish the pairs ``which`` (indices into ``lam``); returns new (lam, X, errors).
+def polish(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray, which: np.ndarray,
+           settings: SolveSettings = _DEFAULT):
+    """Polish the pairs ``which`` (indices into ``lam``); returns new (lam, X, errors, note).
 
     The conjugate partner of a polished pair (a real QEP's eigenvalues come in pairs) gets the
-    conjugate value. A pair whose polish fails keeps the engine's values and error.
+    conjugate value. A pair whose polish fails keeps the engine's values and error. A polish is a
+    refinement, not a search: a pair that moved more than ``settings.polish_max_move`` (relative
+    to |λ|) keeps the engine's values, and pairs polished onto one mode (eigenvalues within
+    1e-6 and vectors with MAC > ``settings.duplicate_mac``) are flagged; ``note`` says so ('' if
+    neither happened), for the engine to mark the point not converged.
     """
     lam, X, errors = lam.astype(complex), X.astype(complex), np.asarray(errors, dtype=float).copy()
-    for j in np.asarray(which, dtype=int):
+    start = lam.copy()
+    which = np.asarray(which, dtype=int)
+    notes = []
+    for j in which:
         try:
-            new, x, err = polish_pair(qep, lam[j], X[:, j])
+            new, x, err = polish_pair(qep, lam[j], X[:, j], settings)
         except RuntimeError:
+            continue
+        move = abs(new - start[j]) / max(abs(start[j]), abs(new))
+        if not move <= settings.polish_max_move:  # NaN too
+            notes.append(f"the polish moved an eigenvalue from {start[j]:.6g} to {new:.6g} 1/s (relative "
+                         f"{move:.1e} > {settings.polish_max_move:g}): the engine's pair kept")
             continue
         partner = np.argmin(np.abs(lam - np.conj(lam[j])))
         if partner != j and abs(lam[partner] - np.conj(lam[j])) <= 1e-6 * abs(lam[j]):
             lam[partner], X[:, partner], errors[partner] = np.conj(new), x.conj(), err
         lam[j], X[:, j], errors[j] = new, x, err
-    return lam, X, errors
+    dup = _collapsed(lam, X, which, settings.duplicate_mac)
+    if dup:
+        notes.append(dup)
+    return lam, X, errors, "; ".join(dict.fromkeys(notes))
+
+
+def _collapsed(lam: np.ndarray, X: np.ndarray, which: np.ndarray, max_mac: float) -> str:
+    """'' or why two of the pairs ``which`` are one pair: (nearly) equal eigenvalues whose
+    vectors are parallel (MAC > ``max_mac``). Independent vectors of a double eigenvalue pass."""
+    from fkev_slepc.solve.modes import mac
+
+    if which.size < 2:
+        return ""
+    lw, xw = lam[which], X[:, which]
+    same = np.abs(lw[:, None] - lw[None, :]) <= 1e-6 * np.abs(lw)[:, None]
+    m = np.triu(np.where(same, mac(xw, xw), 0.0), 1)
+    i, j = np.unravel_index(np.argmax(m), m.shape)
+    if not m[i, j] > max_mac:
+        return ""
+    return (f"two polished pairs converged onto one eigenpair ({lw[i]:.6g} 1/s, MAC {m[i, j]:.4f}): "
+            "a mode reported twice, eigenpairs not trustworthy")
 
 
 def polish_reported(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray, n_modes: int,
-                    ratio_above: float | None = None):
+                    settings: SolveSettings = _DEFAULT, by_floor: bool = False):
     """Polish the pairs a point reports (the ``n_modes`` lowest frequencies and the real
-    eigenvalues) that ask for it; every engine calls this before its pair-error check.
+    eigenvalues, real by ``settings.imag_tol``) that ask for it; every engine calls this before
+    its pair-error check. Returns (lam, X, errors, note): ``note`` is '' or why the polish
+    could not be trusted (:func:`polish`).
 
-    A reported pair is polished when its plain pair error exceeds :data:`POLISH_ABOVE` or, with
-    ``ratio_above``, exceeds that multiple of what one-ulp changes of the matrices explain
-    (:func:`~fkev_slepc.model.qep.pair_error_floor`; the SLEPc engine passes
-    :data:`POLISH_RATIO`). When a reported frequency is polished all of them are: an unpolished
+    A reported pair is polished when its plain pair error exceeds ``settings.polish_above`` or,
+    with ``by_floor``, exceeds ``settings.polish_ratio`` times what one-ulp changes of the
+    matrices explain (:func:`~fkev_slepc.solve.acceptance.pair_error_floor`; the SLEPc engine
+    asks for it). When a reported frequency is polished all of them are: an unpolished
     one carries a spurious real part of the size of its round-off (measured: 2.2e-4 1/s on a
     gyroscopic Bahgat-Willmert point at 2,000 elements per link, whose true real parts are 0),
     and ζ and max Re λ, the stability verdict, are taken over the reported modes and the real
@@ -137,18 +162,19 @@ def polish_reported(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray
     from fkev_slepc.solve.modes import reported
 
     if X is None or qep.staged is None:
-        return lam, X, errors
+        return lam, X, errors, ""
     errors = np.asarray(errors, dtype=float)
-    if ratio_above is None and not np.any(errors > POLISH_ABOVE):  # NaN (no vector) compares False
-        return lam, X, errors  # the common case, decided before selecting pairs (per-point cost)
-    osc, is_real = reported(lam, max(n_modes, 1))
+    above = settings.polish_above
+    if not by_floor and not np.any(errors > above):  # NaN (no vector) compares False
+        return lam, X, errors, ""  # the common case, decided before selecting pairs (per-point cost)
+    osc, is_real = reported(lam, max(n_modes, 1), settings.imag_tol)
     used = np.concatenate([osc, np.flatnonzero(is_real)])
-    need = errors[used] > POLISH_ABOVE
-    if ratio_above is not None and used.size:
-        need |= errors[used] > ratio_above * pair_error_floor(qep, lam[used], X[:, used])
+    need = errors[used] > above
+    if by_floor and used.size:
+        need |= errors[used] > settings.polish_ratio * pair_error_floor(qep, lam[used], X[:, used])
     if not need.any():
-        return lam, X, errors
+        return lam, X, errors, ""
     which = used[need]
     if need[: osc.size].any():
         which = np.union1d(which, osc)
-    return polish(qep, lam, X, errors, which)
+    return polish(qep, lam, X, errors, which, settings)

@@ -22,7 +22,7 @@ Formulation (docs/theory.md §10):
 * ``linear_symmetric`` / ``linear`` (no C): EPS on K x = μ M x (GHEP / GNHEP), λ = ±sqrt(-μ):
   μ = ω² > 0 gives ±iω, μ < 0 a real pair (divergence).
 
-Every pair gets :func:`~fkev_slepc.model.qep.pair_error` (SLEPc's ``computeError`` reports ~1e-15 for
+Every pair gets :func:`~fkev_slepc.solve.acceptance.pair_error` (SLEPc's ``computeError`` reports ~1e-15 for
 wrong pairs on these stiff models). Every setting can be overridden under ``-fkev_``.
 """
 
@@ -32,38 +32,17 @@ import logging
 
 import numpy as np
 
-from fkev_slepc.solve.petsc_backend import (
-    PREFIX, OptionsError, OptionsManager, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name,
-    listing_options, positive_option, unknown_option_problems,
-)
-from fkev_slepc.solve.petsc_init import command_line_options
-from fkev_slepc.solve.polish import POLISH_RATIO, polish_reported
+from fkev_slepc.solve.petsc_backend import PREFIX, OptionsError, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name
+from fkev_slepc.solve.slepc_options import DEFAULTS, LU_PACKAGE, SLEPc, make_solver, check_options, configured  # noqa: F401
+from fkev_slepc.solve.polish import polish_reported
+from fkev_slepc.solve.acceptance import check_pairs, pair_error
 from fkev_slepc.solve.dense import all_eigenvalues, balanced
-from fkev_slepc.solve.modes import check_pairs
+from fkev_slepc.solve.protocol import EigenSolution
 from fkev_slepc.solve.stability import check_divergence
-from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, MAX_PAIR_ERROR, QEP, EigenSolution, pair_error
-
-from slepc4py import SLEPc  # noqa: E402  (PETSc is initialised by backend)
+from fkev_slepc.solve.thresholds import SolveSettings
+from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
 
 log = logging.getLogger(__name__)
-
-# Chosen by measurement (scripts/bench_large.py --lu, numbers in docs/engine.md): on refined
-# four-bar and cantilever models UMFPACK is as accurate as MUMPS (both best of five packages)
-# and about twice as fast per point; SuperLU loses digits on higher modes, KLU on the first,
-# PETSc's own LU does not pivot. All five agree to 1e-9 on the thesis meshes.
-LU_PACKAGE = "umfpack"
-
-# Code defaults (lowest precedence), option names without the prefix.
-DEFAULTS = {
-    "pep_type": "toar",
-    "pep_tol": "1e-14",
-    "eps_type": "krylovschur",
-    "eps_tol": "1e-12",
-    "st_type": "sinvert",
-    "st_ksp_type": "preonly",
-    "st_pc_type": "lu",
-    "st_pc_factor_mat_solver_type": LU_PACKAGE,
-}
 
 _SCALE_KEYS = {"pep_scale", "pep_scale_factor"}
 _SEED = 0x5EED
@@ -71,7 +50,7 @@ _MAX_RETRIES = 2  # enlarge nev when real (divergence) eigenvalues crowd out wan
 
 
 class SlepcEngine:
-    """SLEPc PEP/EPS engine (the engine protocol: ``solve``, ``settings``, ``close``, ``name``).
+    """SLEPc PEP/EPS engine (implements :class:`~fkev_slepc.solve.protocol.Engine`).
 
     Parameters
     ----------
@@ -81,8 +60,11 @@ class SlepcEngine:
     max_pair_error : float, optional
         Code default of the option ``-fkev_max_pair_error`` (an fkev option, not PETSc's; the
         command line and the scene's ``[solver.petsc]`` override it). A solution whose reported pairs (the ``n_modes`` lowest frequencies and the real
-        eigenvalues) have a larger :func:`~fkev_slepc.model.qep.pair_error` is returned with
+        eigenvalues) have a larger :func:`~fkev_slepc.solve.acceptance.pair_error` is returned with
         ``converged=False`` and a message, even when SLEPc counted it converged.
+    settings : SolveSettings, optional
+        The run's thresholds (:meth:`SolveSettings.from_scene`); its ``max_pair_error`` is the code
+        default of the option (which ``max_pair_error`` replaces when given).
 
     Examples
     --------
@@ -93,30 +75,20 @@ class SlepcEngine:
 
     name = "slepc"
 
-    def __init__(self, petsc_options=(), max_pair_error: float | None = None):
-        code = MAX_PAIR_ERROR if max_pair_error is None else max_pair_error
-        self._options = OptionsManager({**DEFAULTS, "max_pair_error": repr(float(code))}, petsc_options)
-        self._user = self._options.user_keys()
-        self._sources = self._options.sources()
-        self._values = self._options.effective_values()
-        self.max_pair_error = positive_option(self._values["max_pair_error"], "max_pair_error")
-        self._solvers: dict = {}  # problem kind (qep.KINDS) -> its own PEP or EPS
-        try:
-            # created now so that bad options (and option names no object reads) are reported before the first point
-            with listing_options() as known:
-                self._solver_for(GENERAL), self._solver_for(LINEAR_SYMMETRIC)
-        except PETSc.Error as err:  # e.g. a misspelt type in [solver.petsc] or on the command line
-            self.close()
-            chosen = ", ".join(f"{k} = {v!r}" for k, v in self._values.items() if k in self._user)
-            raise OptionsError(f"PETSc/SLEPc rejected the {PREFIX} options ({chosen or 'defaults'}): "
-                               f"{describe_error(err)}") from None
-        unknown = unknown_option_problems(self._options.scene_names, command_line_options(), known)
-        if unknown:  # PETSc would silently ignore them (and run with its defaults)
-            self.close()
-            raise OptionsError("; ".join(f"{p}: {m}" for p, m in unknown), problems=unknown)
+    def __init__(self, petsc_options=(), max_pair_error: float | None = None, settings: SolveSettings | None = None):
+        settings = SolveSettings() if settings is None else settings
+        code = settings.max_pair_error if max_pair_error is None else max_pair_error
+        cfg = configured(petsc_options, code)
+        self._options, self._user, self._sources, self._values = cfg.options, cfg.user, cfg.sources, cfg.values
+        self._solvers: dict = cfg.solvers  # problem kind (qep.KINDS) -> its own PEP or EPS
+        self.solve_settings = settings.replace(max_pair_error=cfg.max_pair_error)
         self._ops: PetscOperators | None = None
         self._ksp: PETSc.KSP | None = None  # K's own factorization, for the scale estimate of non-TOAR types
         self._last: dict = {}
+
+    @property
+    def max_pair_error(self) -> float:
+        return self.solve_settings.max_pair_error
 
     @property
     def _pep(self):
@@ -126,21 +98,7 @@ class SlepcEngine:
     def _solver_for(self, kind: str):
         """The PEP or EPS for problem ``kind``, created on first use with its problem type fixed."""
         if kind not in self._solvers:
-            linear = kind in (LINEAR_SYMMETRIC, LINEAR)
-            cls = SLEPc.EPS if linear else SLEPc.PEP
-            obj = cls().create(PETSc.COMM_SELF)
-            obj.setOptionsPrefix(PREFIX)
-            obj.setTarget(0.0)
-            obj.setWhichEigenpairs(cls.Which.TARGET_MAGNITUDE)
-            with self._options.inserted():  # the single setFromOptions of this object
-                obj.setFromOptions()
-            gyro = kind == GYROSCOPIC
-            if gyro and obj.getType() == SLEPc.PEP.Type.LINEAR and not obj.getLinearExplicitMatrix():
-                gyro = False  # 3.18's Linear refuses a structured type without explicit matrices
-            types = cls.ProblemType
-            obj.setProblemType({LINEAR_SYMMETRIC: types.GHEP, LINEAR: types.GNHEP}.get(kind) if linear
-                               else (types.GYROSCOPIC if gyro else types.GENERAL))
-            self._solvers[kind] = obj
+            self._solvers[kind] = make_solver(self._options, self._user, kind)
         return self._solvers[kind]
 
     # -- the protocol ------------------------------------------------------------------------
@@ -189,17 +147,26 @@ class SlepcEngine:
             self._last = {"failed": msg}
             return EigenSolution(np.zeros(0, complex), np.zeros(0), None, False, self.name, msg)
         X = d[:, None] * X
+        st = self.solve_settings
         err = pair_error(qep, lam, X) if lam.size else np.zeros(0)
-        lam, X, err = polish_reported(qep, lam, X, err, n_modes, POLISH_RATIO)  # TOAR: 2-3 digits short (polish.py)
-        worst, bad = check_pairs(qep, lam, X, err, n_modes, self.max_pair_error)
+        # TOAR's pairs are 2-3 digits short of their conditioning: polished by the floor too (polish.py)
+        lam, X, err, note = polish_reported(qep, lam, X, err, n_modes, st, by_floor=True)
+        worst, bad = check_pairs(qep, lam, X, err, n_modes, st)
+        bad = "; ".join(m for m in (note, bad) if m)
         if ok and bad:
             # "converged" by SLEPc's own test, yet a pair the point reports does not satisfy the
             # QEP (measured: qarnoldi at divergent points; any method on over-refined models)
             ok, msg = False, bad
         self._last["max_pair_error"] = float(worst)
         # Divergence is decided on the whole spectrum, not on the pairs nearest 0 (stability.py).
-        verdict = check_divergence(qep, computed=lam, dense_spectrum=all_eigenvalues)
-        return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg, verdict)
+        verdict = check_divergence(qep, computed=lam, dense_spectrum=all_eigenvalues, imag_tol=st.imag_tol)
+        return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg, verdict,
+                             st.imag_tol)
+
+    def solve_many(self, qeps: list, n_modes: int, want_vectors: bool = False, hints=None) -> list[EigenSolution]:
+        """:meth:`solve` of each problem in turn (a Krylov solve gains nothing from batching)."""
+        hints = [None] * len(qeps) if hints is None else list(hints)
+        return [self.solve(q, n_modes, want_vectors, h) for q, h in zip(qeps, hints)]
 
     def settings(self) -> dict:
         """Effective settings (archived): solver objects, options and where each came from."""
@@ -222,6 +189,7 @@ class SlepcEngine:
             "pc_type": pc.getType(),
             "factor_solver_type": self._values.get("st_pc_factor_mat_solver_type", ""),
             "max_pair_error": self.max_pair_error,
+            "thresholds": self.solve_settings.as_dict(),
             "options": self._values,
             "option_sources": self._sources,
         }
@@ -293,7 +261,7 @@ class SlepcEngine:
             values, Y, nconv = _pairs(solver, self._ops)
             lam, X = to_lambda(values, Y)
             wanted, reason = solver.getDimensions()[0], solver.getConvergedReason()
-            found = _count_oscillating(lam)
+            found = _count_oscillating(lam, self.solve_settings.imag_tol)
             if found >= n_modes or nconv < wanted or reason <= 0 or user_nev or nev >= size:
                 break
             # the converged set had too few oscillating modes: grow nev in proportion
@@ -394,6 +362,6 @@ def _pairs(solver, ops: PetscOperators):
     return values, X, nconv
 
 
-def _count_oscillating(lam: np.ndarray, rtol: float = 1e-9) -> int:
-    """Number of eigenvalues with Im λ > rtol·|λ| (one per frequency)."""
-    return int(np.count_nonzero(lam.imag > rtol * np.abs(lam)))
+def _count_oscillating(lam: np.ndarray, imag_tol: float) -> int:
+    """Number of eigenvalues with Im λ > imag_tol·|λ| (one per frequency)."""
+    return int(np.count_nonzero(lam.imag > imag_tol * np.abs(lam)))

@@ -31,7 +31,9 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
-from fkev_slepc.model.qep import QEP, Divergence
+from fkev_slepc.model.qep import QEP
+from fkev_slepc.solve.protocol import Divergence
+from fkev_slepc.solve.thresholds import IMAG_TOL
 
 # Undecided points of models up to this many free DOFs get every eigenvalue by dense QZ
 # (companion size 2n; measured ~0.1 s at n = 100 and a few s at n = 1000 on this machine).
@@ -104,7 +106,7 @@ def _parity(perm: np.ndarray) -> int:
     return (n - cycles) % 2
 
 
-def real_positive(lam, imag_tol: float = 1e-9) -> np.ndarray:
+def real_positive(lam, imag_tol: float = IMAG_TOL) -> np.ndarray:
     """The real eigenvalues λ > 0 (|Im λ| <= imag_tol·|λ|), ascending."""
     lam = np.asarray(lam, dtype=complex)
     lam = lam[np.isfinite(lam)]
@@ -112,7 +114,7 @@ def real_positive(lam, imag_tol: float = 1e-9) -> np.ndarray:
     return np.sort(lam.real[is_real & (lam.real > 0)])
 
 
-def check_divergence(qep: QEP, spectrum=None, computed=None, dense_spectrum=None, imag_tol: float = 1e-9,
+def check_divergence(qep: QEP, spectrum=None, computed=None, dense_spectrum=None, imag_tol: float = IMAG_TOL,
                      dense_limit: int = DENSE_LIMIT, sym_definite: bool | None = None) -> Divergence:
     """Whole-spectrum divergence verdict of ``qep`` (see the module docstring).
 

@@ -85,7 +85,7 @@ class Sweep:
     ----------
     model : operators.Model of the scene (built with the grid's cases).
     grid : archive.Grid.
-    engine : an engine (``solve(qep, n_modes, want_vectors, hint)``, ``name``).
+    engine : an :class:`~fkev_slepc.solve.protocol.Engine`.
     writer : archive_writer.Writer of this rank.
     opts : SweepOptions.
     lam1 : (angle, speed, case) |λ1| of the points already in the archive (NaN elsewhere).
@@ -180,11 +180,11 @@ class Sweep:
         """Results of the (case index, QEP, hint) of one speed: in one call of an engine that
         batches problems (the dense engine's ``solve_many``), else point by point; a batch
         that raises is solved again point by point, so that a failure marks only its own point."""
-        many = getattr(self.engine, "solve_many", None)
-        if many is not None and len(batch) > 1:
+        if len(batch) > 1:
             o = self.opts
             try:
-                sols = many([q for _, q, _ in batch], o.n_modes, o.want_vectors, [h for _, _, h in batch])
+                sols = self.engine.solve_many([q for _, q, _ in batch], o.n_modes, o.want_vectors,
+                                              [h for _, _, h in batch])
                 return [self._postprocess(sol) for sol in sols]
             except self._errors:
                 pass
@@ -202,7 +202,7 @@ class Sweep:
             theta, s, c = where
             log.warning("point (%g deg, %g rad/s, %s) failed: %s: %s", np.degrees(theta),
                         self.grid.speeds[s], self.grid.cases[c], type(exc).__name__, exc)
-            return failed(o.n_modes, f"{type(exc).__name__}: {exc}", getattr(self.engine, "name", ""))
+            return failed(o.n_modes, f"{type(exc).__name__}: {exc}", self.engine.name)
 
     @staticmethod
     def _keep(results, lam1, index, res: PointResult) -> None:

@@ -147,8 +147,11 @@ class SweepSession:
         self.grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(scene.driver.speeds, float),
                          tuple(an.cases), int(an.modes))
         self.model = Model(scene, cases=self.grid.cases)
+        from fkev_slepc.solve.thresholds import SolveSettings
+
         factory = make_cross_check_engine if request.cross_check else make_engine
-        self.engine = factory(request.solver or scene.solver.method, self.model.n_free, scene.solver.petsc)
+        self.engine = factory(request.solver or scene.solver.method, self.model.n_free, scene.solver.petsc,
+                              settings=SolveSettings.from_scene(scene))
         self.output = Path(request.output)
         self.track_dofs = tracking_dofs(self.model.n_free, len(self.grid.angles_deg), len(self.grid.speeds))
         self._final_settings: dict | None = None  # set by solve (rank 0)
@@ -255,8 +258,7 @@ class SweepSession:
         return OutputPlan(part, np.zeros(shape, np.uint8), np.full(shape, np.nan), np.ones(shape, bool))
 
     def _settings(self) -> dict:
-        settings = getattr(self.engine, "settings", None)
-        return dict(settings()) if callable(settings) else {"engine": getattr(self.engine, "name", "?")}
+        return dict(self.engine.settings())
 
     # -------------------------------------------------------------------------- 2. solve
     def solve(self, plan: OutputPlan, progress: bool = False) -> int:
