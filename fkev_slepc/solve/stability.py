@@ -53,8 +53,6 @@ def damping_ratio(lam) -> np.ndarray:
         return np.where(mag > 0, -lam.real / np.where(mag > 0, mag, 1.0), np.nan)
 
 
-
-
 def sym_positive_definite(K) -> bool:
     """Whether (K + Kᵀ)/2 is positive definite: a banded Cholesky after RCM reordering (a
     dense one for a dense K)."""
