@@ -15,7 +15,7 @@ from mpi4py import MPI
 
 from fkev_slepc.cli import main
 from fkev_slepc.status import Status
-from fkev_slepc.sweep.refine import Samples, refine_angles, track_angles
+from fkev_slepc.sweep.tracking_angles import Samples, refine_angles, track_angles
 from fkev_slepc.sweep.tracking import Criteria, chain_order, link_check, match_cases, track_speeds, tracking_dofs
 
 SCENE = "runs/bahgat-willmert-1976.toml"

@@ -1,7 +1,10 @@
-"""The archive's groups (``/errors``, ``/mesh``, ``/tracking``, ``/modes``) and the HDF5
-details shared with the root group: every axis of every dataset has a dimension scale in its
-group (or the root group), and every dataset has ``units`` and ``long_name``, so that xarray
-(h5netcdf) opens each group: ``xr.open_dataset(path, group="errors")``.
+"""Datasets made from their table rows (:mod:`fkev_slepc.archive.products`): the HDF5 details.
+
+Every axis of every dataset has a dimension scale in its group (or the root group), and every
+dataset has ``units`` and ``long_name``, so that xarray (h5netcdf) opens each group:
+``xr.open_dataset(path, group="errors")``. Datasets written later by the ranks have their
+storage allocated (and filled) at creation, so that ranks can write hyperslabs independently
+without collective allocation.
 """
 
 from __future__ import annotations
@@ -9,104 +12,82 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from fkev_slepc.archive.writer import MESSAGE_BYTES
+from fkev_slepc.archive.products import MESSAGE, MESSAGE_BYTES, STATUS, STRING, Product, Var
 from fkev_slepc.status import Status
 
 STATUS_DTYPE = h5py.enum_dtype({s.value: s.code for s in Status}, basetype="u1")
 _STR = h5py.string_dtype("utf-8")
 
 
+def h5_dtype(var: Var):
+    """The HDF5 dtype of a table row."""
+    return {STATUS: STATUS_DTYPE, STRING: _STR, MESSAGE: h5py.string_dtype("utf-8", MESSAGE_BYTES)}.get(
+        var.dtype, var.dtype)
+
+
 def _early():
-    """Dataset creation properties: storage allocated (and filled) at creation, so that
-    ranks can later write hyperslabs independently without collective allocation."""
     dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
     dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
     return dcpl
 
 
-def _plain(group, name, shape, dtype, fill):
-    return group.create_dataset(name, shape, dtype, fillvalue=fill, dcpl=_early())
+def present(product: Product, needs) -> tuple[Var, ...]:
+    """The rows of ``product`` a run with the options ``needs`` (a set of names) has."""
+    return tuple(v for v in product.variables if v.needs == "" or v.needs in needs)
 
 
-def gridded(f, name, shape, dtype, fill, units, long_name, dims):
-    """A dataset on the root grid (pre-filled, storage allocated), attached to the named scales."""
-    ds = _plain(f, name, shape, dtype, fill)
-    _describe(ds, units, long_name, *(f[d] for d in dims))
+def build(f, rows, values: dict, data: dict | None = None) -> None:
+    """Create the datasets of ``rows`` in the open file ``f``: scales first, with their values
+    from ``values`` (by path; fixed ones from the table), then the others, each filled with
+    ``data[path]`` if given, else at full size with its fill value and storage allocated. The
+    size of each axis is that of its scale (in ``values`` or already in the file). Groups are
+    created as needed; a dataset already in the file is replaced."""
+    data = data or {}
+    scales = {}
+    for v in rows:
+        if v.scale:
+            vals = v.values if v.values is not None else values.get(v.path, []) if v.growable else values[v.path]
+            scales[v.path] = _make(f, v, data=list(vals) if v.dtype == STRING else np.asarray(vals, dtype=v.dtype))
+    for v in rows:
+        if not v.scale:
+            dims = [scales.get(d) or f[d] for d in v.dims]
+            _make(f, v, data.get(v.path), tuple(len(d) for d in dims))
+    for v in rows:  # attach once every scale exists (a scale may be declared after its user)
+        ds = f[v.path]
+        if not v.scale:
+            for i, d in enumerate(v.dims):
+                ds.dims[i].attach_scale(scales.get(d) or f[d])
+
+
+def _make(f, v: Var, data=None, shape=None):
+    group = f.require_group(v.group) if v.group else f
+    if v.name in group:
+        del group[v.name]
+    kw = {}
+    if v.growable:
+        n = len(data) if data is not None else 0
+        shape = (n,) + tuple(shape[1:] if shape else ())
+        kw = dict(maxshape=(None,) + shape[1:], chunks=v.chunks, dcpl=_early())
+    if data is not None:
+        if v.fill is not None:
+            kw["fillvalue"] = v.fill
+        ds = group.create_dataset(v.name, data=data, dtype=h5_dtype(v), **kw)
+    else:
+        ds = group.create_dataset(v.name, shape, h5_dtype(v), fillvalue=v.fill, dcpl=_early(),
+                                  **{k: x for k, x in kw.items() if k != "dcpl"})
+    if v.scale:
+        ds.make_scale(v.name)
+    ds.attrs.update(units=v.units, long_name=v.long_name, **v.attrs)
+    if v.dtype == STATUS:
+        flags(ds)
     return ds
 
 
-def create_groups(f, grid, mesh, n_free, mode_shapes, tracking_dofs) -> None:
-    """Create ``/errors`` (empty, growable), ``/mesh``, ``/tracking`` and ``/modes`` (see store.create)."""
-    na, ns, nc = grid.shape
-    nm = grid.n_modes
-    err = f.create_group("errors")
-    err.attrs["description"] = "messages of failed and not-converged points (one row per point)"
-    row = scale(err, "error", np.zeros(0, "i4"), "1", "row number", maxshape=(None,), chunks=(256,),
-                dcpl=_early())  # allocated early like the rows: mpio resizes it collectively
-    axis = scale(err, "point_axis", ["angle", "speed", "case"], "1", "axis of the (angle, speed, case) index")
-    ds = err.create_dataset("index", (0, 3), "i4", maxshape=(None, 3), chunks=(256, 3), dcpl=_early())
-    _describe(ds, "1", "(angle, speed, case) indices of the point", row, axis)
-    ds = err.create_dataset("status", (0,), STATUS_DTYPE, maxshape=(None,), chunks=(256,), dcpl=_early())
-    flags(ds)
-    _describe(ds, "1", "outcome of the point (failed or not_converged)", row)
-    ds = err.create_dataset("message", (0,), h5py.string_dtype("utf-8", MESSAGE_BYTES),
-                            maxshape=(None,), chunks=(64,), dcpl=_early())
-    _describe(ds, "1", f"the solver's message (cut at {MESSAGE_BYTES} bytes)", row)
-
-    if mesh is not None:
-        g = f.create_group("mesh")
-        links = g.create_dataset("link_names", data=list(mesh["link_names"]), dtype=_STR)
-        links.make_scale("link_names")
-        links.attrs.update(units="1", long_name="link names in scene order")
-        n_node, n_el = len(mesh["node_link"]), len(mesh["elem_nodes"])
-        dims = {"node": scale(g, "node", np.arange(n_node, dtype="i4"), "1", "node number"),
-                "element": scale(g, "element", np.arange(n_el, dtype="i4"), "1", "element number"),
-                "component": scale(g, "component", ["U", "V", "Phi"], "1", "nodal DOF (translations, rotation)"),
-                "end": scale(g, "end", ["left", "right"], "1", "element end")}
-        for key, units, long_name, axes in (
-            ("node_link", "1", "link of each node (index into link_names)", ("node",)),
-            ("node_s", "m", "station of the node along its link, from the link's root", ("node",)),
-            ("node_dofs", "1", "free DOF index of (U, V, Phi) at each node, -1 if constrained", ("node", "component")),
-            ("elem_nodes", "1", "(left, right) node of each element", ("element", "end")),
-        ):
-            ds = g.create_dataset(key, data=np.asarray(mesh[key]))
-            _describe(ds, units, long_name, *(dims[a] for a in axes))
-    grid4 = [f[name] for name in ("crank_angle_deg", "speed_rad_s", "case")]
-    if tracking_dofs is not None:
-        g = f.create_group("tracking")
-        g.attrs["description"] = ("eigenvector entries at the free DOFs `dofs`, used to follow modes "
-                                  "between neighbouring crank angles by MAC")
-        dofs = scale(g, "dofs", np.asarray(tracking_dofs, dtype="i4"), "1", "free DOF index of the kept entries")
-        ds = _plain(g, "signature", (na, ns, nc, len(tracking_dofs), nm), "c16", complex(np.nan, np.nan))
-        _describe(ds, "1", "eigenvector entries of each sorted mode at `dofs`", *grid4, dofs, f["mode"])
-    if mode_shapes:
-        if mesh is None:
-            raise ValueError("an archive with mode shapes needs the mesh (node positions)")
-        g = f.create_group("modes")
-        free = scale(g, "free_dof", np.arange(n_free, dtype="i4"), "1", "free DOF index")
-        node = scale(g, "node", np.arange(len(mesh["node_link"]), dtype="i4"), "1", "node number")
-        xy = scale(g, "xy", ["x", "y"], "1", "coordinate")
-        ds = _plain(g, "shape", (na, ns, nc, n_free, nm), "c16", complex(np.nan, np.nan))
-        _describe(ds, "1", "mode shape over the free DOFs, max |entry| = 1 and real", *grid4, free, f["mode"])
-        ds = _plain(g, "node_xy", (na, len(mesh["node_link"]), 2), "f8", np.nan)
-        _describe(ds, "m", "undeformed node positions at each crank angle", grid4[0], node, xy)
-
-
-def scale(group, name, data, units, long_name, **kw):
-    """A dimension scale (coordinate) ``name`` in ``group``: every axis of every dataset of
-    the archive has one, which is what xarray (h5netcdf) needs to open any group."""
-    dtype = _STR if isinstance(data, list) else None
-    ds = group.create_dataset(name, data=data, dtype=dtype, **kw)
-    ds.make_scale(name)
-    ds.attrs.update(units=units, long_name=long_name)
-    return ds
-
-
-def _describe(ds, units, long_name, *scales):
-    """Units, long name, and the dimension scales of each axis of ``ds``."""
-    ds.attrs.update(units=units, long_name=long_name)
-    for i, sc in enumerate(scales):
-        ds.dims[i].attach_scale(sc)
+def describe_groups(f, product: Product) -> None:
+    """The ``description`` attribute of each group of ``product`` that is in ``f``."""
+    for path, text in product.groups.items():
+        if path in f:
+            f[path].attrs["description"] = text
 
 
 def flags(ds) -> None:
@@ -115,10 +96,10 @@ def flags(ds) -> None:
     ds.attrs["flag_meanings"] = " ".join(s.value for s in Status)
 
 
-
-def number_error_rows(g) -> None:
-    """Size the ``error`` row scale like the rows (archives of format 1 without it: nothing)."""
-    if "error" in g:
-        n = g["index"].shape[0]
-        g["error"].resize((n,))
-        g["error"][...] = np.arange(n, dtype="i4")
+def number_error_rows(f, product: Product) -> None:
+    """Size the row scale of ``product``'s error table like its rows (archives of format 1 without it: nothing)."""
+    e = product.errors
+    if e.row.path in f:
+        n = f[e.index.path].shape[0]
+        f[e.row.path].resize((n,))
+        f[e.row.path][...] = np.arange(n, dtype="i4")

@@ -103,8 +103,10 @@ def _points(path: Path) -> str:
         import h5py
         import numpy as np
 
+        from fkev_slepc.archive.products import SWEEP
+
         with h5py.File(path, "r") as f:
-            status = f["status"][()]
+            status = f[SWEEP.status][()]
             return f"{status.size} points, {int(np.count_nonzero(status))} done"
     except (OSError, KeyError):
         return "not an fkev archive"

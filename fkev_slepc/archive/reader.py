@@ -21,13 +21,14 @@ from typing import Iterable
 
 import numpy as np
 
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive.products import FORMAT as ARCHIVE_FORMAT
+from fkev_slepc.archive.products import SUPPORTED_VERSIONS
+from fkev_slepc.archive.scene_text import scene_title
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.solve.modes import percent_error
-from fkev_slepc.archive.scene_text import scene_title
 from fkev_slepc.status import Status, converged_codes
 
-ARCHIVE_FORMAT = "fkev-archive"
-SUPPORTED_VERSIONS = (1,)
 # Points whose eigenvalues are trustworthy. Unstable and divergent points converged; their
 # oscillatory frequencies are real results. Pending/failed/not-converged points are masked.
 ORDERS = ("sorted", "tracked")
@@ -52,6 +53,7 @@ class Mesh:
     node_dofs: np.ndarray  # (n_node, 3) int, -1 = constrained
     elem_nodes: np.ndarray  # (n_el, 2) int
     link_names: tuple[str, ...]
+    node_axis: np.ndarray | None = None  # (n_node, 2) direction of U (x, or a slider's guide); None: not archived
 
     @property
     def n_free(self) -> int:
@@ -134,7 +136,13 @@ class SweepResults:
     # ------------------------------------------------------------------- derived arrays
     @property
     def speeds_in_rpm(self) -> bool:
-        """The run's speeds were given in rpm (scene ``speeds_rpm`` or ``--speeds-rpm``): show rpm too."""
+        """The run's speeds were given in rpm (scene ``speeds_rpm`` or ``--speeds-rpm``): show rpm too.
+
+        The archived ``speed_unit``; archives written before it existed: from the scene text and
+        command line."""
+        unit = self.attrs.get("speed_unit")
+        if unit is not None:
+            return str(unit) == "rpm"
         from fkev_slepc.scene.units import speeds_given_in_rpm
 
         return speeds_given_in_rpm(self.scene_toml, str(self.attrs.get("command_line", "")))
@@ -240,7 +248,7 @@ class SweepResults:
         import h5py
 
         with h5py.File(self.path, "r") as h5:
-            return np.asarray(h5["modes/shape"][angle_index, speed_index, case_index])
+            return np.asarray(h5[P.SHAPE.path][angle_index, speed_index, case_index])
 
 
 # ------------------------------------------------------------------------------ loading
@@ -269,56 +277,43 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults) -> SweepResul
         version = int(attrs.get("format_version", -1))
         if version not in SUPPORTED_VERSIONS:
             raise ArchiveError(f"{path}: archive format_version {version} is not supported (reader knows 1)")
-        missing = [n for n in _REQUIRED if n not in h5]
+        missing = [v.path for v in P.SWEEP.variables if v.required and v.path not in h5]
         if missing:
             raise ArchiveError(f"{path}: archive lacks dataset(s) {', '.join(missing)}")
-        mesh = _read_mesh(h5["mesh"]) if "mesh" in h5 else None
-        has_shapes = "modes" in h5 and "shape" in h5["modes"]
-        node_xy = np.asarray(h5["modes/node_xy"][()]) if has_shapes and "node_xy" in h5["modes"] else None
+        mesh = _read_mesh(h5) if P.NODE_LINK.path in h5 else None
+        has_shapes = P.SHAPE.path in h5
+        node_xy = np.asarray(h5[P.NODE_XY.path][()]) if has_shapes and P.NODE_XY.path in h5 else None
         scene_toml = str(attrs.get("scene_toml", ""))
+        title = attrs.get("title") or scene_title(scene_toml, attrs.get("scene_source", path.stem))
         return cls(
             path=path,
-            crank_angle_deg=np.asarray(h5["crank_angle_deg"][()], dtype=float),
-            speed_rad_s=np.asarray(h5["speed_rad_s"][()], dtype=float),
-            cases=tuple(_strings(h5["case"])),
-            modes=np.asarray(h5["mode"][()], dtype=int),
-            status=np.asarray(h5["status"][()], dtype=np.uint8),
-            eigenvalue=np.asarray(h5["eigenvalue"][()], dtype=complex),
-            frequency_hz=np.asarray(h5["frequency_hz"][()], dtype=float),
-            tracked_frequency_hz=np.asarray(h5["tracked_frequency_hz"][()], dtype=float),
-            residual=np.asarray(h5["residual"][()], dtype=float),
+            crank_angle_deg=np.asarray(h5[P.ANGLE][()], dtype=float),
+            speed_rad_s=np.asarray(h5[P.SPEED][()], dtype=float),
+            cases=tuple(_strings(h5[P.CASE])),
+            modes=np.asarray(h5[P.MODE][()], dtype=int),
+            status=np.asarray(h5[P.STATUS_VAR.path][()], dtype=np.uint8),
+            eigenvalue=np.asarray(h5[P.EIGENVALUE.path][()], dtype=complex),
+            frequency_hz=np.asarray(h5[P.FREQUENCY.path][()], dtype=float),
+            tracked_frequency_hz=np.asarray(h5[P.TRACKED.path][()], dtype=float),
+            residual=np.asarray(h5[P.RESIDUAL.path][()], dtype=float),
             damping_ratio=_damping_ratio(h5),
-            max_real=np.asarray(h5["max_real"][()], dtype=float),
-            title=scene_title(scene_toml, attrs.get("scene_source", path.stem)),
+            max_real=np.asarray(h5[P.MAX_REAL.path][()], dtype=float),
+            title=str(title),
             scene_toml=scene_toml,
             mesh=mesh,
             has_mode_shapes=bool(has_shapes),
             node_xy=node_xy,
             attrs=attrs,
-            status_flags=_flags(h5["status"].attrs),
+            status_flags=_flags(h5[P.STATUS_VAR.path].attrs),
         )
 
 
-_REQUIRED = (
-    "crank_angle_deg",
-    "speed_rad_s",
-    "case",
-    "mode",
-    "status",
-    "eigenvalue",
-    "frequency_hz",
-    "tracked_frequency_hz",
-    "residual",
-    "max_real",
-)
-
-
 def _damping_ratio(h5) -> np.ndarray:
-    if "damping_ratio" in h5:
-        return np.asarray(h5["damping_ratio"][()], dtype=float)
+    if P.DAMPING.path in h5:
+        return np.asarray(h5[P.DAMPING.path][()], dtype=float)
     from fkev_slepc.solve.stability import damping_ratio
 
-    return damping_ratio(h5["eigenvalue"][()])
+    return damping_ratio(h5[P.EIGENVALUE.path][()])
 
 
 def solver_settings(res: SweepResults) -> dict:
@@ -336,13 +331,15 @@ def _flags(attrs) -> dict[int, str]:
     return {int(v): n for v, n in zip(np.atleast_1d(attrs["flag_values"]), names)}
 
 
-def _read_mesh(g) -> Mesh:
+def _read_mesh(h5) -> Mesh:
+    def arr(v, dtype):
+        return np.asarray(h5[v.path][()], dtype=dtype) if v.path in h5 else None
+
     return Mesh(
-        node_link=np.asarray(g["node_link"][()], dtype=int),
-        node_s=np.asarray(g["node_s"][()], dtype=float),
-        node_dofs=np.asarray(g["node_dofs"][()], dtype=int),
-        elem_nodes=np.asarray(g["elem_nodes"][()], dtype=int),
-        link_names=tuple(_strings(g["link_names"])) if "link_names" in g else (),
+        node_link=arr(P.NODE_LINK, int), node_s=arr(P.NODE_S, float), node_dofs=arr(P.NODE_DOFS, int),
+        elem_nodes=arr(P.ELEM_NODES, int),
+        link_names=tuple(_strings(h5[P.LINKS.path])) if P.LINKS.path in h5 else (),
+        node_axis=arr(P.NODE_AXIS, float),
     )
 
 

@@ -41,53 +41,15 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from fkev_slepc.archive.groups import STATUS_DTYPE, create_groups, flags, gridded, number_error_rows, scale
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive.groups import build, describe_groups, number_error_rows, present
+from fkev_slepc.archive.products import FORMAT, FORMAT_VERSION, MESSAGE_BYTES, STABILITY_SCOPE, Grid  # noqa: F401
 from fkev_slepc.archive.verify import ROOT_DIGEST_ATTR, stamp
-from fkev_slepc.archive.writer import MESSAGE_BYTES  # noqa: F401 (part of the archive contract)
 from fkev_slepc.status import RETRYABLE, Status, codes, converged_codes
-
-FORMAT, FORMAT_VERSION = "fkev-archive", 1
-_GRIDDED = {  # name: (dtype, fill, units, long_name), shaped (angle, speed, case, mode)
-    "frequency_hz": ("f8", np.nan, "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency"),
-    "tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank angle (MAC)"),
-    "speed_tracked_frequency_hz": ("f8", np.nan, "Hz", "natural frequency, modes followed along crank speed (MAC)"),
-    "eigenvalue": ("c16", complex(np.nan, np.nan), "1/s", "eigenvalue lambda of the mode (Im > 0 member)"),
-    "residual": ("f8", np.nan, "1", "relative residual |P(lambda)x| / (|Kx| + |lambda||Cx| + |lambda|^2|Mx|)"),
-    "damping_ratio": ("f8", np.nan, "1", "damping ratio zeta = -Re(lambda)/|lambda| of the mode (< 0: growing)"),
-}
-_TRANSMISSION = ("smallest transmission angle of the linkage's dyads, folded to [0, 90] (90 ideal, 0 a toggle "
-                 "position; NaN without dyads or where the linkage cannot be assembled)")
-_MAX_REAL = ("f8", np.nan, "1/s", "max Re(lambda) over the reported modes and the positive real eigenvalues "
-             "located in the whole spectrum")
-# What each verdict covers (root attribute): the archive never implies the whole spectrum from the lowest modes.
-STABILITY_SCOPE = ("divergent: whole spectrum (a real eigenvalue > 0 anywhere; solve/stability.py); "
-                   "unstable and damping_ratio: the reported modes only")
 
 
 class ArchiveMismatch(ValueError):
-    """``--resume`` asked for a run the archive does not hold (message names what differs)."""
-
-
-@dataclass(frozen=True)
-class Grid:
-    """The sweep grid: crank angles (deg), speeds (rad/s), case names, modes per point."""
-
-    angles_deg: np.ndarray
-    speeds: np.ndarray
-    cases: tuple[str, ...]
-    n_modes: int
-
-    @property
-    def shape(self) -> tuple[int, int, int]:
-        return (len(self.angles_deg), len(self.speeds), len(self.cases))
-
-    @property
-    def n_points(self) -> int:
-        return int(np.prod(self.shape))
-
-    def index(self, flat) -> tuple:
-        """(angle, speed, case) indices of flat point number(s), C order (case fastest)."""
-        return np.unravel_index(flat, self.shape)
+    """A resume asked for a run the archive does not hold (message names what differs)."""
 
 
 def partial_path(path: str | Path) -> Path:
@@ -116,30 +78,30 @@ def create(path, grid: Grid, attrs: dict, mesh: dict | None = None, n_free: int 
         as ``transmission_angle_deg`` (it depends on the angle only: the same for every speed
         and case of the angle's points).
     """
-    na, ns, nc = grid.shape
-    nm = grid.n_modes
+    values = grid.scale_values()
+    needs, data = set(), {}
+    if mesh is not None:
+        needs.add("mechanism")
+        n_node, n_el = len(mesh[P.NODE_LINK.source]), len(mesh[P.ELEM_NODES.source])
+        values.update({P.NODE: np.arange(n_node), P.ELEMENT: np.arange(n_el), P.M_NODE: np.arange(n_node),
+                       P.LINK_NAMES: list(mesh[P.LINKS.source])})
+        data.update({v.path: np.asarray(mesh[v.source]) for v in P.MESH_ARRAYS if v.source in mesh})
+        if P.NODE_AXIS.source in mesh:
+            needs.add("node_axis")
+    if tracking_dofs is not None:
+        needs.add("signatures")
+        values[P.DOFS] = np.asarray(tracking_dofs, dtype="i4")
+    if mode_shapes:
+        if mesh is None:
+            raise ValueError("an archive with mode shapes needs the mesh (node positions)")
+        needs.add("shapes")
+        values[P.FREE_DOF] = np.arange(n_free)
+    if transmission_deg is not None:
+        needs.add("transmission")
+        data[P.TRANSMISSION.path] = np.asarray(transmission_deg, dtype=float)
     with h5py.File(path, "w") as f:
-        scale(f, "crank_angle_deg", np.asarray(grid.angles_deg, "f8"), "degree", "crank angle")
-        scale(f, "speed_rad_s", np.asarray(grid.speeds, "f8"), "rad/s", "crank speed")
-        scale(f, "case", list(grid.cases), "1", "case of Table 3.1 (terms kept)")
-        scale(f, "mode", np.arange(1, nm + 1, dtype="i4"), "1", "mode number, 1-based")
-        dims4 = ("crank_angle_deg", "speed_rad_s", "case", "mode")
-        for name, (dtype, fill, units, long_name) in _GRIDDED.items():
-            gridded(f, name, (na, ns, nc, nm), dtype, fill, units, long_name, dims4)
-        gridded(f, "max_real", (na, ns, nc), *_MAX_REAL, dims4[:3])
-        if transmission_deg is not None:
-            ds = gridded(f, "transmission_angle_deg", (na,), "f8", np.nan, "degree", _TRANSMISSION, dims4[:1])
-            ds[...] = np.asarray(transmission_deg, dtype=float)
-        st = gridded(f, "status", (na, ns, nc), STATUS_DTYPE, 0, "1", "outcome of the point", dims4[:3])
-        flags(st)
-        st.attrs["description"] = (
-            "convergence first: pending (not solved yet), failed (the solver raised), not_converged "
-            "(fewer modes than asked or the solver stopped short); a converged point is divergent if "
-            "its spectrum has a positive real eigenvalue anywhere, else unstable if a reported mode has "
-            "damping_ratio < -damping_tol, else ok.")
-        st.attrs["stability_scope"] = STABILITY_SCOPE
-
-        create_groups(f, grid, mesh, n_free, mode_shapes, tracking_dofs)
+        build(f, present(P.SWEEP, needs), values, data)
+        describe_groups(f, P.SWEEP)
         now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, created=now, wall_time_s=0.0, complete=0)
         _set_attrs(f, attrs)
@@ -182,11 +144,32 @@ def modulus(z) -> np.ndarray:
     return np.sqrt(np.add(np.multiply(z.real, z.real), np.multiply(z.imag, z.imag)))
 
 
+def read_status(path, product: P.Product = P.SWEEP) -> np.ndarray | None:
+    """The per-point status codes of ``product`` (shaped like its point axes), None if the
+    archive does not hold it yet. With :func:`fkev_slepc.sweep.units.pending` it gives the
+    points a resumed run of any product still has to solve."""
+    with h5py.File(path, "r") as f:
+        return np.asarray(f[product.status][()], dtype=np.uint8) if product.status in f else None
+
+
+def add_product(path, product: P.Product, values: dict, data: dict | None = None, needs=()) -> None:
+    """Create the datasets of ``product`` (those of the options ``needs``) in the archive
+    ``path`` (serial, rank 0, before the ranks open it with :class:`~fkev_slepc.archive.writer.Writer`):
+    its scales from ``values`` (by path; scales already in the file, e.g. the root
+    ``speed_rad_s``, are reused), its data from ``data``, the rest at full size, filled and
+    pending. A product already there is replaced. A finished archive must first be copied back
+    to its ``.part`` (:func:`reopen_finished`), so that :func:`finalize` re-stamps its checksums."""
+    with h5py.File(path, "r+") as f:
+        rows = [v for v in present(product, set(needs)) if not (v.scale and v.path in f and v.path not in values)]
+        build(f, rows, values, data)
+        describe_groups(f, product)
+
+
 def read_state(path) -> ArchiveState:
     """Status and |λ1| of every point (|λ1| only where the point converged)."""
     with h5py.File(path, "r") as f:
-        status = np.asarray(f["status"][()], dtype=np.uint8)
-        lam1 = modulus(f["eigenvalue"][..., 0])
+        status = np.asarray(f[P.STATUS_VAR.path][()], dtype=np.uint8)
+        lam1 = modulus(f[P.EIGENVALUE.path][..., 0])
     lam1[~np.isin(status, converged_codes())] = np.nan
     return ArchiveState(status, lam1)
 
@@ -221,15 +204,12 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
                     problems.append(f"the scene changed since the archive was written: {diff}")
             elif have is None or not np.array_equal(np.asarray(have), np.asarray(value)):
                 problems.append(f"{key}: archive has {_show(have)}, this run {_show(value)}")
-        for flag, name, want in (
-            ("--angles", "crank_angle_deg", np.asarray(grid.angles_deg, float)),
-            ("--speeds", "speed_rad_s", np.asarray(grid.speeds, float)),
-            ("--modes", "mode", np.arange(1, grid.n_modes + 1)),
-        ):
+        want = grid.scale_values()
+        for flag, name in (("--angles", P.ANGLE), ("--speeds", P.SPEED), ("--modes", P.MODE)):
             have = f[name][()]
-            if have.shape != want.shape or not np.array_equal(have, want):
-                problems.append(f"{flag}: archive has {_show(have)}, this run {_show(want)}")
-        cases = tuple(_text(c) for c in f["case"][()])
+            if have.shape != want[name].shape or not np.array_equal(have, want[name]):
+                problems.append(f"{flag}: archive has {_show(have)}, this run {_show(want[name])}")
+        cases = tuple(_text(c) for c in f[P.CASE][()])
         if cases != tuple(grid.cases):
             problems.append(f"--cases: archive has {','.join(cases)}, this run {','.join(grid.cases)}")
     if problems:
@@ -300,16 +280,19 @@ def reopen_finished(path) -> Path:
 def read_tracking_inputs(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(frequency_hz, status, tracking signature or None) of every point."""
     with h5py.File(path, "r") as f:
-        sig = f["tracking/signature"][()] if "tracking/signature" in f else None
-        return f["frequency_hz"][()], np.asarray(f["status"][()], dtype=np.uint8), sig
+        sig = f[P.SIGNATURE.path][()] if P.SIGNATURE.path in f else None
+        return f[P.FREQUENCY.path][()], np.asarray(f[P.STATUS_VAR.path][()], dtype=np.uint8), sig
 
 
 def finalize(part, path, attrs: dict, add_wall_time: float = 0.0) -> Path:
     """Rank 0, after every rank closed the file: store the run attributes, add ``add_wall_time``
     to ``wall_time_s`` (summed over resumed runs), keep one error row per point that still
-    failed (the newest), set ``complete=1`` and rename ``part`` to ``path``."""
+    failed (the newest; for every product in the file), set ``complete=1``, stamp the
+    checksums and rename ``part`` to ``path``."""
     with h5py.File(part, "r+") as f:
-        _compact_errors(f)
+        for product in P.PRODUCTS:
+            if product.errors is not None and product.status in f:
+                _compact_errors(f, product)
         _set_attrs(f, attrs)
         f.attrs["wall_time_s"] = float(f.attrs.get("wall_time_s", 0.0)) + float(add_wall_time)
         f.attrs["complete"] = 1
@@ -318,25 +301,27 @@ def finalize(part, path, attrs: dict, add_wall_time: float = 0.0) -> Path:
     return Path(path)
 
 
-def _compact_errors(f) -> None:
-    g = f["errors"]
-    index = g["index"][()]
-    if index.shape[0] == 0:
-        return number_error_rows(g)
-    status = f["status"][()]
+def _compact_errors(f, product: P.Product) -> None:
+    e = product.errors
+    index, status, message = e.index.path, e.status.path, e.message.path
+    if index not in f:
+        return
+    idx = f[index][()]
+    if idx.shape[0] == 0:
+        return number_error_rows(f, product)
+    point_status = f[product.status][()]
     bad = codes(RETRYABLE)
     # newest row of each point: reverse, take the first occurrence
-    flat = np.ravel_multi_index(index.T, status.shape)
+    flat = np.ravel_multi_index(idx.T, point_status.shape)
     _, first = np.unique(flat[::-1], return_index=True)
-    keep = np.sort(index.shape[0] - 1 - first)
-    keep = keep[np.isin(status.ravel()[flat[keep]], bad)]
-    rows = {name: g[name][()][keep] for name in ("index", "status", "message")}
+    keep = np.sort(idx.shape[0] - 1 - first)
+    keep = keep[np.isin(point_status.ravel()[flat[keep]], bad)]
+    rows = {name: f[name][()][keep] for name in (index, status, message)}
     for name, data in rows.items():
-        g[name].resize(len(keep), axis=0)
+        f[name].resize(len(keep), axis=0)
         if len(keep):
-            g[name][...] = data
-    number_error_rows(g)
-
+            f[name][...] = data
+    number_error_rows(f, product)
 
 
 def status_counts(status: np.ndarray) -> dict[str, int]:

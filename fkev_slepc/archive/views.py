@@ -8,10 +8,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from fkev_slepc.archive import products as P
 from fkev_slepc.status import Status
 
-_UNITS = {"frequency_hz": "Hz", "tracked_frequency_hz": "Hz", "eigenvalue": "1/s", "residual": "1",
-          "max_real": "1/s", "damping_ratio": "1"}
 _RUN_ATTRS = ("imag_tol", "damping_tol", "n_free", "mode_shapes", "n_ranks", "wall_time_s", "fkev_version",
               "petsc_version", "slepc_version", "h5py_version", "hdf5_version", "mpi_version")
 
@@ -30,11 +29,12 @@ def errors(res) -> list[PointError]:
     """The ``/errors`` rows of ``res`` (one per point that is still failed or not converged)."""
     import h5py
 
+    e = P.SWEEP.errors
     with h5py.File(res.path, "r") as f:
-        if "errors" not in f:
+        if e.index.path not in f:
             return []
-        index, codes = f["errors/index"][()], f["errors/status"][()]
-        msgs = [m.decode("utf-8", "replace") if isinstance(m, bytes) else str(m) for m in f["errors/message"][()]]
+        index, codes = f[e.index.path][()], f[e.status.path][()]
+        msgs = [m.decode("utf-8", "replace") if isinstance(m, bytes) else str(m) for m in f[e.message.path][()]]
     return [PointError(float(res.crank_angle_deg[a]), float(res.speed_rad_s[s]), res.cases[c],
                        Status.from_code(code), m) for (a, s, c), code, m in zip(index, codes, msgs)]
 
@@ -69,23 +69,21 @@ def to_xarray(res):
     """
     import xarray as xr
 
-    dims3 = ("crank_angle_deg", "speed_rad_s", "case")
-    dims4 = dims3 + ("mode",)
     conv = res.converged
     lam = np.where(conv[..., None], res.eigenvalue, complex(np.nan, np.nan))
     data = {
-        "frequency_hz": (dims4, res.frequency(order="sorted")),
-        "tracked_frequency_hz": (dims4, res.frequency(order="tracked")),
-        "eigenvalue": (dims4, lam),
-        "damping_ratio": (dims4, np.where(conv[..., None], res.damping_ratio, np.nan)),
-        "residual": (dims4, np.where(conv[..., None], res.residual, np.nan)),
-        "max_real": (dims3, res.max_real),
-        "status": (dims3, res.status_names.astype(str)),
+        P.FREQUENCY: res.frequency(order="sorted"),
+        P.TRACKED: res.frequency(order="tracked"),
+        P.EIGENVALUE: lam,
+        P.DAMPING: np.where(conv[..., None], res.damping_ratio, np.nan),
+        P.RESIDUAL: np.where(conv[..., None], res.residual, np.nan),
+        P.MAX_REAL: res.max_real,
+        P.STATUS_VAR: res.status_names.astype(str),
     }
+    units = {v: {"units": v.units} for v in data if v is not P.STATUS_VAR}
     ds = xr.Dataset(
-        {k: xr.Variable(d, v, attrs={"units": _UNITS[k]} if k in _UNITS else {}) for k, (d, v) in data.items()},
-        coords={"crank_angle_deg": res.crank_angle_deg, "speed_rad_s": res.speed_rad_s,
-                "case": list(res.cases), "mode": res.modes},
+        {v.path: xr.Variable(v.dims, a, attrs=units.get(v, {})) for v, a in data.items()},
+        coords={P.ANGLE: res.crank_angle_deg, P.SPEED: res.speed_rad_s, P.CASE: list(res.cases), P.MODE: res.modes},
     )
     ds.attrs.update(title=res.title, source=str(res.path))
     return ds

@@ -1,7 +1,8 @@
-"""Per-rank writing of sweep results into an archive created by :mod:`archive`.
+"""Per-rank writing of a product's results (:mod:`fkev_slepc.archive.products`) into an archive
+created by :mod:`fkev_slepc.archive.store`, one unit of work at a time (the sweep's: one crank angle).
 
 With the ``mpio`` driver (h5py with MPI, more than one rank) every rank writes the points of
-the crank angles it solved with independent hyperslab writes, and the flushes are collective;
+the units it solved with independent hyperslab writes, and the flushes are collective;
 otherwise rank 0 alone holds the file and the other ranks send it their results at each sync.
 Statuses are written only after the data they vouch for has been flushed (see
 :class:`Writer`), so after a crash a point marked done always has its data.
@@ -16,7 +17,8 @@ from dataclasses import dataclass
 import h5py
 import numpy as np
 
-MESSAGE_BYTES = 1024  # /errors/message: fixed-length UTF-8 (parallel HDF5 1.10 cannot write VL data)
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive.products import MESSAGE_BYTES  # noqa: F401 (part of the archive contract)
 
 
 def use_mpio(comm) -> bool:
@@ -27,19 +29,28 @@ def use_mpio(comm) -> bool:
 
 @dataclass
 class Block:
-    """Results of the points of one crank angle ``ia`` marked in ``mask`` (speed, case).
+    """Results of one unit of work of a product: the points of unit ``ia`` marked in ``mask``.
 
-    ``data`` maps dataset paths to arrays shaped (speed, case, ...) (``frequency_hz``,
-    ``eigenvalue``, ``residual``, ``max_real``, ``tracking/signature``, ``modes/shape``);
-    ``errors`` lists ((angle, speed, case), status, message) of failed/not-converged points.
+    ``ia``: the unit's index (an int for a product with one unit axis, such as the sweep's
+    crank angle, else a tuple); ``mask``: the points of the unit (shaped like the product's
+    ``point_dims``, e.g. (speed, case)) that were solved. ``data`` maps dataset paths (table
+    rows of :mod:`fkev_slepc.archive.products`) to arrays: per-point datasets shaped
+    ``mask.shape + ...``, per-unit datasets (``modes/node_xy``) shaped like one unit's slice.
+    ``status``: the points' status codes (``mask.shape``). ``errors``: ((point index), status,
+    message) of failed/not-converged points. ``node_xy``: per-unit node positions of the sweep
+    (kept for callers that pass them apart; the same as ``data[NODE_XY.path]``).
     """
 
-    ia: int
+    ia: int | tuple
     mask: np.ndarray
     data: dict
     status: np.ndarray
     errors: list
     node_xy: np.ndarray | None = None
+
+    @property
+    def unit(self) -> tuple:
+        return self.ia if isinstance(self.ia, tuple) else (int(self.ia),)
 
 
 class Writer:
@@ -50,8 +61,9 @@ class Writer:
     once at the end.
     """
 
-    def __init__(self, path, comm, parallel: bool | None = None, interval: float = 2.0):
-        self.comm = comm
+    def __init__(self, path, comm, parallel: bool | None = None, interval: float = 2.0,
+                 product: P.Product = P.SWEEP):
+        self.comm, self.product = comm, product
         self.parallel = use_mpio(comm) if parallel is None else parallel
         self.root = comm.rank == 0
         self.interval = interval
@@ -62,7 +74,9 @@ class Writer:
             self.f = h5py.File(path, "r+", driver="mpio", comm=comm)
         else:
             self.f = h5py.File(path, "r+") if self.root else None
-        self._ds = {} if self.f is None else {k: self.f[k] for k in _DATA if k in self.f}
+        written = [v.path for v in product.written()]
+        self._ds = {} if self.f is None else {k: self.f[k] for k in written if k in self.f}
+        self._per_unit = {v.path for v in product.per_unit()}
         self._blocks: list[Block] = []  # serial mode: not yet sent to rank 0
         self._count = 0  # points this rank completed since the last sync
         self._new_errors: list = []  # this rank's error rows since the last sync
@@ -84,20 +98,22 @@ class Writer:
         return self._rounds >= self.next_gap
 
     def _write(self, b: Block) -> None:
-        whole = bool(b.mask.all())
-        for name, arr in b.data.items():
+        whole = bool(np.all(b.mask))
+        data = dict(b.data)
+        if b.node_xy is not None:
+            data.setdefault(P.NODE_XY.path, b.node_xy)
+        u = b.unit
+        for name, arr in data.items():
             ds = self._ds.get(name)
             if ds is None:
                 continue
             arr = np.asarray(arr, dtype=ds.dtype)
-            if whole:  # one hyperslab for the whole angle
-                ds[b.ia] = arr
+            if whole or name in self._per_unit:  # one hyperslab for the whole unit
+                ds[u] = arr
             else:
-                for js, jc in np.argwhere(b.mask):
-                    ds[b.ia, js, jc] = arr[js, jc]
-        if b.node_xy is not None and "modes/node_xy" in self._ds:
-            self._ds["modes/node_xy"][b.ia] = b.node_xy
-        self._done.append((b.ia, b.mask, b.status))
+                for j in np.argwhere(b.mask):
+                    ds[u + tuple(j)] = arr[tuple(j)]
+        self._done.append((u, b.mask, b.status))
 
     def sync(self) -> int:
         """Collective: send results to rank 0 (serial mode), exchange error rows, flush, and
@@ -125,29 +141,29 @@ class Writer:
 
     def _flush(self) -> None:
         """Collective: append error rows, put the data on disk, then mark the points done."""
-        f = self.f
+        f, e = self.f, self.product.errors
         if f is None:
             return
-        if self._errors:
-            n0, k = f["errors/index"].shape[0], len(self._errors)
-            names = ("index", "status", "message") + (("error",) if "error" in f["errors"] else ())
-            for name in names:  # "error" is the rows' dimension scale (numbered by the writer too)
-                f["errors/" + name].resize(n0 + k, axis=0)  # collective in mpio mode
+        if self._errors and e is not None:
+            n0, k = f[e.index.path].shape[0], len(self._errors)
+            rows = [v for v in (e.row, e.index, e.status, e.message) if v.path in f]  # format 1 may lack the row scale
+            for v in rows:
+                f[v.path].resize(n0 + k, axis=0)  # collective in mpio mode
             if self.root:
-                if "error" in names:
-                    f["errors/error"][n0:] = np.arange(n0, n0 + k, dtype="i4")
-                f["errors/index"][n0:] = np.array([e[0] for e in self._errors], dtype="i4")
-                f["errors/status"][n0:] = np.array([e[1] for e in self._errors], dtype="u1")
-                f["errors/message"][n0:] = [_clip(e[2]) for e in self._errors]
+                if e.row.path in f:
+                    f[e.row.path][n0:] = np.arange(n0, n0 + k, dtype="i4")
+                f[e.index.path][n0:] = np.array([x[0] for x in self._errors], dtype="i4")
+                f[e.status.path][n0:] = np.array([x[1] for x in self._errors], dtype="u1")
+                f[e.message.path][n0:] = [_clip(x[2]) for x in self._errors]
             self._errors = []
         f.flush()  # data first ...
-        status = self._ds["status"]
-        for ia, mask, st in self._done:
-            if mask.all():
-                status[ia] = st
+        status = self._ds[self.product.status]
+        for u, mask, st in self._done:
+            if np.all(mask):
+                status[u] = st
             else:
-                for js, jc in np.argwhere(mask):
-                    status[ia, js, jc] = st[js, jc]
+                for j in np.argwhere(mask):
+                    status[u + tuple(j)] = st[tuple(j)]
         self._done = []
         f.flush()  # ... then the statuses that say the points are done
 
@@ -157,10 +173,6 @@ class Writer:
         if self.f is not None:
             self.f.close()
             self.f = None
-
-
-_DATA = ("frequency_hz", "eigenvalue", "residual", "damping_ratio", "max_real", "status", "tracking/signature",
-         "modes/shape", "modes/node_xy")
 
 
 def _clip(msg: str) -> bytes:

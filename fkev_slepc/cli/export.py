@@ -16,10 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.archive import products as P
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
 
 FORMATS = ("csv",)
-COLUMNS = ("crank_angle_deg", "speed_rad_s", "case", "mode", "frequency_hz", "damping_ratio", "status")
+# the archive's names (fkev_slepc/archive/products.py): crank_angle_deg, speed_rad_s, case, mode,
+# frequency_hz, damping_ratio, status
+COLUMNS = (P.ANGLE, P.SPEED, P.CASE, P.MODE, P.FREQUENCY.path, P.DAMPING.path, P.STATUS_VAR.path)
 
 
 def add_parser(sub) -> None:
@@ -60,9 +63,8 @@ def table(res) -> dict[str, np.ndarray]:
     freq = res.frequency()
     zeta = np.where(np.isfinite(freq), res.damping_ratio, np.nan)
     names = np.broadcast_to(res.status_names[..., None], (na, ns, nc, nm))
-    return {"crank_angle_deg": res.crank_angle_deg[ia].ravel(), "speed_rad_s": res.speed_rad_s[js].ravel(),
-            "case": np.asarray(res.cases)[kc].ravel(), "mode": res.modes[lm].ravel(),
-            "frequency_hz": freq.ravel(), "damping_ratio": zeta.ravel(), "status": names.ravel()}
+    cols = (res.crank_angle_deg[ia], res.speed_rad_s[js], np.asarray(res.cases)[kc], res.modes[lm], freq, zeta, names)
+    return {name: c.ravel() for name, c in zip(COLUMNS, cols)}
 
 
 def write_csv(columns: dict[str, np.ndarray], fh) -> None:

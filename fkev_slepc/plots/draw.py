@@ -125,9 +125,9 @@ def freq_angle(
 def _with_refined(angles, values, refined: dict, s: int, c: int, m: int):
     """One tracked line (speed ``s``, case ``c``, mode ``m``) with its converged extra angles of
     ``/tracking/refined`` inserted in angle order: (angles, values, indices of the extra ones)."""
-    ok = np.isin(refined["status"][:, s, c], converged_codes())
-    x = np.concatenate([angles, refined["crank_angle_deg"][ok]])
-    y = np.concatenate([values, refined["tracked_frequency_hz"][ok, s, c, m]])
+    ok = np.isin(refined.status[:, s, c], converged_codes())
+    x = np.concatenate([angles, refined.angles_deg[ok]])
+    y = np.concatenate([values, refined.tracked[ok, s, c, m]])
     order = np.argsort(x, kind="stable")
     extra = np.concatenate([np.zeros(len(angles), bool), np.ones(int(ok.sum()), bool)])[order]
     return x[order], y[order], np.flatnonzero(extra).tolist()

@@ -1,9 +1,10 @@
 """The sweep over crank angle × speed × case: distribution over ranks, continuation, tracking.
 
-**Unit of work: one crank angle.** Points are numbered in C order over (angle, speed, case)
-(:meth:`archive.Grid.index`, ``np.unravel_index``), and the angles that still hold points to
-solve are dealt cyclically to the ranks (mpi4py's mandelbrot demo), one angle per rank per
-round, in equal rounds so that the collective flushes of :class:`archive_writer.Writer` line up.
+**Unit of work: one crank angle** (the unit axes of :data:`fkev_slepc.archive.products.SWEEP`).
+Points are numbered in C order over (angle, speed, case) (:meth:`archive.products.Grid.index`,
+``np.unravel_index``), and the angles that still hold points to solve are dealt cyclically to
+the ranks by :func:`fkev_slepc.sweep.units.run_units`, one angle per rank per round, in equal
+rounds so that the collective flushes of :class:`archive_writer.Writer` line up.
 Every angle carries the same mix of cases, so rounds cost the same on every rank although
 cases differ in cost (a cyclic split of single points would give one rank every expensive
 case). Inside an angle the operator pieces are assembled once, the ``structure`` case (which
@@ -36,13 +37,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.archive.store import Grid, modulus
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive.products import Grid
+from fkev_slepc.archive.store import modulus
 from fkev_slepc.archive.writer import Block, Writer
 from fkev_slepc.model.operators import AssemblyError
 from fkev_slepc.solve.modes import CNAN, PointResult, failed, postprocess
 from fkev_slepc.scene import DAMPING_TOL
 from fkev_slepc.status import CONVERGED, RETRYABLE
-from fkev_slepc.sweep.refine import Samples
+from fkev_slepc.sweep.tracking_angles import Samples
+from fkev_slepc.sweep.units import assign, run_units  # noqa: F401 (assign: part of the sweep API)
 
 log = logging.getLogger(__name__)
 
@@ -71,13 +75,6 @@ def recoverable_errors() -> tuple[type[BaseException], ...]:
     return tuple(errs)
 
 
-def assign(todo: np.ndarray, rank: int, size: int) -> tuple[np.ndarray, int]:
-    """Angles this rank solves (cyclic over the angles that have points to do) and the
-    number of rounds every rank must take part in."""
-    angles = np.flatnonzero(np.asarray(todo).reshape(todo.shape[0], -1).any(axis=1))
-    return angles[rank::size], -(-angles.size // size)
-
-
 class Sweep:
     """Solve the points of ``todo`` on this rank and hand them to ``writer``.
 
@@ -102,20 +99,8 @@ class Sweep:
         ``stop`` (:class:`~fkev_slepc.sweep.interrupt.StopRequest`): polled at every sync; when
         any rank was signalled, every rank leaves after that sync (the points synced so far
         are in the archive) and ``stop.stopped`` is set."""
-        mine, n_rounds = assign(todo, comm.rank, comm.size)
-        total, done = int(np.count_nonzero(todo)), 0
-        log.info("%d points to solve on %d rank(s): %d angle(s) here, %d rounds",
-                 total, comm.size, mine.size, n_rounds)
-        for rnd in range(n_rounds):
-            if rnd < mine.size:
-                self.writer.write_block(self.solve_angle(int(mine[rnd]), todo[mine[rnd]]))
-            if self.writer.end_round() or rnd == n_rounds - 1:
-                done += self.writer.sync()
-                if progress is not None and comm.rank == 0:
-                    progress(done, total)
-                if stop is not None and rnd < n_rounds - 1 and stop.agreed(comm):
-                    break
-        return done
+        return run_units(todo, lambda unit, mask: self.solve_angle(unit[0], mask), self.writer, comm,
+                         progress=progress, stop=stop)
 
     def solve_angle(self, ia: int, todo: np.ndarray) -> Block:
         """Solve the points of crank angle ``ia`` marked in ``todo`` (speed, case)."""
@@ -132,9 +117,9 @@ class Sweep:
         except AssemblyError as exc:  # cannot happen between two assembled grid angles, but never guess
             results = {tuple(i): failed(self.opts.n_modes, str(exc)) for i in np.argwhere(todo)}
         b = self._block(-1, todo, results, None)
-        sig = b.data.get("tracking/signature")
-        return Samples(np.array([float(angle_deg)]), b.data["frequency_hz"][None], b.status[None],
-                       None if sig is None else sig[None], b.data["eigenvalue"][None])
+        sig = b.data.get(P.SIGNATURE.path)
+        return Samples(np.array([float(angle_deg)]), b.data[P.FREQUENCY.path][None], b.status[None],
+                       None if sig is None else sig[None], b.data[P.EIGENVALUE.path][None])
 
     def _solve_at(self, theta: float, todo: np.ndarray, lam1: np.ndarray) -> dict:
         """Results {(speed, case): PointResult} of the points of ``todo`` at crank angle
@@ -211,31 +196,29 @@ class Sweep:
         lam1[index] = lam if res.status in CONVERGED else np.nan
 
     def _block(self, ia, todo, results, node_xy) -> Block:
-        """Stack one angle's results into (speed, case, ...) arrays (NaN where not solved)."""
-        o, (ns, nc), nm = self.opts, todo.shape, self.opts.n_modes
-        data = {"frequency_hz": np.full((ns, nc, nm), np.nan),
-                "eigenvalue": np.full((ns, nc, nm), CNAN),
-                "residual": np.full((ns, nc, nm), np.nan),
-                "damping_ratio": np.full((ns, nc, nm), np.nan),
-                "max_real": np.full((ns, nc), np.nan)}
+        """Stack one angle's results into (speed, case, ...) arrays (fill values where not solved),
+        one per per-point dataset of the sweep product that this run has (the table's ``source``
+        names the :class:`PointResult` field, ``rows`` the tracked DOFs of an eigenvector)."""
+        o, (ns, nc) = self.opts, todo.shape
+        sizes = {P.MODE: o.n_modes, P.FREE_DOF: self.model.n_free,
+                 P.DOFS: 0 if o.tracking_dofs is None else len(o.tracking_dofs)}
+        needs = {"", *(("signatures",) if o.tracking_dofs is not None else ()),
+                 *(("shapes",) if o.mode_shapes else ())}
+        rows = [v for v in P.SWEEP.per_point() if v.needs in needs and v.path != P.SWEEP.status]
+        data = {v.path: np.full((ns, nc) + tuple(sizes[d] for d in v.dims[3:]), v.fill, dtype=v.dtype) for v in rows}
         status = np.zeros((ns, nc), dtype=np.uint8)
-        if o.tracking_dofs is not None:
-            data["tracking/signature"] = np.full((ns, nc, len(o.tracking_dofs), nm), CNAN)
-        if o.mode_shapes:
-            data["modes/shape"] = np.full((ns, nc, self.model.n_free, nm), CNAN)
         errors = []
         for (js, jc), r in results.items():
-            data["frequency_hz"][js, jc] = r.frequency_hz
-            data["eigenvalue"][js, jc] = r.eigenvalue
-            data["residual"][js, jc] = r.residual
-            data["damping_ratio"][js, jc] = r.damping_ratio
-            data["max_real"][js, jc] = r.max_real
+            for v in rows:
+                value = getattr(r, v.source)
+                if v.rows is not None:  # the tracked DOFs of each eigenvector (only with vectors)
+                    if value is None:
+                        continue
+                    value = value[o.tracking_dofs]
+                elif value is None:
+                    continue
+                data[v.path][js, jc] = value
             status[js, jc] = r.status.code
-            if r.shapes is not None:
-                if o.tracking_dofs is not None:
-                    data["tracking/signature"][js, jc] = r.shapes[o.tracking_dofs]
-                if o.mode_shapes:
-                    data["modes/shape"][js, jc] = r.shapes
             if r.status in RETRYABLE:
                 errors.append(((ia, js, jc), r.status.code, r.message))
         return Block(ia, np.asarray(todo, bool), data, status, errors, node_xy)

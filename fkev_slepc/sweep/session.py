@@ -62,6 +62,30 @@ def default_output(scene_path) -> Path:
     return p.parent / "out" / (p.stem + ".h5")
 
 
+def mesh_arrays(mech) -> dict:
+    """The arrays of ``/mesh`` of a :class:`~fkev_slepc.model.mechanism.Mechanism`, by their table
+    ``source`` (:data:`fkev_slepc.archive.products.MESH`): what ``store.create`` takes as ``mesh``."""
+    from fkev_slepc.archive.products import LINKS, MESH_ARRAYS
+
+    out = {v.source: np.asarray(getattr(mech, v.source)) for v in MESH_ARRAYS}
+    out[LINKS.source] = list(getattr(mech, LINKS.source))
+    return out
+
+
+def display_facts(scene: Scene, command_line: str = "") -> dict:
+    """Root attributes figures and reports show instead of re-deriving them: the unit the speeds
+    were given in (``speed_unit``: ``rpm`` with the scene's ``speeds_rpm`` or ``--speeds-rpm``,
+    else ``rad/s``) and the Rayleigh damping coefficients (``damping_alpha`` 1/s, ``damping_beta`` s)."""
+    from fkev_slepc.scene.units import speeds_given_in_rpm
+
+    unit = getattr(scene.driver, "speed_unit", None)
+    if unit is None:
+        unit = "rpm" if speeds_given_in_rpm(scene.source_text, command_line) else "rad/s"
+    d = scene.damping
+    return {"speed_unit": unit, "damping_alpha": float(d.mass_proportional),
+            "damping_beta": float(d.stiffness_proportional)}
+
+
 def exit_code(status: np.ndarray) -> int:
     """``EXIT_NOT_CONVERGED`` if some point is pending, failed or not converged, else ``EXIT_OK``."""
     bad = np.isin(status, codes((Status.PENDING, *RETRYABLE)))
@@ -129,7 +153,7 @@ class SweepSession:
     """
 
     def __init__(self, request: SweepRequest, comm, notify: Callable[[str], None] | None = None):
-        from fkev_slepc.archive.store import Grid
+        from fkev_slepc.archive.products import Grid
         from fkev_slepc.model.operators import Model
         from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
         from fkev_slepc.solve.petsc_init import init_petsc
@@ -236,14 +260,13 @@ class SweepSession:
                 return OutputPlan(store.partial_path(out), state.status, state.lam1, todo)
         part = store.partial_path(out)
         mech, scene = self.model.mechanism, req.scene
-        mesh = {"node_link": mech.node_link, "node_s": mech.node_s, "node_dofs": mech.node_dofs,
-                "elem_nodes": mech.elem_nodes, "link_names": list(mech.link_names)}
+        mesh = mesh_arrays(mech)
         from fkev_slepc.sweep.parallel import software_versions
 
         attrs = dict(self._expect(), scene_source=str(scene.source), command_line=req.command_line,
                      n_ranks=self.comm.size, solver_settings=self._settings(),
                      imag_tol=scene.analysis.imag_tol, damping_tol=scene.analysis.damping_tol,
-                     title=scene.title, **software_versions())
+                     title=scene.title, **display_facts(scene, req.command_line), **software_versions())
         if req.accuracy is not None:
             attrs["accuracy"] = req.accuracy
         from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, solve_kinematics
@@ -289,7 +312,7 @@ class SweepSession:
         if stop.stopped:
             self.engine.close()
             raise SweepInterrupted(plan.part, done)
-        from fkev_slepc.sweep.refine import track_archive
+        from fkev_slepc.sweep.tracking_angles import track_archive
 
         self._open_loops = track_archive(plan.part, sweep, self.comm)  # may solve extra angles (collective)
         self._final_settings = self._settings() if self.rank0 else None  # before close: reads solver objects

@@ -11,7 +11,7 @@ itself, but from two samples a true crossing cannot be told from a veering the g
 over (the shapes exchange within the link and look crossed): it has to be confirmed.
 
 Along crank angle the sweep then solves extra angles (only the lines concerned, at the
-midpoint of each ambiguous or crossing link; :mod:`fkev_slepc.sweep.refine`) and walks again,
+midpoint of each ambiguous or crossing link; :mod:`fkev_slepc.sweep.tracking_angles`) and walks again,
 halving a link of the main grid at most :data:`MAX_HALVINGS` times. A crossing still there
 with clear MACs on links that short is a crossing. A line that still has an ambiguous link, or whose modes come
 back permuted after a whole revolution, *falls back* to sorted order (its tracked frequencies

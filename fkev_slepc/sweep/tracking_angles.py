@@ -11,6 +11,7 @@ to sorted order. The extra angles go to ``/tracking/refined`` (docs/tracking.md)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -188,8 +189,7 @@ def track_archive(part, sweep, comm, crit: Criteria = Criteria()) -> int | None:
             main = Samples(np.asarray(sweep.grid.angles_deg, float), freq, status, sig)
             old = tracks.read_refined(part)
             if old is not None:
-                extra = Samples(old["crank_angle_deg"], old["frequency_hz"], old["status"], old["signature"],
-                                old["eigenvalue"])
+                extra = Samples(old.angles_deg, old.freq, old.status, old.sig, old.eigenvalue)
     if not comm.bcast(main is not None, root=0):
         if comm.rank == 0:  # nothing to track (one angle and one speed): the sorted order
             sorted_f = track_speeds(freq, status, None)[0]
@@ -204,9 +204,9 @@ def track_archive(part, sweep, comm, crit: Criteria = Criteria()) -> int | None:
     if res.refined is not None:
         r = res.refined
         order = np.argsort(r.angles_deg)
-        refined = {"crank_angle_deg": r.angles_deg[order], "frequency_hz": r.freq[order],
-                   "tracked_frequency_hz": res.refined_tracked[order], "status": r.status[order],
-                   "signature": r.sig[order], "eigenvalue": r.eigenvalue[order]}
+        refined = SimpleNamespace(angles_deg=r.angles_deg[order], freq=r.freq[order],
+                                  tracked=res.refined_tracked[order], status=r.status[order], sig=r.sig[order],
+                                  eigenvalue=r.eigenvalue[order])
     attrs = dict(res.attrs(), speed_fallback_lines=int(np.count_nonzero(speed_fallback)))
     tracks.write_tracking(part, res.tracked, res.fallback, attrs, speed_tracked, refined, speed_fallback)
     return res.open_loops

@@ -1,0 +1,372 @@
+"""The archive's products, declared once: every dataset of an fkev archive is a row of a table here.
+
+A :class:`Var` row names a dataset by its path and gives its dimensions (the paths of the
+dimension scales of its axes), dtype, units, long name and fill value. A :class:`Product` is a
+set of rows written by one kind of run, with its *unit of work*: the leading dimensions
+(``unit_dims``) that one rank solves at a time, and the dimensions of the points inside one
+unit (``point_dims``). The sweep of ``fkev run`` has one crank angle as its unit and
+(speed, case) points in it; a Floquet analysis would have (speed, case) units and no points
+inside, a design study one design point.
+
+Every module that creates, writes, reads or verifies an archive takes its dataset names,
+shapes and attributes from these tables (``store.create``, ``writer.Writer``,
+``reader.load``, ``verify.verify``, ``sweep.runner``, ``sweep.session``); no dataset name is
+spelled anywhere else (``tests/test_layout.py`` checks it), and docs/archive.md is checked
+against a real archive by ``tests/test_archive_layout.py``. A new product is one more table:
+see docs/archive.md, "Adding a product".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+FORMAT, FORMAT_VERSION = "fkev-archive", 1
+SUPPORTED_VERSIONS = (1,)
+MESSAGE_BYTES = 1024  # error messages: fixed-length UTF-8 (parallel HDF5 1.10 cannot write VL data)
+
+# dtypes named in the tables besides numpy's: the status enum, UTF-8 strings (variable length),
+# error messages (fixed length, MESSAGE_BYTES)
+STATUS, STRING, MESSAGE = "status", "str", "message"
+
+
+@dataclass(frozen=True, eq=False)
+class Var:
+    """One dataset: path, dimensions (scale paths), dtype, units, long name, fill.
+
+    ``scale``: the dataset is a dimension scale (its ``NAME`` is its last path component).
+    ``growable``: its first axis grows (error rows); ``chunks`` its chunk shape then.
+    ``needs``: the option of the run it exists with ("" always; ``mechanism``, ``node_axis``,
+    ``signatures``, ``shapes``, ``transmission``, ``tracked``, ``speed_tracked``, ``refined``). ``required``: a reader refuses an archive
+    without it. ``source``: the attribute of a point result (:class:`fkev_slepc.solve.modes.PointResult`)
+    or of the mechanism it holds; ``rows``: a dimension whose values select the rows of that
+    attribute (the tracked DOFs of an eigenvector). ``values``: the fixed values of a scale
+    (``U, V, Phi``). ``attrs``: further attributes.
+    """
+
+    path: str
+    dims: tuple[str, ...]
+    dtype: str
+    units: str
+    long_name: str
+    fill: object = None
+    scale: bool = False
+    growable: bool = False
+    chunks: tuple | None = None
+    needs: str = ""
+    required: bool = False
+    source: str | None = None
+    rows: str | None = None
+    values: tuple | None = None
+    attrs: dict = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        """Last component of the path (the dataset's name in its group)."""
+        return self.path.rpartition("/")[2]
+
+    @property
+    def group(self) -> str:
+        """Path of the group holding it ("" for the root group)."""
+        return self.path.rpartition("/")[0]
+
+
+@dataclass(frozen=True)
+class Product:
+    """Datasets written by one kind of run, with its unit of work (see the module docstring).
+
+    ``status``: the per-point status dataset (HDF5 enum of :class:`fkev_slepc.status.Status`);
+    a point is done when its status is not ``pending``. ``errors``: its :class:`ErrorTable`
+    (one row per failed or not-converged point: index over ``unit_dims + point_dims``,
+    status, message). ``groups``: description attribute of each group it creates.
+    """
+
+    name: str
+    unit_dims: tuple[str, ...]
+    point_dims: tuple[str, ...]
+    status: str
+    variables: tuple[Var, ...]
+    errors: "ErrorTable | None" = None
+    groups: dict = field(default_factory=dict)
+
+    @property
+    def point_axes(self) -> tuple[str, ...]:
+        return self.unit_dims + self.point_dims
+
+    def var(self, path: str) -> Var:
+        for v in self.variables:
+            if v.path == path:
+                return v
+        raise KeyError(f"product {self.name!r} has no dataset {path!r}")
+
+    def per_point(self) -> tuple[Var, ...]:
+        """Datasets on the points (every axis of the unit and of its points first): written with them."""
+        n = len(self.point_axes)
+        return tuple(v for v in self.variables
+                     if v.dims[:n] == self.point_axes and not v.scale and v.source is not None)
+
+    def per_unit(self) -> tuple[Var, ...]:
+        """Datasets on the units only (e.g. node positions per crank angle): written with them."""
+        n, u = len(self.point_axes), len(self.unit_dims)
+        return tuple(v for v in self.variables
+                     if v.dims[:u] == self.unit_dims and v.dims[:n] != self.point_axes and not v.scale
+                     and v.source is not None)
+
+    def written(self) -> tuple[Var, ...]:
+        """Every dataset the per-rank writer fills, the status included."""
+        return self.per_point() + self.per_unit()
+
+
+@dataclass(frozen=True)
+class ErrorTable:
+    """The error rows of a product: a growable row scale, the point index (over the product's
+    point axes, named by the ``axis`` scale), the status and the solver's message."""
+
+    row: Var
+    axis: Var
+    index: Var
+    status: Var
+    message: Var
+
+    @property
+    def rows(self) -> tuple[Var, ...]:
+        return (self.row, self.axis, self.index, self.status, self.message)
+
+
+def error_table(group: str, labels: tuple[str, ...]) -> ErrorTable:
+    """The error table of a product in ``group``; ``labels`` name the index columns."""
+    row, axis = f"{group}/error", f"{group}/point_axis"
+    what = ", ".join(labels)
+    return ErrorTable(
+        Var(row, (row,), "i4", "1", "row number", scale=True, growable=True, chunks=(256,)),
+        Var(axis, (axis,), STRING, "1", f"axis of the ({what}) index", scale=True, values=labels),
+        Var(f"{group}/index", (row, axis), "i4", "1", f"({what}) indices of the point", growable=True,
+            chunks=(256, len(labels)), required=True),
+        Var(f"{group}/status", (row,), STATUS, "1", "outcome of the point (failed or not_converged)",
+            growable=True, chunks=(256,), required=True),
+        Var(f"{group}/message", (row,), MESSAGE, "1", f"the solver's message (cut at {MESSAGE_BYTES} bytes)",
+            growable=True, chunks=(64,), required=True),
+    )
+
+
+# ------------------------------------------------------------------------------ the sweep
+ANGLE, SPEED, CASE, MODE = "crank_angle_deg", "speed_rad_s", "case", "mode"
+GRID3 = (ANGLE, SPEED, CASE)
+GRID4 = GRID3 + (MODE,)
+CNAN = complex(np.nan, np.nan)
+_STATUS_DESCRIPTION = (
+    "convergence first: pending (not solved yet), failed (the solver raised), not_converged "
+    "(fewer modes than asked or the solver stopped short); a converged point is divergent if "
+    "its spectrum has a positive real eigenvalue anywhere, else unstable if a reported mode has "
+    "damping_ratio < -damping_tol, else ok.")
+# What each verdict covers (attribute of status): the archive never implies the whole spectrum from the lowest modes.
+STABILITY_SCOPE = ("divergent: whole spectrum (a real eigenvalue > 0 anywhere; solve/stability.py); "
+                   "unstable and damping_ratio: the reported modes only")
+
+SCALES = (
+    Var(ANGLE, (ANGLE,), "f8", "degree", "crank angle", scale=True, required=True, source="angles_deg"),
+    Var(SPEED, (SPEED,), "f8", "rad/s", "crank speed", scale=True, required=True, source="speeds"),
+    Var(CASE, (CASE,), STRING, "1", "case of Table 3.1 (terms kept)", scale=True, required=True, source="cases"),
+    Var(MODE, (MODE,), "i4", "1", "mode number, 1-based", scale=True, required=True, source="modes"),
+)
+FREQUENCY = Var("frequency_hz", GRID4, "f8", "Hz", "natural frequency Im(lambda)/2pi, modes sorted by frequency",
+                np.nan, required=True, source="frequency_hz")
+TRACKED = Var("tracked_frequency_hz", GRID4, "f8", "Hz",
+              "natural frequency, modes followed along crank angle (MAC)", np.nan, required=True)
+SPEED_TRACKED = Var("speed_tracked_frequency_hz", GRID4, "f8", "Hz",
+                    "natural frequency, modes followed along crank speed (MAC)", np.nan)
+EIGENVALUE = Var("eigenvalue", GRID4, "c16", "1/s", "eigenvalue lambda of the mode (Im > 0 member)", CNAN,
+                 required=True, source="eigenvalue")
+RESIDUAL = Var("residual", GRID4, "f8", "1",
+               "relative residual |P(lambda)x| / (|Kx| + |lambda||Cx| + |lambda|^2|Mx|)", np.nan,
+               required=True, source="residual")
+DAMPING = Var("damping_ratio", GRID4, "f8", "1",
+              "damping ratio zeta = -Re(lambda)/|lambda| of the mode (< 0: growing)", np.nan, source="damping_ratio")
+MAX_REAL = Var("max_real", GRID3, "f8", "1/s", "max Re(lambda) over the reported modes and the positive real "
+               "eigenvalues located in the whole spectrum", np.nan, required=True, source="max_real")
+STATUS_VAR = Var("status", GRID3, STATUS, "1", "outcome of the point", 0, required=True, source="status",
+                 attrs={"description": _STATUS_DESCRIPTION, "stability_scope": STABILITY_SCOPE})
+TRANSMISSION = Var("transmission_angle_deg", (ANGLE,), "f8", "degree",
+                   "smallest transmission angle of the linkage's dyads, folded to [0, 90] (90 ideal, 0 a toggle "
+                   "position; NaN without dyads or where the linkage cannot be assembled)", np.nan,
+                   needs="transmission")
+ERRORS = error_table("errors", ("angle", "speed", "case"))
+
+# /mesh: sources are attributes of model.mechanism.Mechanism
+NODE, ELEMENT, COMPONENT, END, XY = "mesh/node", "mesh/element", "mesh/component", "mesh/end", "mesh/xy"
+LINK_NAMES = "mesh/link_names"
+LINKS = Var(LINK_NAMES, (LINK_NAMES,), STRING, "1", "link names in scene order", scale=True, needs="mechanism",
+            source="link_names")
+NODE_LINK = Var("mesh/node_link", (NODE,), "i8", "1", "link of each node (index into link_names)", needs="mechanism",
+                source="node_link")
+NODE_S = Var("mesh/node_s", (NODE,), "f8", "m", "station of the node along its link, from the link's root",
+             needs="mechanism", source="node_s")
+NODE_DOFS = Var("mesh/node_dofs", (NODE, COMPONENT), "i8", "1",
+                "free DOF index of (U, V, Phi) at each node, -1 if constrained", needs="mechanism", source="node_dofs")
+ELEM_NODES = Var("mesh/elem_nodes", (ELEMENT, END), "i8", "1", "(left, right) node of each element", needs="mechanism",
+                 source="elem_nodes")
+NODE_AXIS = Var("mesh/node_axis", (NODE, XY), "f8", "1", "unit direction of the node's first translational DOF (U): "
+                "x, or the guide of a slider node; V is normal to it", needs="node_axis", source="node_axis")
+MESH = (
+    LINKS,
+    Var(NODE, (NODE,), "i4", "1", "node number", scale=True, needs="mechanism"),
+    Var(ELEMENT, (ELEMENT,), "i4", "1", "element number", scale=True, needs="mechanism"),
+    Var(COMPONENT, (COMPONENT,), STRING, "1", "nodal DOF (translations, rotation)", scale=True, needs="mechanism",
+        values=("U", "V", "Phi")),
+    Var(END, (END,), STRING, "1", "element end", scale=True, needs="mechanism", values=("left", "right")),
+    NODE_LINK, NODE_S, NODE_DOFS, ELEM_NODES,
+    Var(XY, (XY,), STRING, "1", "coordinate", scale=True, needs="node_axis", values=("x", "y")),
+    NODE_AXIS,
+)
+MESH_ARRAYS = tuple(v for v in MESH if v.source is not None and not v.scale)
+
+# /tracking
+DOFS = "tracking/dofs"
+TRACKING = (
+    Var(DOFS, (DOFS,), "i4", "1", "free DOF index of the kept entries", scale=True, needs="signatures",
+        source="tracking_dofs"),
+    Var("tracking/signature", GRID3 + (DOFS, MODE), "c16", "1", "eigenvector entries of each sorted mode at `dofs`",
+        CNAN, needs="signatures", source="shapes", rows=DOFS),
+)
+FALLBACK = Var("tracking/fallback", (SPEED, CASE), "u1", "1",
+               "1: the (speed, case) line is in sorted order in tracked_frequency_hz (ambiguous MAC)",
+               needs="tracked", source="fallback")
+SPEED_FALLBACK = Var("tracking/speed_fallback", (ANGLE, CASE), "u1", "1",
+                     "1: the (angle, case) line is in sorted order in speed_tracked_frequency_hz (ambiguous MAC)",
+                     needs="speed_tracked", source="speed_fallback")
+R_ANGLE = "tracking/refined/crank_angle_deg"
+_R3 = (R_ANGLE, SPEED, CASE)
+REFINED = (
+    Var(R_ANGLE, (R_ANGLE,), "f8", "degree", "extra crank angle (tracking refinement)", scale=True, needs="refined",
+        source="angles_deg"),
+    Var("tracking/refined/frequency_hz", _R3 + (MODE,), "f8", "Hz", "natural frequency, sorted", needs="refined", source="freq"),
+    Var("tracking/refined/tracked_frequency_hz", _R3 + (MODE,), "f8", "Hz",
+        "natural frequency, tracked along crank angle", needs="refined", source="tracked"),
+    Var("tracking/refined/eigenvalue", _R3 + (MODE,), "c16", "1/s", "eigenvalue lambda of the sorted mode",
+        needs="refined", source="eigenvalue"),
+    Var("tracking/refined/status", _R3, STATUS, "1", "outcome of the point (pending: line not refined here)",
+        needs="refined", source="status"),
+    Var("tracking/refined/signature", _R3 + (DOFS, MODE), "c16", "1",
+        "eigenvector entries of each sorted mode at /tracking/dofs", needs="refined", source="sig"),
+)
+
+# /modes
+FREE_DOF, M_NODE, M_XY = "modes/free_dof", "modes/node", "modes/xy"
+MODES = (
+    Var(FREE_DOF, (FREE_DOF,), "i4", "1", "free DOF index", scale=True, needs="shapes"),
+    Var(M_NODE, (M_NODE,), "i4", "1", "node number", scale=True, needs="shapes"),
+    Var(M_XY, (M_XY,), STRING, "1", "coordinate", scale=True, needs="shapes", values=("x", "y")),
+    Var("modes/shape", GRID3 + (FREE_DOF, MODE), "c16", "1", "mode shape over the free DOFs, max |entry| = 1 and real",
+        CNAN, needs="shapes", source="shapes"),
+    Var("modes/node_xy", (ANGLE, M_NODE, M_XY), "f8", "m", "undeformed node positions at each crank angle", np.nan,
+        needs="shapes", source="node_xy"),
+)
+SIGNATURE, SHAPE, NODE_XY = TRACKING[1], MODES[3], MODES[4]
+
+SWEEP = Product(
+    name="sweep",
+    unit_dims=(ANGLE,),
+    point_dims=(SPEED, CASE),
+    status=STATUS_VAR.path,
+    variables=SCALES + (FREQUENCY, TRACKED, SPEED_TRACKED, EIGENVALUE, RESIDUAL, DAMPING, MAX_REAL, TRANSMISSION,
+                        STATUS_VAR) + ERRORS.rows + MESH + TRACKING + (FALLBACK, SPEED_FALLBACK) + REFINED + MODES,
+    errors=ERRORS,
+    groups={
+        "errors": "messages of failed and not-converged points (one row per point)",
+        "tracking": "eigenvector entries at the free DOFs `dofs`, used to follow modes between neighbouring crank "
+                    "angles by MAC",
+        "tracking/refined": "extra crank angles solved only for mode tracking, where the MAC between neighbouring "
+                            "grid angles was ambiguous; points of lines that were not refined at an angle are pending",
+    },
+)
+
+PRODUCTS = (SWEEP,)  # every product of the format; docs/archive.md lists their datasets
+
+
+# -------------------------------------------------------------------- root attributes
+@dataclass(frozen=True)
+class Attr:
+    """A root attribute: name, units and meaning (docs/archive.md, "Root attributes")."""
+
+    name: str
+    units: str
+    meaning: str
+
+
+ROOT_ATTRS = (
+    Attr("format", "", f"`{FORMAT}`"),
+    Attr("format_version", "", f"{FORMAT_VERSION}"),
+    Attr("created", "", "ISO 8601, UTC"),
+    Attr("complete", "", "1 once every point was attempted and the file renamed into place, else 0"),
+    Attr("title", "", "the scene's title (figure and report headings)"),
+    Attr("scene_toml", "", "the scene file, verbatim"),
+    Attr("scene_source", "", "its path"),
+    Attr("command_line", "", "of the run that created the file"),
+    Attr("last_command_line", "", "of the run that completed it"),
+    Attr("element", "", "element type of the mesh (`analysis.element`)"),
+    Attr("elements", "", "elements per link, scene order"),
+    Attr("n_free", "", "free DOFs (length of a mode shape)"),
+    Attr("mode_shapes", "", "0/1: `/modes` holds mode shapes"),
+    Attr("speed_unit", "", "unit the speeds were given in and are shown in: `rad/s` or `rpm` (stored in rad/s)"),
+    Attr("damping_alpha", "1/s", "Rayleigh damping, mass-proportional coefficient α (0: none)"),
+    Attr("damping_beta", "s", "Rayleigh damping, stiffness-proportional coefficient β (0: none)"),
+    Attr("imag_tol", "", "|Im λ| ≤ imag_tol·|λ| is a real eigenvalue"),
+    Attr("damping_tol", "", "a mode with ζ < −damping_tol is growing (`unstable`)"),
+    Attr("solver_settings", "", "JSON: the engine's effective settings when the archive was created"),
+    Attr("last_solver_settings", "", "JSON: the same, from rank 0's engine at the end of the run that completed it"),
+    Attr("accuracy", "", "JSON: the mesh plan of `--rel-error` (when asked)"),
+    Attr("n_ranks", "", "MPI ranks of the last run"),
+    Attr("wall_time_s", "s", "summed over the runs that wrote the archive"),
+    Attr("tracking_open_loops", "", "(speed, case) lines whose modes come back permuted after a revolution"),
+    Attr("fkev_version", "", "software versions of the run that created the file"),
+    Attr("petsc_version", "", ""),
+    Attr("slepc_version", "", ""),
+    Attr("mpi_version", "", ""),
+    Attr("h5py_version", "", ""),
+    Attr("hdf5_version", "", ""),
+    Attr("attrs_sha256", "", "SHA-256 of the root attributes (archive/verify.py)"),
+)
+
+
+def datasets(products=PRODUCTS) -> tuple[Var, ...]:
+    """Every dataset of the given products (scales included), each once."""
+    seen: dict[str, Var] = {}
+    for p in products:
+        for v in p.variables:
+            seen.setdefault(v.path, v)
+    return tuple(seen.values())
+
+
+def find(path: str) -> Var | None:
+    """The table row of an archive path (a leading ``/`` allowed), or None."""
+    path = path.lstrip("/")
+    return next((v for v in datasets() if v.path == path), None)
+
+
+# ------------------------------------------------------------------------- the sweep grid
+@dataclass(frozen=True)
+class Grid:
+    """The sweep grid: crank angles (deg), speeds (rad/s), case names, modes per point."""
+
+    angles_deg: np.ndarray
+    speeds: np.ndarray
+    cases: tuple[str, ...]
+    n_modes: int
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (len(self.angles_deg), len(self.speeds), len(self.cases))
+
+    @property
+    def n_points(self) -> int:
+        return int(np.prod(self.shape))
+
+    def index(self, flat) -> tuple:
+        """(angle, speed, case) indices of flat point number(s), C order (case fastest)."""
+        return np.unravel_index(flat, self.shape)
+
+    def scale_values(self) -> dict:
+        """Values of the sweep's grid scales, by path."""
+        return {ANGLE: np.asarray(self.angles_deg, "f8"), SPEED: np.asarray(self.speeds, "f8"),
+                CASE: list(self.cases), MODE: np.arange(1, self.n_modes + 1, dtype="i4")}
