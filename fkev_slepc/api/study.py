@@ -100,7 +100,7 @@ class Study:
         or with several: ``replace({"links[1].length_m": 0.35, "links[rod].area_m2": 2e-4})``.
 
         Any key of the scene file, as a dotted path (``links[1].length_m``, ``links[rod].elements``,
-        ``driver.speeds_rpm``, ``joints[3].position_m[0]``), in the scene's units; the edited scene
+        ``driver.speeds_rpm``, ``joints[3].position_m[0]``), in SI; the edited scene
         is validated exactly as a file (:mod:`fkev_slepc.scene.edit`) and this study is unchanged.
 
         Raises

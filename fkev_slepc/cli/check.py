@@ -25,6 +25,8 @@ def add_parser(subparsers) -> None:
         description="Validate scene files and report every problem, with its dotted field path.",
     )
     p.add_argument("scenes", nargs="+", type=Path, metavar="SCENE", help="scene TOML file(s)")
+    p.add_argument("--strict", action="store_true",
+                   help="treat implausible values (unit slips: warnings) as problems (exit code 2)")
     p.set_defaults(func=run)
 
 
@@ -35,11 +37,35 @@ def run(args: argparse.Namespace) -> int:
     status = EXIT_OK
     for path in args.scenes:
         try:
-            print(f"{path}: ok ({summary(check_scene(path))})", flush=True)
+            scene = check_scene(path)
         except SceneError as err:
             print(err, file=sys.stderr, flush=True)
             status = EXIT_BAD_INPUT
+            continue
+        print(f"{path}: ok ({summary(scene)})", flush=True)
+        warnings = print_links(scene)
+        for w in warnings:
+            print(f"{path}: warning: {w}", file=sys.stderr, flush=True)
+        if warnings and getattr(args, "strict", False):
+            status = EXIT_BAD_INPUT
     return status
+
+
+def print_links(scene: Scene) -> list[str]:
+    """The per-link table (mass, slenderness, pinned-pinned f₁ estimate; scene/plausible.py) on
+    stdout; returns the warnings on implausible values."""
+    from fkev_slepc.scene.plausible import summarize_scene
+
+    rows = summarize_scene(scene)
+    import re
+
+    written = re.match(r"# .* in SI: its \[units\] \((.*?)\) converted on reading", scene.source_text)
+    if written:
+        print(f"  units: written in {written[1]}, converted to SI on reading (the values below, and archives, are SI)")
+    print(f"  {'link':<12} {'L [m]':>9} {'mass [kg]':>10} {'L/r':>8} {'f1 pinned-pinned [Hz]':>22}")
+    for s in rows:
+        print(f"  {s.name:<12} {s.length_m:>9.4g} {s.mass_kg:>10.4g} {s.slenderness:>8.4g} {s.pinned_frequency_hz:>22.5g}")
+    return [w for s in rows for w in s.warnings]
 
 
 def check_scene(path: str | Path) -> Scene:

@@ -4,7 +4,7 @@ The value is set in the scene's TOML document (``Scene.source_text``), the docum
 back to TOML text and read again by :func:`~fkev_slepc.scene.reader.parse_scene`: the edited
 scene is validated exactly as a file with that value would be (every problem named with its
 dotted key and value), and its ``source_text`` -- the text archives keep -- says what it is.
-Values are in the units the scene is written in (its ``[units]``, SI by default).
+Values are SI (a scene written with ``[units]`` is held in SI: scene/units.py).
 
 Key paths: dotted keys, with ``[i]`` for an item of an array (``joints[3].position_m[0]``,
 ``links[2].segments[0].length_m``) or ``[name]`` for the item of an array of tables with that

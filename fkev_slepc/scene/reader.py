@@ -72,6 +72,36 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(source, [_syntax_problem(exc)]) from None
+    if "units" in doc:
+        return _parse_in_units(doc, text, source)
+    return _parse_document(doc, text, source)
+
+
+def _parse_in_units(doc: dict, text: str, source: str) -> Scene:
+    """A scene with ``[units]``: validated as written (messages quote the values the user typed),
+    then converted to SI once; the Scene's ``source_text`` is the SI document, headed by the file
+    as written in comments (scene/units.py)."""
+    from fkev_slepc.scene.edit import dumps
+    from fkev_slepc.scene.units import read_units, to_si, units_label
+
+    r = Reader(sec.SECTIONS)
+    factors = read_units(r, doc)
+    problems = list(r.problems)
+    as_written = {k: v for k, v in doc.items() if k != "units"}
+    try:
+        _parse_document(as_written, text, source)
+    except SceneError as err:
+        problems += err.problems
+    if problems:
+        raise SceneError(source, problems)
+    quoted = "".join(f"#   {line}\n" for line in text.splitlines())
+    si_text = (f"# {source} in SI: its [units] ({units_label(doc)}) converted on reading (fkev_slepc/scene/units.py).\n"
+               f"# The file as written:\n{quoted}\n" + dumps(to_si(doc, factors)))
+    return _parse_document(to_si(doc, factors), si_text, source)
+
+
+def _parse_document(doc: dict, text: str, source: str) -> Scene:
+    """Validate a parsed scene document (SI); ``text`` is kept as the Scene's ``source_text``."""
     r = Reader(sec.SECTIONS)
     r.check_keys(doc, "", sec.TOP_KEYS)
     title = r.string(doc, "title", "", default=Path(source).stem)

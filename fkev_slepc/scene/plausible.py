@@ -1,0 +1,63 @@
+"""What a designer checks by eye before trusting a model: each link's mass, slenderness and a
+hand estimate of its first bending frequency, and warnings for values no real link has (a unit
+slip: millimetres typed into ``length_m``, MPa into ``youngs_modulus_pa``, t/mm³ as kg/m³).
+
+The estimate is the pinned-pinned Euler-Bernoulli beam, f₁ = (π / 2L²) sqrt(EI / ρA), with the
+length-weighted EI and ρA of a stepped link and no lumped masses: a scale to compare the
+computed frequencies with (a link in a linkage is neither pinned-pinned nor alone), not a result.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from fkev_slepc.scene.model import Link, Scene
+
+# Plausible ranges for structural links; outside them a value is almost surely a unit slip.
+YOUNGS_PA = (1e7, 1.5e12)  # soft polymers ~1e8-1e9, aluminium 7e10, steel 2.1e11, tungsten carbide 7e11
+DENSITY_KG_M3 = (100.0, 25000.0)  # foams ~100, woods 400-900, steel 7850, osmium 22,590
+MAX_LENGTH_M = 50.0
+SLENDERNESS = (2.0, 10000.0)  # L/r: below, no beam at all (shear dominates); above, a wire (a 1 m x 1 mm strip is 3,464)
+
+
+@dataclass(frozen=True)
+class LinkSummary:
+    name: str
+    length_m: float
+    mass_kg: float
+    slenderness: float  # L / r, r = sqrt(I/A) the radius of gyration (the smallest of the segments)
+    pinned_frequency_hz: float  # (π / 2L²) sqrt(EI/ρA)
+    warnings: tuple[str, ...]
+
+
+def summarize(link: Link, index: int) -> LinkSummary:
+    """The link's :class:`LinkSummary`, with a warning per implausible value."""
+    pieces = link.pieces
+    L = link.length
+    mass = math.fsum(s.density * s.area * s.length for s in pieces)
+    r = min(math.sqrt(s.second_moment / s.area) for s in pieces)
+    ei = math.fsum(s.youngs_modulus * s.second_moment * s.length for s in pieces) / L
+    rho_a = mass / L
+    f_pp = math.pi / (2 * L * L) * math.sqrt(ei / rho_a)
+    where = f"links[{index}] {link.name!r}"
+    warn = []
+    for s in {(p.youngs_modulus, p.density) for p in pieces}:
+        E, rho = s
+        if not YOUNGS_PA[0] <= E <= YOUNGS_PA[1]:
+            warn.append(f"{where}: youngs_modulus_pa = {E:g} Pa is no structural material ({YOUNGS_PA[0]:g}-"
+                        f"{YOUNGS_PA[1]:g} Pa; steel 2.1e11): a unit slip (GPa, MPa = N/mm²)?")
+        if not DENSITY_KG_M3[0] <= rho <= DENSITY_KG_M3[1]:
+            warn.append(f"{where}: density_kg_m3 = {rho:g} kg/m³ is no structural material ({DENSITY_KG_M3[0]:g}-"
+                        f"{DENSITY_KG_M3[1]:g} kg/m³; steel 7850): a unit slip (g/cm³, t/mm³)?")
+    if L > MAX_LENGTH_M:
+        warn.append(f"{where}: length_m = {L:g} m, a link longer than {MAX_LENGTH_M:g} m: millimetres typed as metres?")
+    if not SLENDERNESS[0] <= L / r <= SLENDERNESS[1]:
+        kind = "a wire, not a link" if L / r > SLENDERNESS[1] else "too stocky for Euler-Bernoulli beams"
+        warn.append(f"{where}: slenderness L/r = {L / r:.3g} (r = sqrt(I/A) = {r:.3g} m) is {kind} "
+                    f"({SLENDERNESS[0]:g}-{SLENDERNESS[1]:g}): length, area_m2 and second_moment_m4 in one unit system?")
+    return LinkSummary(link.name, L, mass, L / r, f_pp, tuple(warn))
+
+
+def summarize_scene(scene: Scene) -> list[LinkSummary]:
+    return [summarize(lk, i) for i, lk in enumerate(scene.links)]
