@@ -116,14 +116,10 @@ class PointResult:
         >>> s.relative_frequency.round(6), s.method
         (array([0.5, 0.5, 0.5, 0.5]), 'adjoint')
         """
-        from fkev_slepc.api.study import Study
-        from fkev_slepc.solve.sensitivity import point_sensitivity
+        from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
 
-        def solve(scene):
-            engine = next((m for m in ("dense", "slepc") if self.solver.startswith(m)), None)
-            return Study(scene).point(self.angle_deg, self.speed_rad_s, self.case, modes=len(self.eigenvalues),
-                                      solver=engine).eigenvalues
-
+        engine = next((m for m in ("dense", "slepc") if self.solver.startswith(m)), "auto")
+        solve = point_solver(self._theta, self.speed_rad_s, self.case, len(self.eigenvalues), engine)
         return point_sensitivity(self._model, self._theta, self.speed_rad_s, self.case, self.eigenvalues, key, solve)
 
     def mode_shape(self, k: int) -> ModeShape:

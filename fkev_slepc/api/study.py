@@ -96,34 +96,23 @@ class Study:
         return f"Study({self.scene.title!r}: {n} link{'s' if n != 1 else ''}, {self._model('full').n_free} free DOFs)"
 
     def replace(self, key, value=None) -> Study:
-        """A new study of this scene with the value at a key path changed (``None`` removes it),
-        or with several: ``replace({"links[1].length_m": 0.35, "links[rod].area_m2": 2e-4})``.
-
-        Any key of the scene file, as a dotted path (``links[1].length_m``, ``links[rod].elements``,
-        ``driver.speeds_rpm``, ``joints[3].position_m[0]``), in SI; the edited scene
-        is validated exactly as a file (:mod:`fkev_slepc.scene.edit`) and this study is unchanged.
-
-        Raises
-        ------
-        SceneError
-            Every problem of the edited scene, or a key path that leads nowhere, named with the
-            key and the value.
-
-        Examples
-        --------
-        >>> bw = load(RUNS / "bahgat-willmert-1976.toml")
-        >>> bw.replace("links[coupler].length_m", 0.3).scene.links[1].length
-        0.3
-        >>> bw.replace("links[1].length_m", -0.3)
-        Traceback (most recent call last):
-        ...
-        fkev_slepc.scene.model.SceneError: ... with links[1].length_m = -0.3: 1 problem
-          links[1].length_m: must be > 0 (got -0.3)
-        """
+        """A new study with the value at a scene key path changed (``None`` removes it), or several
+        (``replace({"links[1].length_m": 0.35, "links[rod].area_m2": 2e-4})``), in SI, validated
+        exactly as a file (SceneError naming key and value); this study is unchanged. Key paths and
+        examples: :func:`fkev_slepc.scene.edit.replace_values`."""
         from fkev_slepc.scene.edit import replace_values
 
         changes = dict(key) if isinstance(key, dict) else {key: value}
         return Study(replace_values(self.scene, changes), self.path)
+
+    def design(self, params: dict, speeds=None, cases=None, angles=None, output=None, **options):
+        """Design study: this study's sweep at every point of a grid of scene-key values (``params``:
+        key -> ``"0.25:0.40:0.05"``, ``"a,b,c"`` or numbers) into one archive, the code path of
+        ``fkev design``; returns the xarray Dataset with the keys as dimensions. Options and
+        errors: :func:`fkev_slepc.design.study.study_design`."""
+        from fkev_slepc.design.study import study_design
+
+        return study_design(self, params, speeds, cases, angles, output, **options)
 
     def _model(self, case: str):
         if case not in self._models:

@@ -281,7 +281,33 @@ SWEEP = Product(
     },
 )
 
-PRODUCTS = (SWEEP,)  # every product of the format; docs/archive.md lists their datasets
+# ------------------------------------------------------------------------- a design study
+# One unit of work per design point (values of scene keys, fkev_slepc/design/study.py): the sweep's
+# grid at every design point, and the lowest divergence speed over the crank angles.
+D_POINT, D_KEY = "design/point", "design/key"
+D_GRID = (D_POINT, ANGLE, SPEED, CASE)
+D_VALUE = Var("design/value", (D_POINT, D_KEY), "f8", "SI", "value of each design key at the design point", np.nan)
+D_FREQUENCY, D_EIGENVALUE, D_DAMPING, D_MAX_REAL = (
+    Var("design/" + v.name, D_GRID + v.dims[3:], v.dtype, v.units, v.long_name, v.fill, source=v.source)
+    for v in (FREQUENCY, EIGENVALUE, DAMPING, MAX_REAL))
+D_STATUS = Var("design/status", D_GRID, STATUS, "1", "outcome of the point", 0, source="status", attrs=STATUS_VAR.attrs)
+D_DIVERGENCE = Var("design/divergence_speed_rad_s", (D_POINT, CASE), "f8", "rad/s", "lowest crank speed at which "
+                   "K(Omega) is singular (divergence, buckling) over the crank angles (NaN: none)", np.nan,
+                   source="divergence_speed")
+D_DIVERGENCE_ANGLE = Var("design/divergence_angle_deg", (D_POINT, CASE), "f8", "degree",
+                         "crank angle where that lowest divergence speed occurs", np.nan, source="divergence_angle")
+D_ERRORS = error_table("design/errors", ("design", "angle", "speed", "case"))
+DESIGN = Product(
+    name="design", unit_dims=(D_POINT,), point_dims=(ANGLE, SPEED, CASE), status=D_STATUS.path,
+    variables=(Var(D_POINT, (D_POINT,), "i4", "1", "design point number", scale=True),
+               Var(D_KEY, (D_KEY,), STRING, "1", "design key (a scene key path, e.g. links[1].length_m)", scale=True),
+               D_VALUE, D_FREQUENCY, D_EIGENVALUE, D_DAMPING, D_MAX_REAL, D_STATUS, D_DIVERGENCE, D_DIVERGENCE_ANGLE)
+    + D_ERRORS.rows, errors=D_ERRORS,
+    groups={"design": "a design study (fkev design): the sweep's grid at each design point (values of scene keys); "
+                      "the root sweep is the scene as written", "design/errors": "messages of failed design points"},
+)
+
+PRODUCTS = (SWEEP, DESIGN)  # every product of the format; docs/archive.md lists their datasets
 
 
 # -------------------------------------------------------------------- root attributes

@@ -15,7 +15,7 @@ import os
 import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
-SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "loads")
+SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "design", "loads")
 GLOBAL_FLAGS = {"-v": ("verbose", 1), "--verbose": ("verbose", 1), "-q": ("quiet", 1), "--quiet": ("quiet", 1)}
 
 

@@ -17,9 +17,6 @@ or grid set from Python -- is kept unless the edit sets that key itself.
 
 from __future__ import annotations
 
-import datetime as _dt
-import json
-import math
 import re
 import tomllib
 from dataclasses import replace as _replace
@@ -27,10 +24,11 @@ from typing import Any
 
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.schema import join, show
+from fkev_slepc.scene.toml_text import dumps
 
+__all__ = ["parse_key", "set_key", "canonical_key", "replace_values", "dumps"]
 _PART = re.compile(r"(?P<key>[A-Za-z_][A-Za-z0-9_-]*)(?P<index>(?:\[[^\[\]]*\])*)")
 _INDEX = re.compile(r"\[([^\[\]]*)\]")
-_BARE = re.compile(r"[A-Za-z0-9_-]+")
 
 
 def parse_key(path: str) -> list[str | int]:
@@ -155,66 +153,6 @@ def canonical_key(doc: dict, path: str) -> str:
     return where
 
 
-# -- TOML text ---------------------------------------------------------------------------------
-def _key(k: str) -> str:
-    return k if _BARE.fullmatch(k) else json.dumps(k)
-
-
-def _value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf")
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)  # JSON string escapes are TOML basic-string escapes
-    if isinstance(v, (_dt.datetime, _dt.date, _dt.time)):
-        return v.isoformat()
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
-    if isinstance(v, list):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {type(v).__name__} value {v!r} to TOML")
-
-
-def _is_tables(v: Any) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
-
-
-def dumps(doc: dict) -> str:
-    """TOML text of a document as :func:`tomllib.loads` returns it (``tomllib.loads(dumps(d)) == d``).
-
-    Top-level tables become ``[name]`` / ``[name.sub]`` sections and top-level arrays of tables
-    ``[[name]]`` items; anything deeper is written inline.
-
-    Examples
-    --------
-    >>> d = {"title": "t", "links": [{"name": "a", "segments": [{"length_m": 0.1}]}], "solver": {"petsc": {"x": 1}}}
-    >>> tomllib.loads(dumps(d)) == d
-    True
-    """
-    lines = [f"{_key(k)} = {_value(v)}" for k, v in doc.items() if not isinstance(v, dict) and not _is_tables(v)]
-    for k, v in doc.items():
-        if isinstance(v, dict):
-            lines += _table(v, [k])
-        elif _is_tables(v):
-            for item in v:
-                lines += ["", f"[[{_key(k)}]]"] + [f"{_key(a)} = {_value(b)}" for a, b in item.items()]
-    return "\n".join(lines) + "\n"
-
-
-def _table(table: dict, path: list[str]) -> list[str]:
-    head = ".".join(_key(p) for p in path)
-    out = ["", f"[{head}]"] + [f"{_key(k)} = {_value(v)}" for k, v in table.items() if not isinstance(v, dict)]
-    for k, v in table.items():
-        if isinstance(v, dict):
-            out += _table(v, [*path, k])
-    return out
-
-
 # -- the edit ----------------------------------------------------------------------------------
 def replace_values(scene: Scene, changes: dict[str, Any]) -> Scene:
     """``scene`` with the values at the key paths of ``changes`` set, validated like a file.
@@ -224,6 +162,18 @@ def replace_values(scene: Scene, changes: dict[str, Any]) -> Scene:
     SceneError
         Listing every problem of the edited scene (``links[1].length_m: must be > 0 (got -0.3)``),
         or a key path that leads nowhere; its source names the edit.
+
+    Examples
+    --------
+    >>> from fkev_slepc.scene import load_scene
+    >>> bw = load_scene(RUNS / "bahgat-willmert-1976.toml")
+    >>> replace_values(bw, {"links[coupler].length_m": 0.3}).links[1].length
+    0.3
+    >>> replace_values(bw, {"links[1].length_m": -0.3})
+    Traceback (most recent call last):
+    ...
+    fkev_slepc.scene.model.SceneError: ... with links[1].length_m = -0.3: 1 problem
+      links[1].length_m: must be > 0 (got -0.3)
     """
     from fkev_slepc.scene.reader import parse_scene
 

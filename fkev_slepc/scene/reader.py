@@ -81,7 +81,7 @@ def _parse_in_units(doc: dict, text: str, source: str) -> Scene:
     """A scene with ``[units]``: validated as written (messages quote the values the user typed),
     then converted to SI once; the Scene's ``source_text`` is the SI document, headed by the file
     as written in comments (scene/units.py)."""
-    from fkev_slepc.scene.edit import dumps
+    from fkev_slepc.scene.toml_text import dumps
     from fkev_slepc.scene.units import read_units, to_si, units_label
 
     r = Reader(sec.SECTIONS)

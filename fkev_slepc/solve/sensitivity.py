@@ -242,6 +242,28 @@ def point_sensitivity(model, theta: float, speed: float, case: str, eigenvalues:
     return Sensitivity(key, p, h, method, dlam, df, dz, lam.imag / (2 * np.pi))
 
 
+def point_solver(theta: float, speed: float, case: str, n_modes: int, method: str = "auto"):
+    """``solve(scene) -> eigenvalues`` of the ``n_modes`` reported modes of ``scene`` at one point
+    (θ rad, Ω rad/s, case) with the engine ``method``: what :func:`point_sensitivity` differences
+    where a key changes the mesh."""
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.solve.engines import make_engine
+    from fkev_slepc.solve.modes import postprocess
+    from fkev_slepc.solve.thresholds import SolveSettings
+
+    def solve(scene):
+        model = Model(scene, cases=(case,))
+        engine = make_engine(method, model.n_free, scene.solver.petsc, settings=SolveSettings.from_scene(scene))
+        try:
+            sol = engine.solve(model.qep(model.pieces(theta), speed, case), n_modes)
+        finally:
+            engine.close()
+        an = scene.analysis
+        return postprocess(sol, n_modes, an.imag_tol, an.damping_tol).eigenvalue
+
+    return solve
+
+
 def _moved(model, key: str, value: float, case: str, must: bool = True):
     """The model of ``model``'s scene with ``key`` at ``value`` (None when out of range and not ``must``)."""
     from fkev_slepc.model.operators import Model

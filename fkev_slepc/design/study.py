@@ -1,0 +1,303 @@
+"""A design study: the sweep of a scene repeated over a grid of values of scene keys, into one archive.
+
+``fkev design SCENE --set links[1].length_m=0.25:0.40:0.05 …`` and :meth:`Study.design
+<fkev_slepc.api.study.Study.design>`. The design grid is the product of the values of every key
+(first key slowest); each **design point** is the scene with those values
+(:func:`fkev_slepc.scene.edit.replace_values`: validated like a file, every point before anything
+is solved) and is one unit of work of the archive's ``design`` product
+(:data:`fkev_slepc.archive.products.DESIGN`), dealt over the MPI ranks by
+:func:`fkev_slepc.sweep.units.run_units` like the crank angles of a sweep. At each design point
+the sweep's grid (crank angles x speeds x cases) is solved by the sweep's own solver
+(:class:`fkev_slepc.sweep.runner.Sweep`, sorted modes) and the lowest divergence (buckling)
+speed over the crank angles of every motion case is computed (K(Ω) = K₀ + Ω²K₂ singular,
+:func:`fkev_slepc.solve.critical.divergence_speed`).
+
+The archive is an ordinary sweep archive of the scene as written (the root datasets, so every
+``fkev`` command reads it) with the group ``/design`` beside it. It is resumable: the base
+sweep, then the design points still pending (``resume``); a resume with another design grid
+is refused. :func:`fkev_slepc.design.results.open_design` reads it as an xarray Dataset with
+the design keys as dimensions.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fkev_slepc.scene import Problem, Scene, SceneError
+
+
+@dataclass(frozen=True)
+class DesignGrid:
+    """Design keys and the values of each (scene units: SI); points in C order (first key slowest)."""
+
+    keys: tuple[str, ...]
+    axes: tuple[tuple[float, ...], ...]
+
+    @property
+    def points(self) -> np.ndarray:
+        """(n_points, n_keys) values."""
+        return np.array(list(itertools.product(*self.axes)), dtype=float).reshape(-1, len(self.keys))
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(a) for a in self.axes)
+
+
+def design_grid(params: dict, name: str = "params") -> DesignGrid:
+    """``{key: values}`` (values: ``"START:STOP:STEP"`` with STOP included, ``"a,b,c"``, a number
+    or a sequence) as a :class:`DesignGrid`.
+
+    Raises
+    ------
+    SceneError
+        An empty grid, a key given twice, or values that are not numbers, named with the key.
+
+    Examples
+    --------
+    >>> g = design_grid({"links[1].length_m": "0.25:0.4:0.05"})
+    >>> g.axes
+    ((0.25, 0.3, 0.35, 0.4),)
+    """
+    from fkev_slepc.sweep.grid import parse_angles
+
+    if not params:
+        raise SceneError(name, [Problem(name, "give at least one scene key and its values")])
+    keys, axes, bad = [], [], []
+    for key, values in params.items():
+        try:
+            vals = parse_angles(values if isinstance(values, str) else np.atleast_1d(values).tolist())
+        except ValueError as err:
+            bad.append(Problem(f"{name}[{key}]", str(err)))
+            continue
+        if not vals:
+            bad.append(Problem(f"{name}[{key}]", "needs at least one value"))
+            continue
+        keys.append(str(key))
+        axes.append(tuple(float(f"{v:.15g}") for v in vals))  # 0.25 + 3 x 0.05 -> 0.4
+    if len(set(keys)) != len(keys):
+        bad.append(Problem(name, f"a key is given twice (got {', '.join(keys)})"))
+    if bad:
+        raise SceneError(name, bad)
+    return DesignGrid(tuple(keys), tuple(axes))
+
+
+def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
+    """The scene of every design point (validated like files), or one SceneError listing every
+    design point that is not a valid scene (nothing computed)."""
+    from fkev_slepc.scene.edit import replace_values
+
+    out, bad = [], []
+    for i, values in enumerate(grid.points):
+        try:
+            out.append(replace_values(scene, dict(zip(grid.keys, values.tolist()))))
+        except SceneError as err:
+            said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
+            bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in err.problems]
+    if bad:
+        raise SceneError(scene.source, bad)
+    return out
+
+
+class DesignSolver:
+    """Solves one design point (a unit of work of the ``design`` product) into a writer Block."""
+
+    def __init__(self, scenes: list[Scene], base: Scene, engine, n_modes: int):
+        from fkev_slepc.archive.products import Grid
+        from fkev_slepc.sweep.runner import SweepOptions
+
+        an = base.analysis
+        self.scenes, self.engine = scenes, engine
+        self.grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(base.driver.speeds, float),
+                         tuple(an.cases), int(n_modes))
+        self.opts = SweepOptions(int(n_modes), an.imag_tol, an.damping_tol)
+
+    def solve(self, unit: tuple, mask: np.ndarray):
+        from fkev_slepc.archive import products as P
+        from fkev_slepc.archive.writer import Block
+        from fkev_slepc.model.operators import AssemblyError, Model
+        from fkev_slepc.solve.critical import divergence_speed
+        from fkev_slepc.solve.modes import failed
+        from fkev_slepc.sweep.runner import Sweep
+
+        (ip,) = unit
+        grid, nm = self.grid, self.opts.n_modes
+        na, ns, nc = grid.shape
+        rows = (P.D_FREQUENCY, P.D_EIGENVALUE, P.D_DAMPING, P.D_MAX_REAL)
+        data = {v.path: np.full((na, ns, nc) + ((nm,) if v.dims[-1] == P.MODE else ()), v.fill, dtype=v.dtype)
+                for v in rows}
+        status = np.zeros((na, ns, nc), dtype=np.uint8)
+        errors = []
+        model = Model(self.scenes[ip], cases=grid.cases)
+        sweep = Sweep(model, grid, self.engine, None, self.opts, np.full((na, ns, nc), np.nan))
+        div = np.full((len(grid.cases), na), np.nan)
+        for ia in range(na):
+            theta = float(np.radians(grid.angles_deg[ia]))
+            try:
+                if mask[ia].any():
+                    b = sweep.solve_angle(ia, mask[ia])
+                    for v in rows:
+                        data[v.path][ia] = b.data[P.SWEEP.var(v.name).path]
+                    status[ia] = b.status
+                    errors += [((ip, *i), s, m) for i, s, m in b.errors]
+                pieces = model.pieces(theta)
+                div[:, ia] = [divergence_speed(model, pieces, c) for c in grid.cases]
+            except AssemblyError as exc:
+                bad = failed(nm, str(exc))
+                for js, jc in np.argwhere(mask[ia]):
+                    status[ia, js, jc] = bad.status.code
+                    errors.append(((ip, ia, int(js), int(jc)), bad.status.code, bad.message))
+        lowest = np.full(len(grid.cases), np.nan)
+        angle = np.full(len(grid.cases), np.nan)
+        for jc in range(len(grid.cases)):
+            if np.isfinite(div[jc]).any():
+                k = int(np.nanargmin(div[jc]))
+                lowest[jc], angle[jc] = div[jc, k], grid.angles_deg[k]
+        data[P.D_DIVERGENCE.path], data[P.D_DIVERGENCE_ANGLE.path] = lowest, angle
+        return Block((ip,), np.asarray(mask, bool), data, status, errors)
+
+
+def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: bool = False, force: bool = False,
+               solver: str | None = None, notify=None, progress: bool = False, command_line: str = "") -> Path:
+    """Collective over ``comm`` (default this process alone): the base sweep of ``scene`` (its grid
+    already configured) into ``output``, then every pending design point into its ``/design``.
+
+    Raises
+    ------
+    SceneError
+        A design point that is not a valid scene (before anything is solved).
+    RunRefused
+        ``resume`` of an archive of another design grid, or the base sweep refused.
+    """
+    from fkev_slepc.archive import products as P
+    from fkev_slepc.archive import store
+    from fkev_slepc.archive.lock import hold, release
+    from fkev_slepc.archive.writer import Writer
+    from fkev_slepc.solve.engines import make_engine
+    from fkev_slepc.solve.thresholds import SolveSettings
+    from fkev_slepc.sweep.parallel import local
+    from fkev_slepc.sweep.session import RunRefused, SweepRequest, run_sweep
+    from fkev_slepc.sweep.units import run_units
+
+    comm = local(comm)
+    output = Path(output)
+    note = notify if (notify is not None and comm.rank == 0) else (lambda _m: None)
+    scenes = design_scenes(scene, grid)  # every design point valid, or nothing is done
+    base_resume = resume and (output.exists() or store.partial_path(output).exists())
+    run_sweep(SweepRequest(scene, output, resume=base_resume, force=force and not resume, solver=solver,
+                           command_line=command_line or "fkev design"), comm, notify=notify, progress=progress)
+    plan = None
+    if comm.rank == 0:
+        hold(output)
+        try:
+            plan = _open_design(output, grid, resume)
+        except RunRefused as err:
+            release(output)
+            plan = err
+    plan = comm.bcast(plan, root=0)
+    if isinstance(plan, RunRefused):
+        raise plan
+    part, todo = plan
+    note(f"{len(grid.points)} design point(s) of {', '.join(grid.keys)}; "
+         f"{int(todo.any(axis=(1, 2, 3)).sum())} to solve")
+    engine = make_engine(solver or scene.solver.method, _n_free(scenes), scene.solver.petsc,
+                         settings=SolveSettings.from_scene(scene))
+    try:
+        writer = Writer(part, comm, product=P.DESIGN)
+        ds = DesignSolver(scenes, scene, engine, scene.analysis.modes)
+        report = (lambda done, total: note(f"design: {done}/{total} points")) if progress else None
+        run_units(todo, ds.solve, writer, comm, n_unit_axes=1, progress=report)
+        writer.close()
+    finally:
+        engine.close()
+    if comm.rank == 0:
+        try:
+            store.finalize(part, output, {"last_command_line": command_line or "fkev design"})
+        finally:
+            release(output)
+    comm.Barrier()
+    return output
+
+
+def study_design(study, params: dict, speeds=None, cases=None, angles=None, output=None, *, modes: int | None = None,
+                 resume: bool = False, force: bool = False, comm=None, solver: str | None = None,
+                 progress: bool = False):
+    """:meth:`Study.design <fkev_slepc.api.study.Study.design>`.
+
+    Parameters
+    ----------
+    params : dict
+        Scene key path -> values (``"0.25:0.40:0.05"`` with the stop included, ``"a,b,c"``, a
+        number or a sequence); several keys give their product (first key slowest).
+    speeds, cases, angles, modes
+        The sweep grid at each design point (default the scene's; as ``Study.sweep``).
+    output : str or Path, optional
+        Default ``<scene dir>/out/<scene stem>-design.h5`` (required for a study from text).
+    resume, force, comm, solver, progress
+        As ``Study.sweep``: continue an interrupted study of the same grid; replace an archive;
+        ``MPI.COMM_WORLD`` under ``mpirun`` (design points dealt over the ranks).
+
+    Returns
+    -------
+    xarray.Dataset
+        :func:`fkev_slepc.design.results.open_design`: the design keys are dimensions;
+        ``frequency_min_hz`` is each mode's lowest frequency over the crank cycle,
+        ``divergence_speed_rad_s`` the lowest divergence speed over the crank angles.
+
+    Raises
+    ------
+    SceneError
+        A bad key or value (any design point that is not a valid scene), before anything is solved.
+    """
+    import logging
+
+    from fkev_slepc.design.results import open_design
+    from fkev_slepc.sweep.grid import configure
+
+    grid = design_grid(params)
+    scene = configure(study.scene, angles=angles, speeds=speeds, cases=cases, modes=modes)
+    if output is None:
+        if study.path is None:
+            raise SceneError(study.scene.source, [Problem("output", "required for a study made from text")])
+        output = Path(study.path).parent / "out" / f"{Path(study.path).stem}-design.h5"
+    run_design(scene, grid, output, comm, resume=resume, force=force, solver=solver,
+               notify=logging.getLogger(__name__).info, progress=progress, command_line="Study.design")
+    return open_design(output)
+
+
+def _n_free(scenes: list[Scene]) -> int:
+    from fkev_slepc.model.mechanism import build_mechanism
+
+    return max(build_mechanism(s).n_free for s in scenes)
+
+
+def _open_design(output: Path, grid: DesignGrid, resume: bool):
+    """Rank 0: (part, todo) of the design product -- created in a reopened copy of the finished
+    base archive, or continued; a resume of another design grid is refused."""
+    import h5py
+
+    from fkev_slepc.archive import products as P
+    from fkev_slepc.archive import store
+    from fkev_slepc.sweep.session import RunRefused
+    from fkev_slepc.sweep.units import pending
+
+    part = store.reopen_finished(output)
+    with h5py.File(part, "r") as f:
+        have = P.D_KEY in f and P.D_VALUE.path in f
+        if have:
+            keys = tuple(k.decode() if isinstance(k, bytes) else str(k) for k in f[P.D_KEY][()])
+            values = f[P.D_VALUE.path][()]
+    points = grid.points
+    same = have and keys == grid.keys and values.shape == points.shape and np.array_equal(values, points)
+    if have and resume and not same:
+        part.unlink()
+        raise RunRefused(f"{output}: --resume of a design study over other values: the archive has "
+                         f"{', '.join(keys)} at {len(values)} point(s), this run {', '.join(grid.keys)} at "
+                         f"{len(points)} (use another -o, or --force to start over)")
+    if not (have and same and resume):
+        store.add_product(part, P.DESIGN, {P.D_POINT: np.arange(len(points), dtype="i4"), P.D_KEY: list(grid.keys)},
+                          {P.D_VALUE.path: points})
+    return part, pending(store.read_status(part, P.DESIGN))
