@@ -1,23 +1,29 @@
 """Ctrl-C during ``fkev run`` (issue 12, Deliver 1): every rank stops cleanly, the partial
 archive stays resumable, the ``--resume`` command is printed, and resuming gives the archive an
-uninterrupted run gives."""
+uninterrupted run gives.
+
+No test races the sweep: the interrupted run has ``FKEV_PAUSE_AFTER`` set, so rank 0 stops at
+its first sync with points written and points left (:mod:`fkev_slepc.sweep.interrupt`), says so
+on stderr and waits there for the signal; the archive then holds exactly the points it said."""
 
 import os
 import shlex
 import signal
 import subprocess
+import re
 import sys
-import time
 
 import h5py
 import numpy as np
 import pytest
 
 from clitools import BW, ROOT, fkev
+from fkev_slepc.sweep.interrupt import PAUSE_VARIABLE, PAUSED
 
 pytestmark = pytest.mark.slow
-# long enough (4320 points, ~10 s on 2 idle ranks) that the signal always arrives mid-sweep
-GRID = ("--angles", "0:359.5:0.5", "--cases", "structure,full", "--solver", "dense", "--modes", "3")
+# 36 angles x 3 speeds x 2 cases: 18 rounds on 2 ranks, so points are left at the first sync
+GRID = ("--angles", "0:350:10", "--cases", "structure,full", "--solver", "dense", "--modes", "3")
+PAUSE = {PAUSE_VARIABLE: "6"}  # pause once one angle's 6 points are written (the first sync)
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}  # only so that the tests run as root on 2 cores
 
@@ -31,24 +37,26 @@ def reference(tmp_path_factory):
 
 
 def start(argv, env_extra=None):
-    env = {**os.environ, "PYTHONPATH": str(ROOT), **(env_extra or {})}
+    """Start an interrupted-to-be run: paused at its first sync (``PAUSE``)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **PAUSE, **(env_extra or {})}
     return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
 
 
-def interrupt_after_start(proc, pid=None, sig=signal.SIGINT):
-    """Wait for the 'points to solve' line, let it work a little, then signal ``pid``."""
+def interrupt_when_paused(proc, pid=None, sig=signal.SIGINT):
+    """Read stderr until rank 0 says it is paused (points written, points left), signal
+    ``pid`` (default the process started). Returns (exit code, stderr, points written)."""
     lines = []
     while True:
         line = proc.stderr.readline()
-        assert line, "the run ended before it started solving: " + "".join(lines)
+        assert line, "the run ended without pausing: " + "".join(lines)
         lines.append(line)
-        if "points to solve" in line:
+        if line.startswith(PAUSED):
             break
-    time.sleep(1.0)
-    assert proc.poll() is None, "the run finished before it was interrupted"
+    written = int(re.search(r"after (\d+) of (\d+) points", line).group(1))
+    assert proc.poll() is None  # paused: it cannot have finished
     os.kill(pid or proc.pid, sig)
     out, err = proc.communicate(timeout=300)
-    return proc.returncode, "".join(lines) + err
+    return proc.returncode, "".join(lines) + err, written
 
 
 def resume_command(stderr: str) -> list[str]:
@@ -70,23 +78,28 @@ def assert_same_archive(got, ref, rtol=0.0):
             assert np.all(np.abs(x - y)[~np.isnan(y)] <= rtol * np.abs(y)[~np.isnan(y)]), name
 
 
-def check_interrupted(code, stderr, out):
+def points_written(part) -> int:
+    with h5py.File(part) as f:
+        assert f.attrs["complete"] == 0
+        done = int(np.count_nonzero(f["status"][()]))
+        assert 0 < done < f["status"].size  # stopped early: something is left for --resume
+    return done
+
+
+def check_interrupted(code, stderr, out, written):
     part = out.with_name(out.name + ".part")
     assert code == 130, stderr
     assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr
     assert part.exists() and not out.exists()
-    with h5py.File(part) as f:
-        assert f.attrs["complete"] == 0
-        done = int(np.count_nonzero(f["status"][()]))
-        assert done < f["status"].size  # stopped early: something is left for --resume
+    assert points_written(part) == written  # stopped at the sync it paused at
     return resume_command(stderr)
 
 
 def test_ctrl_c_one_process_then_resume_equals_uninterrupted(tmp_path, reference):
     out = tmp_path / "bw.h5"
     proc = start([sys.executable, "-m", "fkev_slepc", "run", str(BW), *GRID, "-o", str(out)])
-    code, stderr = interrupt_after_start(proc)
-    args = check_interrupted(code, stderr, out)
+    code, stderr, written = interrupt_when_paused(proc)
+    args = check_interrupted(code, stderr, out, written)
     r = fkev(*args)
     assert r.returncode == 0, r.stderr
     assert_same_archive(out, reference)
@@ -98,8 +111,8 @@ def test_ctrl_c_with_np_2_stops_both_ranks_cleanly(tmp_path, reference):
     out = tmp_path / "bw.h5"
     proc = start([sys.executable, "-m", "fkev_slepc", "run", str(BW), *GRID, "-o", str(out), "--np", "2"],
                  MPI_ENV)
-    code, stderr = interrupt_after_start(proc)
-    args = check_interrupted(code, stderr, out)
+    code, stderr, written = interrupt_when_paused(proc)
+    args = check_interrupted(code, stderr, out, written)
     assert args[-2:] == ["--np", "2"]  # resumes on 2 ranks too
     r = fkev(*args, env_extra=MPI_ENV)
     assert r.returncode == 0, r.stderr
@@ -113,10 +126,11 @@ def test_sigint_under_mpirun_keeps_the_archive_resumable(tmp_path, reference):
     out = tmp_path / "bw.h5"
     proc = start(["mpirun", "-n", "2", sys.executable, "-m", "fkev_slepc", "run", str(BW), *GRID, "-o", str(out)],
                  MPI_ENV)
-    code, stderr = interrupt_after_start(proc)
+    code, stderr, written = interrupt_when_paused(proc)
     assert code != 0 and "continue with: fkev run" in stderr
     part = out.with_name(out.name + ".part")
     assert part.exists() and not out.exists()
+    assert points_written(part) == written
     r = fkev(*resume_command(stderr))
     assert r.returncode == 0, r.stderr
     assert_same_archive(out, reference, rtol=1e-12)

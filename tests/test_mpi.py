@@ -2,23 +2,25 @@
 
 One 666-point sweep (Bahgat-Willmert, every 10° of crank angle, 6 elements per link, dense engine) is run
 uninterrupted on 2 ranks (parallel HDF5), on 1 rank, on 2 ranks writing through rank 0
-(FKEV_HDF5_MPIO=0), and on 2 ranks killed with SIGKILL midway then resumed; the archives are
+(FKEV_HDF5_MPIO=0), and on 2 ranks killed with SIGKILL at a sync midway then resumed; the archives are
 compared point for point. The OpenMPI root variables are set in the subprocess env only.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+
+from fkev_slepc.sweep.interrupt import PAUSE_VARIABLE, PAUSED
 
 pytestmark = pytest.mark.mpi
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,40 +110,35 @@ def _session_pids(sid: int) -> list[int]:
     return pids
 
 
-def _done(part) -> int:
-    try:
-        with h5py.File(part, "r", locking=False) as f:
-            return int(np.count_nonzero(f["status"][()]))
-    except (OSError, KeyError):  # not created yet, or being created
-        return -1
-
-
 def test_kill_midway_then_resume_equals_uninterrupted(work, two_ranks):
+    """kill -9 at a sync where points are written and left (FKEV_PAUSE_AFTER: rank 0 waits
+    there for a signal, so the kill never races the sweep), then ``--resume``."""
     out = work / "killed.h5"
     part = out.with_name(out.name + ".part")
     args = ["run", str(work / "bw.toml"), "-o", str(out), *SWEEP, "--quiet"]
-    proc = subprocess.Popen(fkev(2, *args), env=env(), cwd=ROOT, start_new_session=True,
+    proc = subprocess.Popen(fkev(2, *args), env=env(**{PAUSE_VARIABLE: "36"}), cwd=ROOT, start_new_session=True,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    deadline, done = time.monotonic() + 240, -1
+    lines = []
     try:
-        while time.monotonic() < deadline and proc.poll() is None:
-            done = _done(part)
-            if 100 <= done < N_POINTS:
+        for line in proc.stderr:
+            lines.append(line)
+            if line.startswith(PAUSED):
                 break
-            time.sleep(0.05)
+        assert proc.poll() is None, "the run ended without pausing: " + "".join(lines)
     finally:
         # kill -9 the whole job: mpiexec's process group and the ranks (own groups, same session)
         for pid in _session_pids(proc.pid):
             os.kill(pid, signal.SIGKILL)
         proc.wait(timeout=60)
-    assert proc.returncode == -signal.SIGKILL, f"the run ended before it was killed: {proc.stderr.read()}"
+    assert proc.returncode == -signal.SIGKILL, "".join(lines)
+    written = int(re.search(r"after (\d+) of", lines[-1]).group(1))
     assert part.exists() and not out.exists()
     with h5py.File(part, "r") as f:
         status = f["status"][()]
         assert f.attrs["complete"] == 0
     n_done = int(np.count_nonzero(status))
     print(f"killed with {n_done} of {N_POINTS} points flushed; resuming")
-    assert 100 <= n_done < N_POINTS
+    assert n_done == written and 36 <= n_done < N_POINTS
     # the points marked done already hold their final data
     ref = read(two_ranks)
     with h5py.File(part, "r") as f:

@@ -285,21 +285,30 @@ def test_acceptance_rejects_pairs_less_accurate_than_their_conditioning():
 
 
 def test_second_fkev_run_on_the_same_output_is_refused_and_the_first_finishes(tmp_path):
-    """Issue 10: two fkev run on one -o a second apart left an archive HDF5 could not open."""
-    import time
+    """Issue 10: two fkev run on one -o a second apart left an archive HDF5 could not open.
+    The first run waits at a sync (FKEV_PAUSE_AFTER) until the second was refused, then goes
+    on (SIGUSR2): the second never races the first's end."""
+    import os
+    import signal
 
     from fkev_slepc.archive.verify import verify
+    from fkev_slepc.sweep.interrupt import PAUSE_VARIABLE, PAUSED
 
     out = tmp_path / "x.h5"
     args = [sys.executable, "-m", "fkev_slepc", "run", str(ROOT / "runs" / "turcic-midha-1984.toml"),
             "--speeds", "0,100,200", "--cases", "structure,no_coriolis,full", "-o", str(out)]
-    first = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env={**os.environ, PAUSE_VARIABLE: "1"})
     try:
-        deadline = time.monotonic() + 120
-        while not (tmp_path / "x.h5.lock").exists() and time.monotonic() < deadline:
-            time.sleep(0.05)
+        lines = []
+        for line in first.stderr:
+            lines.append(line)
+            if line.startswith(PAUSED):
+                break
+        assert first.poll() is None, "".join(lines)
         second = subprocess.run(args, capture_output=True, text=True, timeout=300)
     finally:
+        first.send_signal(signal.SIGUSR2)  # go on (a no-op if it ended)
         out1, err1 = first.communicate(timeout=600)
     assert second.returncode == 2 and "lock" in second.stderr and "Traceback" not in second.stderr
     assert second.stderr.strip().count("\n") == 0, second.stderr

@@ -62,7 +62,7 @@ def run_units(todo: np.ndarray, solve: Callable, writer, comm, n_unit_axes: int 
             done += writer.sync()
             if progress is not None and comm.rank == 0:
                 progress(done, total)
-            if stop is not None and rnd < n_rounds - 1 and stop.agreed(comm):
+            if stop is not None and rnd < n_rounds - 1 and stop.agreed(comm, done, total):
                 break
     return done
 
