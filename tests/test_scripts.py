@@ -41,6 +41,13 @@ def test_bench_crossover_and_reuse_run():
     assert re.search(rf"^\s+2\s+18\s+{FLOAT}\s+{FLOAT}", out, re.M)
 
 
+def test_bench_pieces_compares_vectorised_and_scalar_pieces():
+    out = run_script("bench_pieces.py", "--elements", "2", "--angles", "6", "--repeats", "1")
+    rows = re.findall(rf"^\s+2\s+18\s+(1|default)\s+({FLOAT})\s+({FLOAT})\s+({FLOAT})\s+({FLOAT})$", out, re.M)
+    assert [r[0] for r in rows] == ["1", "default"], out
+    assert all(float(v) > 0 for r in rows for v in r[1:])
+
+
 def test_bench_large_runs():
     out = run_script("bench_large.py", "--elements", "8", "--repeats", "1")
     assert re.search(rf"whole point / bare solve = {FLOAT}", out)

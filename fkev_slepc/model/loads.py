@@ -82,7 +82,8 @@ def element_loads(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> 
     q[..., 1] = q[..., 4] = c
     fields["gravity"] = q
     T = state.T
-    element = {k: -np.einsum("aeji,ejk,aek->aei", T, stacks.mass, q, optimize=True) for k, q in fields.items()}
+    Tt = np.swapaxes(T, -1, -2)
+    element = {k: -(Tt @ (stacks.mass @ q[..., None]))[..., 0] for k, q in fields.items()}
 
     axis = mech.node_axis[mech.mass_nodes]  # (n_mass, 2) the node frame of each particle
     normal = np.stack([-axis[:, 1], axis[:, 0]], axis=-1)
