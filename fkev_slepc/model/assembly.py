@@ -41,11 +41,21 @@ class Pattern:
     def scatter(self, stack: np.ndarray) -> np.ndarray:
         """CSR data array Σ_e Aᵀ k_e A of an (..., n_el, n_dof, n_dof) stack: (..., nnz).
 
-        Leading axes (crank angles) are scattered in one ``np.bincount``, each angle's entries
-        summed in the same order as on its own (the same numbers to the last bit)."""
+        Leading axes (crank angles) are scattered in one sparse product with :attr:`summing`,
+        each angle's entries summed in the order a ``np.bincount`` of that angle alone sums them
+        (the same numbers to the last bit)."""
         lead = stack.shape[:-3]
-        w = stack.reshape(-1, self.valid.size)[:, self.valid]
-        return self._bincount(self.position, w, self.nnz).reshape(lead + (self.nnz,))
+        w = stack.reshape(-1, self.valid.size)
+        if w.shape[0] == 1:
+            return np.bincount(self.position, weights=w[0][self.valid], minlength=self.nnz).reshape(lead + (self.nnz,))
+        return np.ascontiguousarray((self.summing @ w.T).T).reshape(lead + (self.nnz,))
+
+    @cached_property
+    def summing(self) -> sp.csr_matrix:
+        """(nnz, n_el·n_dof²) 0/1 matrix: the CSR data of a stack's flattened entries (constrained
+        ones dropped), column indices in increasing order within each row."""
+        cols = np.flatnonzero(self.valid)
+        return sp.csr_matrix((np.ones(cols.size), (self.position, cols)), shape=(self.nnz, self.valid.size))
 
     def scatter_vector(self, values: np.ndarray, dofs: np.ndarray | None = None) -> np.ndarray:
         """Vector Σ_e Aᵀ f_e over the free DOFs, (..., n) for values (..., n_el, n_dof) on
