@@ -44,6 +44,10 @@ BLOCK_FLOATS = 2**21
 class AssemblyError(ValueError):
     """The linkage cannot be assembled (or is at a dead centre) at the requested crank angle."""
 
+    @classmethod
+    def at(cls, theta: float) -> "AssemblyError":
+        return cls(f"the linkage cannot be assembled at crank angle {np.degrees(theta):g} deg")
+
 
 def classify(has_damping: bool, k_symmetric: bool, c_skew: bool = True) -> str:
     """Problem kind from the structure of the terms present (see qep.KINDS).
@@ -123,9 +127,7 @@ class Model:
         (with K_s factored and M as a CSR matrix); AssemblyError where the linkage cannot be
         assembled."""
         if not stack.ok[i]:
-            raise AssemblyError(
-                f"the linkage cannot be assembled at crank angle {np.degrees(stack.theta[i]):g} deg"
-            )
+            raise AssemblyError.at(stack.theta[i])
         mech = self.mechanism
         staged = StagedStiffness(self.stacks.strain, self.stacks.strain_weight, stack.state.T[i], mech.elem_dofs,
                                  mech.n_free, self._gather)
@@ -139,9 +141,7 @@ class Model:
     def kinematics(self, theta: float):
         kin = solve_kinematics(self.mechanism, [theta])
         if not kin.ok[0]:
-            raise AssemblyError(
-                f"the linkage cannot be assembled at crank angle {np.degrees(theta):g} deg"
-            )
+            raise AssemblyError.at(theta)
         return kin
 
     def pieces(self, theta: float) -> OperatorPieces:
