@@ -43,6 +43,16 @@ def test_mm_n_t_scene_is_the_si_scene():
     assert "units" not in tomllib.loads(mm.source_text) and "#   system = \"mm-N-t\"" in mm.source_text
 
 
+def test_section_shapes_are_converted_too():
+    """A circle of Ø 6 (mm) in a mm-N-t scene is the benchmark's Ø 6 mm section."""
+    text = SC_MM.read_text().replace("area_m2 = 28.27433", 'section = { shape = "circle", diameter_m = 6.0 }')
+    text = text.replace("second_moment_m4 = 63.61725\n", "")
+    mm = parse_scene(text, "circle.toml")
+    assert mm.links[1].area == pytest.approx(math.pi * 0.006**2 / 4, rel=1e-14)
+    assert mm.links[1].second_moment == pytest.approx(math.pi * 0.006**4 / 64, rel=1e-14)
+    assert mm.links[1].fibre_distance == pytest.approx(0.003, rel=1e-14)
+
+
 def test_in_lbf_s_scene_is_the_si_scene():
     """Bahgat-Willmert written in inches, pounds-force and lbf·s²/in (its section is 0.25 in x 1 in)."""
     doc = tomllib.loads(BW.read_text())

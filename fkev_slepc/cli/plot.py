@@ -51,7 +51,8 @@ def add_parser(subparsers) -> None:
             "(ω_i/ω_i(structure) vs α = Ω/ω_1(structure) at one angle), error-angle (% error of the "
             "simplified cases vs full over the cycle at one speed), mode-shape (needs an archive made "
             "with `fkev run SCENE --mode-shapes`), stability (max Re λ over angle × speed), campbell "
-            "(frequency vs speed with crank-order lines)."
+            "(frequency vs speed with crank-order lines), bands (each mode's frequency band over the crank cycle vs "
+            "speed, with crank-order lines; --speed marks an operating speed)."
         ),
     )
     p.add_argument("archive", type=Path, nargs="+", help="HDF5 archive(s) written by `fkev run`")

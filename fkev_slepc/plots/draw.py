@@ -48,7 +48,7 @@ from fkev_slepc.solve.modes import percent_error
 from fkev_slepc.status import converged_codes
 from fkev_slepc.sweep.tracking import match_cases
 
-KINDS = ("freq-angle", "param-speed", "error-angle", "mode-shape", "stability", "campbell")
+KINDS = ("freq-angle", "param-speed", "error-angle", "mode-shape", "stability", "campbell", "bands")
 __all__ = ["KINDS", "draw", "freq_angle", "param_speed", "error_angle", "mode_shape", "stability",
            "campbell", "case_label"]
 
@@ -250,6 +250,11 @@ def draw(results: SweepResults | Sequence[SweepResults], kind: str, *, cases=Non
         return stability(res, only_one(cases, "--case"))
     if kind == "campbell":
         return campbell(res, only_one(angles, "--angle"), cases, modes, orders, order or "tracked")
+    if kind == "bands":  # plots/bands.py (fkev margins --plot)
+        from fkev_slepc.plots.bands import band_campbell
+
+        along = order if order in ("tracked", "sorted") else None
+        return band_campbell(res, only_one(cases, "--case"), modes, orders, along, only_one(speeds, "--speed"))
     if kind == "mode-shape":
         return mode_shape(res, only_one(angles, "--angle"), only_one(speeds, "--speed"), cases, modes)
     raise ArchiveError(f"--kind: unknown kind {kind!r} (known: {', '.join(KINDS)})")
