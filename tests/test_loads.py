@@ -70,7 +70,7 @@ def _scenes():
 def test_loads_of_every_link_balance_its_rigid_body_inertia(name):
     """For every link: Σ of the consistent element loads and the particle loads = -m a_G, and
     their moment about G (nodal forces × arms + nodal moments) = -J_G φ̈, per Ω², per α; gravity
-    gives (0, -m g) and no moment. m, G, J_G are the mechanism's rigid-body data (every element a
+    along -Y gives (0, -m g), along -X (-m g, 0), and no moment. m, G, J_G are the mechanism's rigid-body data (every element a
     slender rod, every particle a point mass), computed independently of the mass matrices."""
     model = Model(_scenes()[name])
     mech = model.mechanism
@@ -98,8 +98,9 @@ def test_loads_of_every_link_balance_its_rigid_body_inertia(name):
         np.add.at(force, (slice(None), mech.mass_link), f)
         arm = pos[:, mech.mass_nodes] - G[0][:, mech.mass_link]
         np.add.at(moment, (slice(None), mech.mass_link), _cross(arm, f) + fp[..., 2])
-        if part == "gravity":
-            a_G, rate = np.broadcast_to([0.0, 1.0], force.shape), np.zeros(moment.shape)
+        if part.startswith("gravity"):
+            frame = [0.0, 1.0] if part == "gravity" else [1.0, 0.0]
+            a_G, rate = np.broadcast_to(frame, force.shape), np.zeros(moment.shape)
         else:
             a_G, rate = (G[2], kin.ddphi) if part == "per_w2" else (G[1], kin.dphi)
         m, J = mech.body_mass, mech.body_inertia
@@ -129,6 +130,6 @@ def test_scatter_vector_is_the_transpose_of_the_element_gather():
         whole = getattr(model.load_pieces(THETA), part)
         want += np.einsum("amd,md->a", fp, xp[np.where(mech.mass_dofs >= 0, mech.mass_dofs, -1)])
         np.testing.assert_allclose(whole @ x, want, rtol=1e-13, atol=1e-13 * np.abs(fe).max())
-    total = model.load_pieces(THETA).total(300.0, 2e3, 9.81)
     lp = model.load_pieces(THETA)
-    np.testing.assert_allclose(total, 300.0**2 * lp.per_w2 + 2e3 * lp.per_accel + 9.81 * lp.gravity, rtol=1e-15)
+    want = 300.0**2 * lp.per_w2 + 2e3 * lp.per_accel + 9.81 * lp.gravity - 2.0 * lp.gravity_x
+    np.testing.assert_allclose(lp.total(300.0, 2e3, 9.81, -2.0), want, rtol=1e-15)

@@ -12,6 +12,7 @@ from builders import STEEL, bahgat_willmert, four_bar
 from fkev_slepc.model import operators
 from fkev_slepc.model.operators import AssemblyError, Model
 from fkev_slepc.scene import load_scene
+from fkev_slepc.scene.model import Damping
 from fkev_slepc.scene.cases import CASE_NAMES
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"
@@ -25,9 +26,12 @@ def _slider(element="thesis"):
     return replace(sc, analysis=replace(sc.analysis, element=element))
 
 
-@pytest.fixture(scope="module", params=["bw", "slider-cubic"])
+@pytest.fixture(scope="module", params=["bw-damped", "slider-cubic"])
 def model(request):
-    scene = bahgat_willmert(elements=(2, 3, 3)) if request.param == "bw" else _slider("cubic")
+    if request.param == "bw-damped":  # Rayleigh damping: a rayleigh piece, C not skew
+        scene = replace(bahgat_willmert(elements=(2, 3, 3)), damping=Damping(3.0, 2e-6))
+    else:
+        scene = _slider("cubic")
     return Model(scene, cases=CASE_NAMES)
 
 
@@ -83,7 +87,13 @@ def test_one_combination_for_qep_and_stiffness_terms(model):
             K = q.stiffness.data
             np.testing.assert_allclose(K, K0 + omega**2 * K2, rtol=0, atol=1e-13 * np.abs(K).max())
             assert sym == (case in ("structure", "no_tangential"))
-            assert q.kind in (("linear_symmetric", "gyroscopic") if sym else ("linear", "general"))
+            if model.scene.damping.active:
+                assert q.kind == "general"
+                np.testing.assert_allclose(q.damping.data - stack.rayleigh[i], omega * (
+                    stack.coriolis[i] if case not in ("structure", "no_coriolis") else 0.0),
+                    rtol=0, atol=1e-14 * np.abs(stack.rayleigh[i]).max())
+            else:
+                assert q.kind in (("linear_symmetric", "gyroscopic") if sym else ("linear", "general"))
 
 
 def test_angles_that_cannot_be_assembled_are_masked():

@@ -14,7 +14,8 @@ then Tᵀ f_e on the model's DOFs. A lumped mass or slider block adds -m_P a_P o
 (in its node frame) and -J_P φ̈ on its rotation. As everything of the rigid motion, the loads are
 linear in Ω² and in the crank acceleration α (a = p''Ω² + p'α, φ̈ = φ''Ω² + φ'α): they are
 returned per Ω² (at α = 0) and per α (at Ω = 0). Gravity is the same load for a uniform frame
-acceleration (0, +1): the ``gravity`` piece is the load of g = 1 m/s² acting along -Y.
+acceleration: the ``gravity`` piece is the load of 1 m/s² acting along -Y (frame acceleration
+(0, +1)), ``gravity_x`` of 1 m/s² along -X.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from fkev_slepc.model.kinematics import point_local
 from fkev_slepc.model.mechanism import Mechanism
 from fkev_slepc.model.stacks import AngleState, ElementStacks
 
-PARTS = ("per_w2", "per_accel", "gravity")
+PARTS = ("per_w2", "per_accel", "gravity", "gravity_x")
 
 
 @dataclass(frozen=True)
@@ -44,20 +45,23 @@ class ElementLoads:
 @dataclass(frozen=True)
 class LoadPieces:
     """Rigid-body inertia load vectors on the free DOFs (the numbering of ``Model.pattern``),
-    (n_θ, n_free) each: f(θ) = Ω² per_w2 + α per_accel + g gravity (N, N·m). NaN rows where
-    ``ok`` is False."""
+    (n_θ, n_free) each: f(θ) = Ω² per_w2 + α per_accel + g gravity + g_x gravity_x (N, N·m).
+    NaN rows where ``ok`` is False."""
 
     theta: np.ndarray  # (n_θ,) rad
     ok: np.ndarray  # (n_θ,)
     per_w2: np.ndarray  # per Ω² (rad/s)², at α = 0
     per_accel: np.ndarray  # per crank acceleration α (rad/s²), at Ω = 0
     gravity: np.ndarray  # per g (m/s²), gravity along -Y
+    gravity_x: np.ndarray  # per g_x (m/s²), gravity along -X
 
-    def total(self, omega: float, accel: float = 0.0, g: float = 0.0) -> np.ndarray:
+    def total(self, omega: float, accel: float = 0.0, g: float = 0.0, g_x: float = 0.0) -> np.ndarray:
         """The load vectors (n_θ, n_free) at crank speed ``omega``, acceleration ``accel`` and
-        gravity ``g`` (along -Y; 0: none)."""
+        gravity ``g`` along -Y and ``g_x`` along -X (m/s²; 0: none)."""
         f = omega * omega * self.per_w2 + accel * self.per_accel
-        return f + g * self.gravity if g else f
+        if g:
+            f = f + g * self.gravity
+        return f + g_x * self.gravity_x if g_x else f
 
 
 def element_loads(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> ElementLoads:
@@ -77,10 +81,11 @@ def element_loads(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> 
         (q[..., 0], q[..., 1]), (q[..., 3], q[..., 4]) = local(acc[:, left]), local(acc[:, right])
         q[..., 2] = q[..., 5] = rate
         fields[part] = q
-    q = np.zeros(shape)  # the frame accelerating at (0, 1): gravity of 1 m/s² along -Y
-    q[..., 0] = q[..., 3] = s
-    q[..., 1] = q[..., 4] = c
-    fields["gravity"] = q
+    for part, frame in (("gravity", (0.0, 1.0)), ("gravity_x", (1.0, 0.0))):  # 1 m/s² along -Y, -X
+        q = np.zeros(shape)  # the element components of the uniform frame acceleration
+        q[..., 0] = q[..., 3] = c * frame[0] + s * frame[1]
+        q[..., 1] = q[..., 4] = c * frame[1] - s * frame[0]
+        fields[part] = q
     T = state.T
     Tt = np.swapaxes(T, -1, -2)
     element = {k: -(Tt @ (stacks.mass @ q[..., None]))[..., 0] for k, q in fields.items()}
@@ -88,10 +93,11 @@ def element_loads(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> 
     axis = mech.node_axis[mech.mass_nodes]  # (n_mass, 2) the node frame of each particle
     normal = np.stack([-axis[:, 1], axis[:, 0]], axis=-1)
     _, d_p, dd_p = point_local(kin, mech.mass_link, mech.mass_local)
-    up = np.broadcast_to([0.0, 1.0], d_p.shape)
+    up, right = np.broadcast_to([0.0, 1.0], d_p.shape), np.broadcast_to([1.0, 0.0], d_p.shape)
     m, J = mech.mass_value, mech.mass_inertia
     particle = {}
-    for part, acc, rate in (("per_w2", dd_p, kin.ddphi), ("per_accel", d_p, kin.dphi), ("gravity", up, None)):
+    for part, acc, rate in (("per_w2", dd_p, kin.ddphi), ("per_accel", d_p, kin.dphi), ("gravity", up, None),
+                            ("gravity_x", right, None)):
         f = -m[:, None] * acc
         moment = np.zeros(f.shape[:-1]) if rate is None else -J * rate[:, mech.mass_link]
         particle[part] = np.stack([np.sum(f * axis, -1), np.sum(f * normal, -1), moment], axis=-1)
