@@ -81,6 +81,38 @@ def test_resume_solves_only_the_pending_design_points(study, tmp_path):
         fk.load(SC).design({ROD: "0.25,0.3"}, output=copy, **GRID)
 
 
+def test_ctrl_c_stops_at_a_sync_and_resume_completes_the_same_study(study, tmp_path, monkeypatch):
+    """A SIGINT raised while the first design point is solved (no race: the process signals
+    itself) stops the run at the next sync with that point in the .part; --resume finishes."""
+    import signal
+
+    from fkev_slepc.design import study as design_study
+    from fkev_slepc.sweep.interrupt import SweepInterrupted
+
+    out, ds = study
+    params = {ROD: "0.25:0.35:0.05", "links[crank].length_m": [0.15, 0.16]}
+    real = design_study.DesignSolver.solve
+
+    def solve_then_interrupt(self, unit, mask):
+        block = real(self, unit, mask)
+        if unit == (0,):
+            signal.raise_signal(signal.SIGINT)
+        return block
+
+    monkeypatch.setattr(design_study.DesignSolver, "solve", solve_then_interrupt)
+    target = tmp_path / "stopped.h5"
+    with pytest.raises(SweepInterrupted):
+        fk.load(SC).design(params, output=target, **GRID)
+    part = target.with_name(target.name + ".part")
+    with h5py.File(part, "r") as f:
+        done = f[P.D_STATUS.path][()] != Status.PENDING.code
+    assert done[0].all() and not done[1:].any()  # exactly the first design point was kept
+    monkeypatch.setattr(design_study.DesignSolver, "solve", real)
+    again = fk.load(SC).design(params, output=target, resume=True, **GRID)
+    np.testing.assert_allclose(again.frequency_hz.values, ds.frequency_hz.values, rtol=1e-12)
+    np.testing.assert_allclose(again.divergence_speed_rad_s.values, ds.divergence_speed_rad_s.values, rtol=1e-12)
+
+
 def test_bad_design_values_are_refused_before_anything_is_solved(tmp_path):
     out = tmp_path / "bad.h5"
     with pytest.raises(SceneError) as exc:

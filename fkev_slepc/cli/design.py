@@ -55,7 +55,7 @@ def run(args) -> int:
     from fkev_slepc.scene import load_scene
     from fkev_slepc.sweep.grid import CLI_NAMES, configure
     from fkev_slepc.sweep.parallel import install_abort_hook, world
-    from fkev_slepc.sweep.session import RunRefused
+    from fkev_slepc.sweep.session import RunRefused, SweepInterrupted
 
     comm = world()
     install_abort_hook()
@@ -68,6 +68,8 @@ def run(args) -> int:
         notify = None if args.quiet else (lambda m: print(f"fkev design: {m}", file=sys.stderr, flush=True))
         run_design(scene, grid, output, comm, resume=args.resume, force=args.force, solver=args.solver,
                    notify=notify, command_line=" ".join(["fkev", *sys.argv[1:]]))
+    except SweepInterrupted as err:  # the notice with what to do is already printed
+        return err.exit_code
     except (SceneError, RunRefused) as err:  # every rank raised it; rank 0 says it
         bad_scene = isinstance(err, SceneError)
         if rank0:

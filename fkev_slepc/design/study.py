@@ -171,6 +171,8 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
         A design point that is not a valid scene (before anything is solved).
     RunRefused
         ``resume`` of an archive of another design grid, or the base sweep refused.
+    SweepInterrupted
+        Ctrl-C or SIGTERM (every rank): the ``.part`` holds the design points finished so far.
     """
     from fkev_slepc.archive import products as P
     from fkev_slepc.archive import store
@@ -180,6 +182,7 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     from fkev_slepc.solve.thresholds import SolveSettings
     from fkev_slepc.sweep.parallel import local
     from fkev_slepc.sweep.session import RunRefused, SweepRequest, run_sweep
+    from fkev_slepc.sweep.interrupt import StopRequest, SweepInterrupted
     from fkev_slepc.sweep.units import run_units
 
     comm = local(comm)
@@ -205,14 +208,21 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
          f"{int(todo.any(axis=(1, 2, 3)).sum())} to solve")
     engine = make_engine(solver or scene.solver.method, _n_free(scenes), scene.solver.petsc,
                          settings=SolveSettings.from_scene(scene))
+    stop = StopRequest(notify=lambda what: note(f"interrupted by {what}: stopping at the next sync; the design points "
+                                                f"finished so far stay in {part}; continue with --resume"))
     try:
         writer = Writer(part, comm, product=P.DESIGN)
         ds = DesignSolver(scenes, scene, engine, scene.analysis.modes)
-        report = (lambda done, total: note(f"design: {done}/{total} points")) if progress else None
-        run_units(todo, ds.solve, writer, comm, n_unit_axes=1, progress=report)
+        report = (lambda done, total: note(f"{done}/{total} design-study points")) if progress else None
+        with stop:  # Ctrl-C/SIGTERM: every rank leaves after the same sync, the .part resumable (sweep.interrupt)
+            done = run_units(todo, ds.solve, writer, comm, n_unit_axes=1, progress=report, stop=stop)
         writer.close()
     finally:
         engine.close()
+    if stop.stopped:
+        if comm.rank == 0:
+            release(output)
+        raise SweepInterrupted(part, done)
     if comm.rank == 0:
         try:
             store.finalize(part, output, {"last_command_line": command_line or "fkev design"})
