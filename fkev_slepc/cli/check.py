@@ -87,6 +87,10 @@ def check_scene(path: str | Path) -> Scene:
         from .common import modes_problem
 
         problems = [p for p in [modes_problem(scene.analysis.modes, build_mechanism(scene).n_free, None)] if p]
+    if not problems:  # finite values whose operators are not (a speed of 1e155 rad/s, an area of 1e300 m²)
+        from fkev_slepc.solve.finite import overflow_problems
+
+        problems = overflow_problems(scene)
     if problems:
         raise SceneError(scene.source, problems)
     if scene.solver.petsc:  # names PETSc would silently ignore (misspelt) are errors too

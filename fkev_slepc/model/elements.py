@@ -95,6 +95,7 @@ def rotation(phi: np.ndarray, n_dof: int = 6) -> np.ndarray:
     return T
 
 
+@np.errstate(over="ignore", invalid="ignore")  # overflowing properties: inf/NaN entries the engines refuse
 def to_global(k_local: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Tᵀ k T for a stack of element matrices (..., n_dof, n_dof); T may carry extra leading
     axes (crank angles) that broadcast against ``k_local``'s."""

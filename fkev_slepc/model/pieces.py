@@ -107,6 +107,7 @@ class Combined:
     k_symmetric: bool | np.ndarray  # per angle for a stack: False when a tangential part acts
 
 
+@np.errstate(over="ignore", invalid="ignore")  # an overflowing Ω² gives inf/NaN entries: the engines refuse them
 def combine(p, omega: float, terms: Terms, accel: float, with_damping: bool = True) -> Combined:
     """Sum the pieces ``p`` (:class:`OperatorPieces` or :class:`PieceStack`) at crank speed
     ``omega`` and acceleration ``accel`` with the terms of a case (Table 3.1).

@@ -17,6 +17,7 @@ import scipy.linalg as la
 
 from fkev_slepc.model.qep import GENERAL, LINEAR_SYMMETRIC, QEP
 from fkev_slepc.solve.acceptance import DenseQEP, check_pairs, pair_error
+from fkev_slepc.solve.finite import require_finite
 from fkev_slepc.solve.modes import reported
 from fkev_slepc.solve.polish import polish_reported
 from fkev_slepc.solve.protocol import EigenSolution
@@ -314,6 +315,8 @@ class DenseEngine:
 
     def _solve_all(self, qeps: list, n_modes: int, want_vectors: bool, hints: list) -> list:
         st = self.solve_settings
+        for q in qeps:
+            require_finite(q)  # a point failure with the reason, not LAPACK's ValueError
         dense = [as_dense(q) for q in qeps]
         parts = [_balanced_spectrum(q, h) for q, h in zip(dense, hints)]
         used = [_vector_pairs(p.lam, n_modes, st.imag_tol) for p in parts]

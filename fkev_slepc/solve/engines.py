@@ -10,6 +10,8 @@ grows like n³ (measured by ``scripts/bench_crossover.py``; numbers in docs/engi
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from fkev_slepc.model.qep import QEP
@@ -17,6 +19,7 @@ from fkev_slepc.solve.protocol import EigenSolution, Engine
 from fkev_slepc.solve.thresholds import SolveSettings, max_pair_error_option
 
 METHODS = ("auto", "slepc", "dense")
+log = logging.getLogger(__name__)
 
 # Measured with scripts/bench_crossover.py (Bahgat-Willmert four-bar, six cases, median of 5):
 # dense faster at 18 free DOFs, SLEPc faster from 27 on (UMFPACK; docs/engine.md, "Crossover").
@@ -71,7 +74,16 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, settings: SolveSe
     'slepc'
     """
     settings = SolveSettings() if settings is None else settings
-    if engine_kind(method, n_free, crossover) == "dense":
+    kind = engine_kind(method, n_free, crossover)
+    engine = _one_engine(kind, petsc_options, settings, max_pair_error)
+    if method != "auto":  # the engine the user chose, and only that one
+        return engine
+    other = "slepc" if kind == "dense" else "dense"
+    return FallbackEngine(engine, lambda: _one_engine(other, petsc_options, settings, max_pair_error))
+
+
+def _one_engine(kind: str, petsc_options, settings: SolveSettings, max_pair_error) -> Engine:
+    if kind == "dense":
         from fkev_slepc.solve.dense import DenseEngine
 
         check_petsc_options(petsc_options)
@@ -148,7 +160,30 @@ def cross_check(qep: QEP, n_modes: int, petsc_options=(), settings: SolveSetting
     return relative_difference(f_slepc, frequencies(DenseEngine(settings), qep, n_modes))
 
 
-class CrossCheckEngine:
+class _Paired:
+    """An engine made of a primary engine (whose results, name and thresholds it has) and a
+    second one; :meth:`solve` is :meth:`solve_many` of one problem."""
+
+    def __init__(self, primary: Engine):
+        self.primary, self.name, self.solve_settings = primary, primary.name, primary.solve_settings
+
+    @property
+    def max_pair_error(self) -> float:
+        return self.primary.max_pair_error
+
+    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint=None) -> EigenSolution:
+        return self.solve_many([qep], n_modes, want_vectors, [hint])[0]
+
+    def _second(self):
+        return None
+
+    def close(self) -> None:
+        self.primary.close()
+        if self._second() is not None:
+            self._second().close()
+
+
+class CrossCheckEngine(_Paired):
     """An engine that also solves every point with the other engine (dense QZ <-> SLEPc).
 
     The results returned (and archived) are the primary engine's; ``max_rel_diff`` is the
@@ -159,17 +194,12 @@ class CrossCheckEngine:
     """
 
     def __init__(self, primary: Engine, other: Engine):
-        self.primary, self.other = primary, other
-        self.name = primary.name
-        self.solve_settings = primary.solve_settings
+        super().__init__(primary)
+        self.other = other
         self.max_rel_diff, self.n_points, self.n_skipped = 0.0, 0, 0
 
-    @property
-    def max_pair_error(self) -> float:
-        return self.primary.max_pair_error
-
-    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint=None) -> EigenSolution:
-        return self.solve_many([qep], n_modes, want_vectors, [hint])[0]
+    def _second(self):
+        return self.other
 
     def solve_many(self, qeps: list, n_modes: int, want_vectors: bool = False, hints=None) -> list[EigenSolution]:
         sols = self.primary.solve_many(qeps, n_modes, want_vectors, hints)
@@ -193,9 +223,50 @@ class CrossCheckEngine:
                               "points": self.n_points, "skipped": self.n_skipped}
         return out
 
-    def close(self) -> None:
-        self.primary.close()
-        self.other.close()
+
+class FallbackEngine(_Paired):
+    """``--solver auto``: a point the chosen engine does not converge is solved by the other one
+    (dense QZ <-> SLEPc; dense only up to ``stability.DENSE_LIMIT`` DOFs), made on first need.
+
+    A point keeps the first engine's result when the other does not converge either. The
+    solver name of a rescued point says so; ``settings()['fallback']`` counts them (archived).
+    Measured: Bahgat-Willmert with a 1e-8 m crank (15 DOFs: dense) is flagged by the dense
+    engine's polish check and solved by SLEPc (tests/test_solver_defects.py).
+    """
+
+    def __init__(self, primary: Engine, make_other):
+        super().__init__(primary)
+        self._make_other, self._other = make_other, None
+        self.rescued, self.tried = 0, 0
+
+    def _second(self):
+        return self._other
+
+    def solve_many(self, qeps: list, n_modes: int, want_vectors: bool = False, hints=None) -> list[EigenSolution]:
+        import dataclasses
+
+        from fkev_slepc.solve.stability import DENSE_LIMIT
+
+        hints = [None] * len(qeps) if hints is None else list(hints)
+        sols = self.primary.solve_many(qeps, n_modes, want_vectors, hints)
+        for i, (q, sol) in enumerate(zip(qeps, sols)):
+            if sol.converged or (self.primary.name == "slepc" and q.n > DENSE_LIMIT):
+                continue
+            if self._other is None:
+                self._other = self._make_other()
+            self.tried += 1
+            alt = self._other.solve(q, n_modes, want_vectors, hints[i])
+            if alt.converged:
+                self.rescued += 1
+                log.info("%s did not converge (%s): solved by %s", self.primary.name, sol.message, alt.solver)
+                sols[i] = dataclasses.replace(alt, solver=f"{alt.solver} (after {self.primary.name} did not converge)")
+        return sols
+
+    def settings(self) -> dict:
+        out = dict(self.primary.settings())
+        out["fallback"] = {"other_engine": "slepc" if self.primary.name == "dense" else "dense",
+                           "points_tried": self.tried, "points_rescued": self.rescued}
+        return out
 
 
 def make_cross_check_engine(method: str, n_free: int, petsc_options=(), *,

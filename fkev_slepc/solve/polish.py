@@ -96,26 +96,30 @@ def polish(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray, which: 
     """
     lam, X, errors = lam.astype(complex), X.astype(complex), np.asarray(errors, dtype=float).copy()
     start = lam.copy()
-    which = np.asarray(which, dtype=int)
-    notes = []
-    for j in which:
+    moved, polished = [], []
+    for j in np.asarray(which, dtype=int):
         try:
             new, x, err = polish_pair(qep, lam[j], X[:, j], settings)
         except RuntimeError:
             continue
         move = abs(new - start[j]) / max(abs(start[j]), abs(new))
         if not move <= settings.polish_max_move:  # NaN too
-            notes.append(f"the polish moved an eigenvalue from {start[j]:.6g} to {new:.6g} 1/s (relative "
-                         f"{move:.1e} > {settings.polish_max_move:g}): the engine's pair kept")
+            moved.append((start[j], new, move))
             continue
         partner = np.argmin(np.abs(lam - np.conj(lam[j])))
         if partner != j and abs(lam[partner] - np.conj(lam[j])) <= 1e-6 * abs(lam[j]):
             lam[partner], X[:, partner], errors[partner] = np.conj(new), x.conj(), err
         lam[j], X[:, j], errors[j] = new, x, err
-    dup = _collapsed(lam, X, which, settings.duplicate_mac)
+        polished.append(j)
+    notes = []
+    if moved:
+        a, b, m = max(moved, key=lambda t: t[2])
+        notes.append(f"the polish moved {len(moved)} eigenvalue(s) by more than {settings.polish_max_move:g} relative "
+                     f"(worst {a:.6g} -> {b:.6g} 1/s): the engine's pairs kept")
+    dup = _collapsed(lam, X, np.asarray(polished, dtype=int), settings.duplicate_mac)
     if dup:
         notes.append(dup)
-    return lam, X, errors, "; ".join(dict.fromkeys(notes))
+    return lam, X, errors, "; ".join(notes)
 
 
 def _collapsed(lam: np.ndarray, X: np.ndarray, which: np.ndarray, max_mac: float) -> str:

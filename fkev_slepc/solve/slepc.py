@@ -28,6 +28,7 @@ wrong pairs on these stiff models). Every setting can be overridden under ``-fke
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -36,9 +37,11 @@ from fkev_slepc.solve.petsc_backend import PREFIX, OptionsError, PatternMismatch
 from fkev_slepc.solve.slepc_options import DEFAULTS, LU_PACKAGE, SLEPc, make_solver, check_options, configured  # noqa: F401
 from fkev_slepc.solve.polish import polish_reported
 from fkev_slepc.solve.acceptance import check_pairs, pair_error
-from fkev_slepc.solve.dense import all_eigenvalues, balanced
+from fkev_slepc.solve.completeness import far_modes_possible, missed_modes, uncertified
+from fkev_slepc.solve.dense import DenseEngine, all_eigenvalues, balanced
+from fkev_slepc.solve.finite import require_finite
 from fkev_slepc.solve.protocol import EigenSolution
-from fkev_slepc.solve.stability import check_divergence
+from fkev_slepc.solve.stability import DENSE_LIMIT, check_divergence
 from fkev_slepc.solve.thresholds import SolveSettings
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
 
@@ -126,6 +129,7 @@ class SlepcEngine:
         linear = qep.kind in (LINEAR_SYMMETRIC, LINEAR)
         if linear and qep.damping is not None:
             raise ValueError(f"a {qep.kind!r} QEP must have no damping matrix")
+        require_finite(qep)  # a point failure with the reason, not a PETSc error or a traceback
         try:
             # balanced like the dense engine: measured on random crank-rockers, the LU of an
             # unbalanced K cost SLEPc up to 60x the conditioning floor (scripts/stress.py random)
@@ -158,8 +162,17 @@ class SlepcEngine:
             # QEP (measured: qarnoldi at divergent points; any method on over-refined models)
             ok, msg = False, bad
         self._last["max_pair_error"] = float(worst)
+        whole: list = []  # the dense whole spectrum, computed at most once per point
+        spectrum = lambda q: whole[0] if whole else whole.append(all_eigenvalues(q)) or whole[0]  # noqa: E731
+
         # Divergence is decided on the whole spectrum, not on the pairs nearest 0 (stability.py).
-        verdict = check_divergence(qep, computed=lam, dense_spectrum=all_eigenvalues, imag_tol=st.imag_tol)
+        verdict = check_divergence(qep, computed=lam, dense_spectrum=spectrum, imag_tol=st.imag_tol)
+        if ok and (whole or far_modes_possible(lam, n_modes, st.imag_tol)):  # completeness.py
+            if qep.n > DENSE_LIMIT:
+                ok, msg = False, uncertified(lam, n_modes, st.imag_tol, qep.n, DENSE_LIMIT)
+            elif missed_modes(lam, spectrum(qep), n_modes, st.imag_tol):  # the dense engine solves it
+                sol = DenseEngine(st).solve(qep, n_modes, want_vectors, hint)
+                return dataclasses.replace(sol, solver=f"{sol.solver} (SLEPc missed the lowest modes)")
         return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg, verdict,
                              st.imag_tol)
 
@@ -246,44 +259,61 @@ class SlepcEngine:
         return out
 
     def _run(self, solver, kind: str, n_modes: int, nev: int, size: int, per_mode: int, to_lambda):
-        """Solve; while real eigenvalues crowd out wanted frequencies, solve again with a larger nev.
+        """Solve; while real eigenvalues crowd out wanted frequencies, solve again with a larger nev;
+        when the solve stops short (e.g. DIVERGED_ITS), once more from another initial vector with
+        twice the ncv (unless the user set ncv or nev).
 
         ``per_mode`` is the number of solver eigenvalues per frequency (2 for a PEP, 1 for the
-        EPS in μ). Returns (λ, X, ok, message) and records the details in ``self._last``.
+        EPS in μ). Returns (λ, X, ok, message) and records the details in ``self._last``. The
+        point is accepted when its ``n_modes`` frequencies converged, even if SLEPc converged fewer
+        than the nev asked (nev has room for real pairs; what converged is the leading run nearest
+        the target, and every reported pair is judged on its own afterwards).
         """
         user_nev = f"{kind}_nev" in self._user
-        for attempt in range(_MAX_RETRIES + 1):
+        fixed = user_nev or bool({f"{kind}_ncv", f"{kind}_max_it"} & self._user)  # the user chose the subspace or the limit
+        seed, wide, restarts = _SEED, False, 0
+        for attempt in range(_MAX_RETRIES + 2):
             if not user_nev:
-                solver.setDimensions(nev=min(nev, size), **self._dims(kind, nev, size))
+                solver.setDimensions(nev=min(nev, size), **self._dims(kind, nev, size, wide))
             # same initial vector at every point, whatever was solved before (reproducible sweeps)
-            solver.getBV().getRandomContext().setSeed(_SEED)
+            solver.getBV().getRandomContext().setSeed(seed)
             solver.solve()
             values, Y, nconv = _pairs(solver, self._ops)
             lam, X = to_lambda(values, Y)
             wanted, reason = solver.getDimensions()[0], solver.getConvergedReason()
             found = _count_oscillating(lam, self.solve_settings.imag_tol)
-            if found >= n_modes or nconv < wanted or reason <= 0 or user_nev or nev >= size:
+            if found >= n_modes or nev >= size:
+                break
+            if nconv < wanted or reason <= 0:  # stopped short: change the start vector and the subspace
+                if restarts or fixed:
+                    break
+                seed, wide, restarts = seed + 1, True, 1
+                continue
+            if user_nev:
                 break
             # the converged set had too few oscillating modes: grow nev in proportion
             nev = max(nev + per_mode * (n_modes - found) + per_mode, -(-nconv * (n_modes + 1) // max(found, 1)))
-        ok = nconv >= wanted and reason > 0 and found >= n_modes
+        ok = found >= n_modes
         why = enum_name(type(solver).ConvergedReason, reason)
         self._last = {"nev": wanted, "nconv": nconv, "reason": why, "iterations": solver.getIterationNumber(),
-                      "retries": attempt}  # fmt: skip
-        msg = "" if ok else f"{nconv} of {wanted} eigenvalues converged ({why}); {found} of {n_modes} frequencies found"
+                      "retries": attempt, "restarted": bool(restarts)}  # fmt: skip
+        msg = "" if ok else (f"{found} of the {n_modes} frequencies asked converged ({nconv} of {wanted} "
+                             f"eigenvalues, {why}" + (", also from another initial vector with a larger ncv" if restarts
+                                                       else "") + ")")
         return lam, X, ok, msg
 
-    def _dims(self, kind: str, nev: int, size: int) -> dict:
+    def _dims(self, kind: str, nev: int, size: int, wide: bool = False) -> dict:
         """ncv and mpd for ``setDimensions`` (which resets what it is not given to PETSC_DEFAULT).
 
         The user's values if set; otherwise an even ncv = max(nev + 16, 2·nev). SLEPc's default
         nev + 15 is odd for our even nev, and measured on beam QEPs an odd ncv makes real
         TOAR stall for tens of restarts (a conjugate pair is split at every restart) while an
-        even one converges in 1-3 (docs/engine.md).
+        even one converges in 1-3 (docs/engine.md). ``wide``: twice that (a second attempt).
         """
         out = {k: int(float(self._values[f"{kind}_{k}"])) for k in ("ncv", "mpd") if f"{kind}_{k}" in self._user}
         if "ncv" not in out:
-            out["ncv"] = min(max(nev + 16, 2 * nev) + (nev % 2), size)
+            ncv = max(nev + 16, 2 * nev) + (nev % 2)
+            out["ncv"] = min(2 * ncv if wide else ncv, size)
         return out
 
     def _scale(self, pep, hint):
