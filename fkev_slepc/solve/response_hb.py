@@ -1,0 +1,197 @@
+"""Harmonic balance for the periodic response of M(θ)q̈ + C(θ)q̇ + K(θ)q = f(θ), θ = Ωt
+(docs/response.md §3).
+
+The response is sought as a trigonometric polynomial of degree H in θ, q = Σ_{|l|<=H} Q_l e^{ilθ},
+and the harmonics |k| <= H of the residual of the equation in θ,
+
+    Ω² M(θ) q'' + Ω C(θ) q' + K(θ) q = f(θ),
+
+vanish (Galerkin harmonic balance, :func:`galerkin_solve`): one dense complex LU of size
+(2H + 1) n, the blocks Toeplitz in the coefficients' Fourier coefficients. Trigonometric
+collocation (:func:`collocation_solve`, the equation imposed at 2H + 1 angles) is kept as a check:
+it aliases the harmonics above H of the products M q'' ... into the equations, and where a
+harmonic kΩ near the truncation meets a natural frequency of an undamped linkage that aliasing is
+amplified (measured: Bahgat-Willmert at 300 rad/s, collocation at 129 angles 1.5 % off the
+converged response, Galerkin at the same H converged).
+
+The truncation error is estimated by repeating with H/2 and comparing the harmonics (``error``:
+the largest change of any harmonic relative to the largest harmonic); with ``tol`` H doubles
+until the estimate is below it.
+
+Generic interface (no linkage in here): ``coefficients(theta)`` -> (M, C, K), dense stacks
+(k, n, n) at the angles theta (k,) in the time form (units of the equation in t);
+``load(theta)`` -> f (k, n). Ω (rad/s) turns θ-derivatives into time derivatives.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as la
+
+MAX_UNKNOWNS = 12_000  # N·n of one dense solve (1.15 GB of LU at the limit): beyond, refuse
+
+
+@dataclass(frozen=True)
+class HarmonicResponse:
+    """The periodic response at the collocation angles and its harmonics."""
+
+    theta: np.ndarray  # (N,) rad, 2πj/N
+    q: np.ndarray  # (N, n)
+    dq: np.ndarray  # (N, n) dq/dθ (multiply by Ω for the velocity)
+    harmonics: np.ndarray  # (H + 1, n) complex: q(θ) = Re Σ_k c_k e^{ikθ} (c_0 real)
+    error: float  # estimated relative truncation error of the harmonics (NaN: not estimated)
+    condition: float  # reciprocal condition estimate of the collocation matrix (1-norm)
+
+    @property
+    def n_angles(self) -> int:
+        return self.theta.size
+
+    def at(self, theta) -> np.ndarray:
+        """q at any angles (k,) -> (k, n), by the trigonometric interpolant."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        k = np.arange(self.harmonics.shape[0])
+        return np.real(np.exp(1j * np.outer(theta, k)) @ self.harmonics)
+
+
+def fourier_derivative(N: int) -> np.ndarray:
+    """Differentiation matrix (N, N) on θ_j = 2πj/N, N odd: D_jk = ½(-1)^(j-k) / sin((j-k)π/N)."""
+    if N % 2 == 0 or N < 3:
+        raise ValueError(f"N: the collocation needs an odd number of angles >= 3 (got {N})")
+    j = np.arange(N)
+    d = j[:, None] - j[None, :]
+    with np.errstate(divide="ignore"):
+        D = 0.5 * (-1.0) ** d / np.sin(d * np.pi / N)
+    D[d == 0] = 0.0
+    return D
+
+
+def harmonics_of(q: np.ndarray) -> np.ndarray:
+    """(H + 1, n) complex c_k with q(θ_j) = Re Σ c_k e^{ikθ_j} for samples q (N, n), N odd."""
+    N = q.shape[0]
+    c = np.fft.rfft(q, axis=0) / N
+    c[1:] *= 2.0
+    return c
+
+
+def galerkin_solve(coefficients, load, omega: float, H: int) -> HarmonicResponse:
+    """The periodic response with harmonics 0..H by Galerkin harmonic balance (one dense LU).
+
+    q(θ) = Σ_{|l|<=H} Q_l e^{ilθ}; the residual's harmonics |k| <= H vanish:
+    Σ_l [K̂_{k-l} + ilΩ Ĉ_{k-l} - l²Ω² M̂_{k-l}] Q_l = F̂_k, with the coefficients' Fourier
+    coefficients from 4H + 1 samples (exact for coefficients of degree <= 2H; a linkage's decay
+    geometrically). Unlike collocation, nothing above H is aliased into the equations, so a
+    harmonic near a high natural frequency is excited only by the forcing's own content there."""
+    H = int(H)
+    if H < 1:
+        raise ValueError(f"harmonics: must be >= 1 (got {H})")
+    Nq = 4 * H + 1
+    tq = 2.0 * np.pi * np.arange(Nq) / Nq
+    M, C, K = (np.asarray(x, dtype=float) for x in coefficients(tq))
+    f = np.asarray(load(tq), dtype=float)
+    n = M.shape[1]
+    size = (2 * H + 1) * n
+    if size > MAX_UNKNOWNS:
+        raise ValueError(f"harmonic balance: {2 * H + 1} harmonics x {n} DOFs = {size} unknowns exceeds the dense "
+                         f"limit {MAX_UNKNOWNS}; use fewer harmonics")
+    hat = lambda x: np.fft.fft(x, axis=0) / Nq  # noqa: E731  index m mod Nq: harmonic m
+    Mh, Ch, Kh, Fh = hat(M), hat(C), hat(K), hat(f)
+    ls = np.arange(-H, H + 1)
+    diff = (ls[:, None] - ls[None, :]) % Nq  # k - l
+    w = float(omega)
+    A = Kh[diff] + (1j * w * ls)[None, :, None, None] * Ch[diff] - ((w * ls) ** 2)[None, :, None, None] * Mh[diff]
+    A = A.transpose(0, 2, 1, 3).reshape(size, size)
+    b = Fh[ls % Nq].reshape(-1)
+    Q, rcond = _solve(A, b)
+    Q = Q.reshape(2 * H + 1, n)
+    harmonics = np.concatenate([Q[H : H + 1].real, 2.0 * Q[H + 1 :]])
+    theta = 2.0 * np.pi * np.arange(2 * H + 1) / (2 * H + 1)
+    E = np.exp(1j * np.outer(theta, ls))
+    q = np.real(E @ Q)
+    dq = np.real(E @ (1j * ls[:, None] * Q))
+    return HarmonicResponse(theta, q, dq, harmonics, float("nan"), rcond)
+
+
+def _solve(A, b):
+    """x of A x = b: equilibrated (rows, then columns, by powers of 2: exact), LU, refined twice
+    (the DOFs mix translations and rotations, and the axial stiffness is far above the rest);
+    and LAPACK's reciprocal condition estimate of the equilibrated matrix."""
+    r = _pow2(1.0 / np.abs(A).max(axis=1))
+    As = A * r[:, None]
+    c = _pow2(1.0 / np.abs(As).max(axis=0))
+    As *= c[None, :]
+    lu = la.lu_factor(As, check_finite=False)
+    rcond = _rcond(As, lu)
+    y = la.lu_solve(lu, r * b, check_finite=False)
+    for _ in range(2):
+        y = y + la.lu_solve(lu, r * (b - A @ (c * y)), check_finite=False)
+    return c * y, rcond
+
+
+def collocation_solve(coefficients, load, omega: float, N: int) -> HarmonicResponse:
+    """The periodic response on N (odd) collocation angles (one dense LU): the equation imposed
+    at each θ_j with the Fourier differentiation matrix (aliasing included; kept as a check)."""
+    theta = 2.0 * np.pi * np.arange(N) / N
+    M, C, K = (np.asarray(x, dtype=float) for x in coefficients(theta))
+    f = np.asarray(load(theta), dtype=float)
+    n = M.shape[1]
+    if N * n > MAX_UNKNOWNS:
+        raise ValueError(f"harmonic balance: {N} angles x {n} DOFs = {N * n} unknowns exceeds the dense "
+                         f"limit {MAX_UNKNOWNS}; use fewer harmonics or shooting")
+    D = fourier_derivative(N)
+    w = float(omega)
+    A = np.einsum("jk,jab->jakb", w * w * (D @ D), M) + np.einsum("jk,jab->jakb", w * D, C)
+    A[np.arange(N), :, np.arange(N), :] += K
+    y, rcond = _solve(A.reshape(N * n, N * n), f.reshape(-1))
+    q = y.reshape(N, n)
+    return HarmonicResponse(theta, q, D @ q, harmonics_of(q), float("nan"), rcond)
+
+
+def _pow2(x: np.ndarray) -> np.ndarray:
+    """The powers of two nearest ``x`` (scaling by them is exact); 1 where x is not finite."""
+    x = np.where(np.isfinite(x) & (x > 0), x, 1.0)
+    return np.exp2(np.round(np.log2(x)))
+
+
+def _rcond(A, lu) -> float:
+    """LAPACK's reciprocal 1-norm condition estimate from the LU factors."""
+    gecon = la.get_lapack_funcs("gecon", (A,))
+    rc, info = gecon(lu[0], np.linalg.norm(A, 1), norm="1")
+    return float(rc)
+
+
+def harmonic_balance(coefficients, load, omega: float, *, harmonics: int | None = None, tol: float = 1e-10,
+                     start: int = 8, max_harmonics: int = 256) -> HarmonicResponse:
+    """The periodic response by Galerkin harmonic balance with its truncation-error estimate.
+
+    ``harmonics`` fixes H (the estimate compares with H/2); without it H = start, 2·start, ...
+    until the estimate <= ``tol`` or H would pass ``max_harmonics`` (the last estimate is
+    reported either way). The estimate is the change of the harmonics from H/2 to H relative to
+    the largest one: it measures the coarser solution, an upper bound for a geometric
+    convergence."""
+    def compare(fine, coarse):
+        a, b = fine.harmonics, coarse.harmonics
+        k = b.shape[0]
+        scale = max(np.abs(a).max(), 1e-300)
+        return float(max(np.abs(a[:k] - b).max(), np.abs(a[k:]).max(initial=0.0)) / scale)
+
+    if harmonics is not None:
+        H = int(harmonics)
+        fine = galerkin_solve(coefficients, load, omega, H)
+        coarse = galerkin_solve(coefficients, load, omega, max(1, H // 2))
+        return _with_error(fine, compare(fine, coarse))
+    H = int(start)
+    coarse = galerkin_solve(coefficients, load, omega, H)
+    n = coarse.q.shape[1]
+    while True:
+        H *= 2
+        fine = galerkin_solve(coefficients, load, omega, H)
+        err = compare(fine, coarse)
+        if err <= tol or 2 * H > max_harmonics or (4 * H + 1) * n > MAX_UNKNOWNS:
+            return _with_error(fine, err)
+        coarse = fine
+
+
+def _with_error(r: HarmonicResponse, err: float) -> HarmonicResponse:
+    return HarmonicResponse(r.theta, r.q, r.dq, r.harmonics, err, r.condition)
