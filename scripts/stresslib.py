@@ -217,4 +217,4 @@ def mp_real_eigenvalues(qep, dps: int = 40) -> np.ndarray:
             for j in range(n):
                 L[n + i, j], L[n + i, n + j] = A[i, j], B[i, j]
         ev = np.array([complex(e) for e in mp.eig(L, left=False, right=False)])
-    return real_positive(ev, imag_tol=1e-9)
+    return real_positive(ev)  # the default imag_tol (solve/thresholds.py IMAG_TOL)

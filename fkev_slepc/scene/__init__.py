@@ -8,6 +8,7 @@ entry points, ``cases`` Table 3.1 as data. Nothing here imports PETSc, MPI or h5
 from fkev_slepc.scene.model import (
     END_NAMES,
     DAMPING_TOL,
+    IMAG_TOL,
     ELEMENT_NAMES,
     THIRD,
     Analysis,
@@ -27,6 +28,7 @@ from fkev_slepc.scene.model import (
 from fkev_slepc.scene.reader import load_scene, parse_scene
 
 __all__ = [
-    "DAMPING_TOL", "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Damping", "Driver", "Joint", "Link", "LinkEnd",
+    "DAMPING_TOL", "IMAG_TOL", "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Damping", "Driver", "Joint",
+    "Link", "LinkEnd",
     "LumpedMass", "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene", "parse_scene",
 ]

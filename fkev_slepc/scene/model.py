@@ -21,6 +21,8 @@ THIRD = "third"  # the third joint point of a ternary link (docs/linkages.md)
 # errors 1e-14..1e-8, docs/stability.md); ζ = -1e-6 means an amplitude growth of e only after
 # 1/(2π·1e-6) ≈ 160,000 cycles of the mode, far below any structural damping (ζ ~ 1e-3..1e-1).
 DAMPING_TOL = 1e-6
+# Default analysis.imag_tol: |Im λ| <= IMAG_TOL·|λ| is a real eigenvalue (divergence), not a frequency.
+IMAG_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -140,7 +142,7 @@ class Analysis:
     mode_shapes: bool = False
     # Named thresholds (recorded in archives): |Im λ| <= imag_tol*|λ| is a real eigenvalue;
     # a reported mode with damping ratio ζ = -Re λ/|λ| < -damping_tol is unstable.
-    imag_tol: float = 1e-9
+    imag_tol: float = IMAG_TOL
     damping_tol: float = DAMPING_TOL
     element: str = "thesis"  # one of ELEMENT_NAMES
     rel_error: float | None = None  # requested relative frequency error (solve/accuracy.py)

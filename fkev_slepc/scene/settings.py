@@ -12,7 +12,7 @@ import difflib
 import re
 
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
-from fkev_slepc.scene.model import DAMPING_TOL, ELEMENT_NAMES, Analysis, Solver
+from fkev_slepc.scene.model import DAMPING_TOL, ELEMENT_NAMES, IMAG_TOL, Analysis, Solver
 from fkev_slepc.scene.schema import Reader, is_number, join, show
 
 ANALYSIS_KEYS = ("crank_angles_deg", "cases", "modes", "mode_shapes", "imag_tol", "damping_tol", "element",
@@ -34,7 +34,7 @@ def read_analysis(r: Reader, doc) -> Analysis | None:
         cases=_read_cases(r, table),
         modes=r.integer(table, "modes", "analysis", default=4, minimum=1),
         mode_shapes=r.boolean(table, "mode_shapes", "analysis", default=False),
-        imag_tol=r.number(table, "imag_tol", "analysis", default=1e-9, minimum=0.0, below=1.0),
+        imag_tol=r.number(table, "imag_tol", "analysis", default=IMAG_TOL, minimum=0.0, below=1.0),
         damping_tol=r.number(table, "damping_tol", "analysis", default=DAMPING_TOL, minimum=0.0, below=1.0),
         element=r.string(table, "element", "analysis", default="thesis", choices=ELEMENT_NAMES),
         # ground-frame gravity [gx, gy] for loads and response (fkev loads/response; not the eigen-analysis)

@@ -3,8 +3,8 @@ failure (``failed``, with the reason), never a traceback; ``fkev check`` refuses
 
 A scene may hold finite values whose operators are not: a crank speed of 1e155 rad/s (Ω² = 1e310),
 an area of 1e300 m² (EA/l), a density of 1e-300 kg/m³ (ω² = K_ii/M_ii ~ 1e313). The QEP is
-refused when any matrix entry is not finite or reaches :data:`MAX_ENTRY`, or when the stiffness-to-mass scale max K_ii/M_ii,
-of the order of the largest |λ|², reaches :data:`MAX_LAMBDA_SQUARED` (products like λ²Mx and
+refused when any matrix entry is not finite or reaches :data:`MAX_ENTRY`, or when the
+stiffness-to-mass scale max K_ii/M_ii, of the order of the largest |λ|², reaches :data:`MAX_LAMBDA_SQUARED` (products like λ²Mx and
 the companion pencil of the dense engine then overflow).
 """
 

@@ -35,7 +35,8 @@ def _quadratic_root(x: np.ndarray, products, near: complex) -> complex:
     return complex(roots[np.argmin(np.abs(roots - near))])
 
 
-def polish_pair(qep: QEP, lam: complex, x: np.ndarray, settings: SolveSettings = _DEFAULT) -> tuple[complex, np.ndarray, float]:
+def polish_pair(qep: QEP, lam: complex, x: np.ndarray,
+                settings: SolveSettings = _DEFAULT) -> tuple[complex, np.ndarray, float]:
     """One eigenpair polished by residual inverse iteration; returns (λ, x, pair error).
 
     When the iteration stalls above ``settings.polish_above``, P is factored again at the improved

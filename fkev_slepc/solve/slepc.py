@@ -33,8 +33,10 @@ import logging
 
 import numpy as np
 
-from fkev_slepc.solve.petsc_backend import PREFIX, OptionsError, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name
-from fkev_slepc.solve.slepc_options import DEFAULTS, LU_PACKAGE, SLEPc, make_solver, check_options, configured  # noqa: F401
+from fkev_slepc.solve.petsc_backend import (  # noqa: F401 (OptionsError re-exported)
+    PREFIX, OptionsError, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name,
+)
+from fkev_slepc.solve.slepc_options import DEFAULTS, LU_PACKAGE, SLEPc, configured, make_solver  # noqa: F401
 from fkev_slepc.solve.polish import polish_reported
 from fkev_slepc.solve.acceptance import check_pairs, pair_error
 from fkev_slepc.solve.completeness import far_modes_possible, missed_modes, uncertified
@@ -270,7 +272,7 @@ class SlepcEngine:
         the target, and every reported pair is judged on its own afterwards).
         """
         user_nev = f"{kind}_nev" in self._user
-        fixed = user_nev or bool({f"{kind}_ncv", f"{kind}_max_it"} & self._user)  # the user chose the subspace or the limit
+        fixed = user_nev or bool({f"{kind}_ncv", f"{kind}_max_it"} & self._user)  # the user's subspace or limit
         seed, wide, restarts = _SEED, False, 0
         for attempt in range(_MAX_RETRIES + 2):
             if not user_nev:

@@ -13,10 +13,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from fkev_slepc.scene import DAMPING_TOL
-
-# Default analysis.imag_tol: |Im λ| <= IMAG_TOL·|λ| is a real eigenvalue (divergence), not a frequency.
-IMAG_TOL = 1e-9
+from fkev_slepc.scene import DAMPING_TOL, IMAG_TOL  # the scene's defaults: |Im λ| <= IMAG_TOL·|λ| is real
 
 # A point whose reported pairs have pair_error above this is not converged, whatever the
 # solver's own test said (option -fkev_max_pair_error, or max_pair_error in [solver.petsc]).

@@ -43,7 +43,7 @@ from fkev_slepc.archive.store import modulus
 from fkev_slepc.archive.writer import Block, Writer
 from fkev_slepc.model.operators import AssemblyError
 from fkev_slepc.solve.modes import CNAN, PointResult, failed, postprocess
-from fkev_slepc.scene import DAMPING_TOL
+from fkev_slepc.scene import DAMPING_TOL, IMAG_TOL
 from fkev_slepc.status import CONVERGED, RETRYABLE
 from fkev_slepc.sweep.tracking_angles import Samples
 from fkev_slepc.sweep.units import assign, run_units  # noqa: F401 (assign: part of the sweep API)
@@ -56,7 +56,7 @@ class SweepOptions:
     """What to compute at each point (thresholds as in the scene's ``[analysis]``)."""
 
     n_modes: int
-    imag_tol: float = 1e-9
+    imag_tol: float = IMAG_TOL
     damping_tol: float = DAMPING_TOL
     mode_shapes: bool = False
     tracking_dofs: np.ndarray | None = None  # None: no tracking (a single angle)
