@@ -33,6 +33,7 @@ from fkev_slepc.scene.edit import canonical_key, parse_key, replace_values
 from fkev_slepc.scene.schema import is_number, show
 
 REL_STEP = 1e-6  # operator differences: truncation h² ~ 1e-12, round-off ε/h ~ 1e-10 of the derivative
+REPEATED_RTOL = 1e-9  # eigenvalues this close (relative) are taken as one double eigenvalue
 REL_STEP_POINTS = 1e-4  # whole-point differences: eigenvalue errors ~1e-12 / h stay ~1e-8
 # keys a scene may leave out, with the value the reader then uses
 DEFAULTS = {"driver.acceleration_rad_s2": 0.0, "damping.mass_proportional_1_s": 0.0,
@@ -51,6 +52,7 @@ class Sensitivity:
     frequency_hz: np.ndarray  # df/dp (Hz per unit of p)
     damping_ratio: np.ndarray  # dζ/dp (per unit of p)
     frequency: np.ndarray  # f (Hz) at the point, for relative sensitivities
+    repeated: tuple[int, ...] = ()  # 1-based modes sharing their eigenvalue with another: no derivative (NaN)
 
     @property
     def relative_frequency(self) -> np.ndarray:
@@ -63,7 +65,7 @@ class Sensitivity:
         num = lambda a: [None if not np.isfinite(v) else float(v) for v in a]  # noqa: E731
         return {"value": self.value, "step": self.step, "method": self.method,
                 "frequency_hz": num(self.frequency_hz), "damping_ratio": num(self.damping_ratio),
-                "relative_frequency": num(self.relative_frequency),
+                "relative_frequency": num(self.relative_frequency), "repeated_modes": list(self.repeated),
                 "eigenvalue": [[v.real, v.imag] if np.isfinite(v) else None for v in self.eigenvalue]}
 
 
@@ -238,8 +240,29 @@ def point_sensitivity(model, theta: float, speed: float, case: str, eigenvalues:
             method = "points (the key changes the mesh: central difference of the point's eigenvalues)"
     except AssemblyError as err:
         raise SceneError(scene.source, [Problem(key, f"at {p:g} ± {h:.3g}: {err}")]) from None
+    same = repeated(lam)
+    dlam[same] = complex(np.nan, np.nan)  # a multiple eigenvalue has directional derivatives only
     df, dz = mode_derivatives(lam, dlam)
-    return Sensitivity(key, p, h, method, dlam, df, dz, lam.imag / (2 * np.pi))
+    return Sensitivity(key, p, h, method, dlam, df, dz, lam.imag / (2 * np.pi),
+                       tuple(int(k) + 1 for k in np.flatnonzero(same)))
+
+
+def repeated(lam: np.ndarray, rtol: float = REPEATED_RTOL) -> np.ndarray:
+    """Mask of the eigenvalues within ``rtol`` (relative) of another one of ``lam``: the formula
+    needs a simple eigenvalue (a double one splits, with one-sided derivatives along p).
+
+    Examples
+    --------
+    >>> repeated(np.array([1 + 10j, 1 + 10j * (1 + 1e-12), 2 + 30j])).tolist()
+    [True, True, False]
+    """
+    lam = np.asarray(lam, dtype=complex)
+    ok = np.isfinite(lam)
+    d = np.abs(lam[:, None] - lam[None, :])
+    with np.errstate(invalid="ignore"):
+        close = (d <= rtol * np.abs(lam)[:, None]) & ok[:, None] & ok[None, :]
+    np.fill_diagonal(close, False)
+    return close.any(axis=1)
 
 
 def point_solver(theta: float, speed: float, case: str, n_modes: int, method: str = "auto"):
