@@ -124,3 +124,200 @@ def test_bad_arguments_are_named():
         fq.monodromy(gen, -1.0)
     with pytest.raises(ValueError, match="forcing"):
         fq.periodic_initial_state(fq.monodromy(gen, np.pi, steps=8))
+
+
+# --------------------------------------------------------------------------------------------
+# The linkage as a periodic system (model/periodic.py, solve/floquet_linkage.py)
+
+import scipy.linalg as la  # noqa: E402
+from builders import cantilever, rect_strip  # noqa: E402
+
+from fkev_slepc.model.operators import Model  # noqa: E402
+from fkev_slepc.model.periodic import periodic_pieces  # noqa: E402
+from fkev_slepc.scene import load_scene  # noqa: E402
+from fkev_slepc.solve.floquet_linkage import TrigInterpolant, floquet_multipliers, to_dense  # noqa: E402
+
+RUNS = __import__("pathlib").Path(__file__).resolve().parents[1] / "runs"
+# in-plane frequencies of a slender rotating blade at λ = 12: sqrt(ω_flap² - λ²) with the
+# flapwise values tests/test_rotating_cantilever.py checks (Wright et al. 1982; Hoa 1979)
+FLAP_12 = np.array([13.1702, 37.6031, 79.6145])
+STRIP = rect_strip(0.005, 0.002)  # L/r = 693
+STRIP_SCALE = np.sqrt(STRIP["density"] * STRIP["area"] / (STRIP["youngs_modulus"] * STRIP["second_moment"]))
+
+
+def _model(name, case="full"):
+    return Model(load_scene(RUNS / name), cases=(case,))
+
+
+def _dense(model, data):
+    return to_dense(model.pattern, np.atleast_2d(data))
+
+
+def _frozen_state_eigenvalues(model, theta, omega, case):
+    q = model.qep(model.pieces(theta), omega, case)
+    n = model.n_free
+    M, C, K = (x.toarray() for x in (q.mass, q.damping, q.stiffness))
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-la.solve(M, K), -la.solve(M, C)]])
+    return la.eigvals(A)
+
+
+@pytest.mark.parametrize("scene", ["turcic-midha-1984.toml", "bahgat-willmert-1976.toml"])
+def test_gyroscopic_symmetric_part_is_the_mass_rate(scene):
+    """Undamped: sym C = Ω dM/dθ (C₁ = C/Ω), the Lagrangian identity; the frozen C (skew) fails it."""
+    model = _model(scene)
+    th, h = 0.9, 2e-3
+    w = np.array([-1, 9, -45, 0, 45, -9, 1]) / (60 * h)  # 6th-order central difference
+    p = periodic_pieces(model, th + h * np.arange(-3, 4), "full")
+    dM = _dense(model, w @ p.mass)[0]
+    C1 = _dense(model, p.gyro[3])[0]
+    scale = np.abs(C1).max()
+    assert np.abs(0.5 * (C1 + C1.T) - dM).max() < 1e-8 * scale
+    # canonical pieces: C₁ = N₁ - N₁ᵀ + dM/dθ, K₂ = V₂ + dN₁/dθ, V₂ symmetric
+    N1, V2 = _dense(model, p.coupling[3])[0], _dense(model, p.potential[3])[0]
+    dN = _dense(model, w @ p.coupling)[0]
+    K2 = _dense(model, p.speed_stiffness[3])[0]
+    assert np.abs(C1 - (N1 - N1.T) - dM).max() < 1e-8 * scale
+    assert np.abs(K2 - V2 - dN).max() < 1e-8 * np.abs(K2).max()
+    assert np.abs(V2 - V2.T).max() < 1e-12 * np.abs(V2).max()
+    # the frozen Coriolis matrix is skew: its symmetric part misses dM/dθ entirely
+    G = model.pattern.matrix(model.pieces(th).coriolis).toarray()
+    assert np.abs(0.5 * (G + G.T) - dM).max() > 0.5 * np.abs(dM).max()
+    # the mass is the frozen one
+    assert np.array_equal(p.mass[3], model.pieces(th).mass)
+
+
+def test_periodic_refuses_crank_acceleration():
+    scene = cantilever(1.0, STRIP, 2, accel=10.0)
+    with pytest.raises(ValueError, match="driver.acceleration_rad_s2"):
+        periodic_pieces(Model(scene), [0.0, 1.0])
+
+
+def test_lone_rotating_crank_multipliers_are_its_frozen_spectrum():
+    """The crank alone is time-invariant in its own frame: every multiplier is exp(sP) of a frozen
+    eigenvalue s (P = 2π/Ω), |μ| = 1 undamped; the frozen matrices used as periodic coefficients
+    give a spurious growth."""
+    omega = 12.0 / STRIP_SCALE  # λ = 12
+    model = Model(cantilever(1.0, STRIP, 3))
+    res = floquet_multipliers(model, omega, "full", steps=16384)
+    assert res.error < 1e-8
+    assert np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-8
+    s = _frozen_state_eigenvalues(model, 0.4, omega, "full")
+    expected = np.exp(s * 2 * np.pi / omega)
+    i, j = fq.match_multipliers(res.multipliers, expected)
+    assert np.max(np.abs(res.multipliers[i] - expected[j])) < 1e-8
+
+    # the frozen Model.qep matrices as periodic coefficients (trigonometric interpolant of 64
+    # samples): spurious growth
+    def frozen(theta):
+        qs = [model.qep(model.pieces(t), omega, "full") for t in theta]
+        M, C, K = (np.stack([getattr(q, k).toarray() for q in qs]) for k in ("mass", "damping", "stiffness"))
+        return M, C / omega, K / omega**2  # d/dt = Ω d/dθ
+
+    samples = fq.second_order(frozen)(2 * np.pi * np.arange(64) / 64)
+    wrong = fq.monodromy(TrigInterpolant(0.0, samples), 2 * np.pi, steps=8192)
+    assert wrong.error < 1e-3 * wrong.max_abs
+    assert wrong.max_abs > 10.0
+
+
+def test_lone_crank_phases_are_the_published_in_plane_frequencies():
+    """16 elements reduced to its 3 lowest co-rotating frozen modes (exact for a lone crank:
+    truncation error measured against 6): the multipliers of the in-plane modes are
+    exp(±2πi r/λ), r = sqrt(ω_flap² - λ²) with the published flapwise values."""
+    lam = 12.0
+    res = floquet_multipliers(Model(cantilever(1.0, STRIP, 16)), lam / STRIP_SCALE, "full",
+                              reduce=3, basis_angles=1, tol=1e-10)
+    assert res.basis == 3 and res.truncation_error < 1e-8
+    assert np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-8
+    r = np.sqrt(FLAP_12**2 - lam**2)
+    for rk in r:
+        gap = np.min(np.abs(res.multipliers - np.exp(2j * np.pi * rk / lam)))
+        assert gap < 2 * np.pi * rk / lam * 2e-3  # the published values' 1e-3-level accuracy
+    freq = np.sort(np.abs(res.exponents.imag))[::2] * STRIP_SCALE  # unwrapped, nondimensional
+    np.testing.assert_allclose(freq, r, rtol=2e-3)
+
+
+@pytest.fixture(scope="module")
+def bw_500():
+    model = _model("bahgat-willmert-1976.toml")
+    return model, floquet_multipliers(model, 500.0, "full", damping=False, tol=1e-9)
+
+
+def test_bahgat_willmert_undamped_monodromy_is_symplectic(bw_500):
+    """Full model (5 elements, 15 DOFs) at 500 rad/s, undamped: det Φ = 1, the multiplier set is
+    closed under μ -> 1/μ̄, and every |μ| = 1 (the linkage is Floquet-stable there)."""
+    _, res = bw_500
+    mu = res.multipliers
+    assert res.error < 1e-8
+    assert abs(np.linalg.det(res.monodromy.phi) - 1.0) < 1e-8
+    i, j = fq.match_multipliers(mu, 1.0 / mu.conj())
+    assert np.max(np.abs(mu[i] - 1.0 / mu[j].conj())) < 1e-8
+    assert np.max(np.abs(np.abs(mu) - 1.0)) < 1e-8
+
+
+def _tm_one_element():
+    from dataclasses import replace
+
+    base = load_scene(RUNS / "turcic-midha-1984.toml")
+    return replace(base, links=tuple(replace(lk, elements=1) for lk in base.links))
+
+
+def _same_set(a, b, tol):
+    i, j = fq.match_multipliers(a, b)
+    return np.max(np.abs(a[i] - b[j]) / np.maximum(1.0, np.abs(a[i]))) < tol
+
+
+@pytest.mark.parametrize("which", ["turcic-midha", "bahgat-willmert"])
+def test_speed_scaling_and_reversal(which, bw_500):
+    """(E, Ω) -> (s²E, sΩ) leaves the multipliers unchanged; Ω -> -Ω maps them to {1/μ}.
+    Turcic–Midha (3 elements, 9 DOFs) at 200 rad/s, where it is unstable (max|μ| ~ 1.5e3)."""
+    from dataclasses import replace
+
+    if which == "bahgat-willmert":
+        (model, res), omega = bw_500, 500.0
+        base = model.scene
+    else:
+        base, omega = _tm_one_element(), 200.0
+        res = floquet_multipliers(Model(base, ("full",)), omega, "full", damping=False, tol=1e-9)
+        assert res.max_abs > 100.0
+    s = 1.5
+    links = tuple(replace(lk, youngs_modulus=lk.youngs_modulus * s * s) for lk in base.links)
+    scaled = floquet_multipliers(Model(replace(base, links=links), ("full",)), s * omega, "full",
+                                 damping=False, tol=1e-9)
+    assert _same_set(res.multipliers, scaled.multipliers, 1e-7)
+    back = floquet_multipliers(Model(base, ("full",)), -omega, "full", damping=False, tol=1e-9)
+    assert _same_set(1.0 / res.multipliers, back.multipliers, 1e-7)
+
+
+def test_slow_crank_keeps_every_multiplier_on_the_unit_circle():
+    """Ω ≪ ω₁ (Bahgat–Willmert, ω₁ = 1778 rad/s, Ω = ω₁/10, away from the narrow resonances):
+    every |μ| = 1 within 1e-6."""
+    res = floquet_multipliers(_model("bahgat-willmert-1976.toml"), 177.8, "full", damping=False,
+                              steps=4096)
+    assert res.error < 1e-6
+    assert np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-6
+
+
+def test_structural_damping_makes_the_crank_decay():
+    """Rayleigh damping on each element's own deformation rate: every |μ| < 1, and a rigidly
+    rotating deformed link is not damped (the damping force of q_e = const vanishes)."""
+    from dataclasses import replace
+
+    from fkev_slepc.scene.model import Damping
+
+    scene = replace(cantilever(1.0, STRIP, 2), damping=Damping(0.5, 1e-5))
+    model = Model(scene)
+    omega = 12.0 / STRIP_SCALE
+    p = periodic_pieces(model, np.array([0.3]), "full")
+    # q_g = Tᵀ(θ) q_e with q_e fixed: q̇_g = Ω dTᵀ/dθ q_e; the damping force C_d q̇ + K_d q is 0
+    th, h = 0.3, 1e-6
+    q_e = np.random.default_rng(1).standard_normal(model.n_free)
+    from fkev_slepc.solve.floquet_reduce import corotated_pairs, rotate_rows
+
+    pairs = corotated_pairs(model.mechanism)
+    q = lambda t: rotate_rows(q_e[:, None], pairs, np.full(len(pairs[0]), t))[:, 0]
+    qdot = omega * (q(th + h) - q(th - h)) / (2 * h)
+    Cd, Kd = _dense(model, p.damping)[0], omega * _dense(model, p.damping_stiffness)[0]
+    force = Cd @ qdot + Kd @ q(th)
+    assert np.linalg.norm(force) < 1e-7 * np.linalg.norm(Cd @ qdot)
+    res = floquet_multipliers(model, omega, "full", tol=1e-9)
+    assert res.max_abs < 1.0

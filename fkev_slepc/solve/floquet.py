@@ -190,11 +190,11 @@ def _split(total, n, m):
 
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
               steps: int | None = None, tol: float = 1e-10, start: float = 0.0,
-              max_steps: int = 2**16, forcing_columns: int | None = None) -> Monodromy:
+              max_steps: int = 2**16, min_steps: int = 16) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
-    ``steps=None`` starts at 16 and doubles until the estimated relative error of Φ <= ``tol``
+    ``steps=None`` starts at ``min_steps`` (rounded up to a power of 2) and doubles until the estimated relative error of Φ <= ``tol``
     or ``max_steps`` is reached (then ``converged`` is False). The multiplier estimate
     ``error`` follows Φ's for simple multipliers (times their condition number) but only as its
     square root at a defective one (a double multiplier ±1 on a transition curve)."""
@@ -215,7 +215,7 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         return phi, part
 
     scale = 2.0**order - 1.0
-    N = int(steps) if steps is not None else 16
+    N = int(steps) if steps is not None else int(2 ** np.ceil(np.log2(max(2, min_steps))))
     coarse = run(N // 2)
     while True:
         fine = run(N)
@@ -225,6 +225,9 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
             break
         coarse, N = fine, 2 * N
     phi, part = fine
+    if not (np.all(np.isfinite(phi)) and np.all(np.isfinite(coarse[0]))):
+        raise ValueError(f"steps: {N} steps (and {N // 2} for the error estimate) do not resolve "
+                         f"the generator over the period: use more steps (or steps=None)")
     mu, mu_coarse = la.eigvals(phi), la.eigvals(coarse[0])
     i, j = match_multipliers(mu, mu_coarse)
     err = float(np.max(np.abs(mu[i] - mu_coarse[j]))) / scale

@@ -1,0 +1,122 @@
+"""Reduced periodic coefficients on co-rotating frozen modes (docs/theory.md §18.7).
+
+A constant basis in the global DOFs cannot follow links that turn a full revolution (a crank's
+mode shape at θ is its shape at 0 rotated by θ). The basis here co-rotates: every free node
+translation pair (U, V) is written in the frame of the link that owns it,
+
+    q = Q(θ) q̂,   Q = blockdiag(Rᵀ(ψ_node(θ)), 1, …),   Q' = ψ' Rᵀ S,   Q'' = ψ'' Rᵀ S - ψ'² Rᵀ,
+
+(ψ_node the owning link's angle; slider DOFs along a fixed guide and rotations stay as they
+are) and q̂ = V̂ η with a constant V̂: the lowest ``r`` undamped frozen modes at a few angles,
+mapped to q̂ = Qᵀ q and orthonormalised. With W = Q V̂ the Galerkin projection of the Lagrangian
+of model/periodic.py is again Lagrangian (so symplectic steps still apply):
+
+    M_r = WᵀMW,  N_r = Ω WᵀMW' + WᵀNW,  V_r = WᵀVW - Ω² W'ᵀMW' - 2Ω sym(W'ᵀNW),
+    C_d,r = WᵀC_dW,  K_d,r = Ω WᵀC_dW' + WᵀK_dW,
+    C_r = 2Ω WᵀMW' + WᵀCW,  K_r = Ω² WᵀMW'' + Ω WᵀCW' + WᵀKW   (second-order form).
+
+For the lone crank the co-rotated system has constant coefficients, so its lowest frozen modes
+span an invariant subspace and the reduction is exact for them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.model.periodic import periodic_pieces
+
+TWO_PI = 2.0 * np.pi
+
+
+def corotated_pairs(mech):
+    """(u, v, link) of every free translation pair, owned by the first link listing the node."""
+    seen, rows = set(), []
+    for node in range(mech.node_dofs.shape[0]):
+        u, v = (int(x) for x in mech.node_dofs[node, :2])
+        if u < 0 or v < 0 or (u, v) in seen or mech.node_axis[node, 0] != 1.0:
+            continue
+        seen.add((u, v))
+        rows.append((u, v, int(mech.node_link[node])))
+    arr = np.array(rows, dtype=int).reshape(-1, 3)
+    return arr[:, 0], arr[:, 1], arr[:, 2]
+
+
+def rotate_rows(X, pairs, psi, sign=1.0):
+    """Rows (u, v) of X rotated by Rᵀ(sign·ψ) (a copy): Q X for sign = 1, Qᵀ X for sign = -1."""
+    u, v, _ = pairs
+    c, s = np.cos(psi)[:, None], sign * np.sin(psi)[:, None]
+    out = X.copy()
+    out[u], out[v] = c * X[u] - s * X[v], s * X[u] + c * X[v]
+    return out
+
+
+def _rot90(X, pairs):
+    u, v, _ = pairs
+    out = np.zeros_like(X)
+    out[u], out[v] = -X[v], X[u]
+    return out
+
+
+def basis_derivatives(Vhat, pairs, phi, dphi, ddphi):
+    """W, W', W'' (n, r) at one angle from the link angles φ, φ', φ'' (n_link,)."""
+    link = pairs[2]
+    psi, d1, d2 = phi[link], dphi[link][:, None], ddphi[link][:, None]
+    W = rotate_rows(Vhat, pairs, psi)
+    SV = rotate_rows(_rot90(Vhat, pairs), pairs, psi)  # Rᵀ S V̂ on the pairs, 0 elsewhere
+    u, v, _ = pairs
+    W1 = np.zeros_like(Vhat)
+    W2 = np.zeros_like(Vhat)
+    for rows in (u, v):
+        W1[rows] = d1 * SV[rows]
+        W2[rows] = d2 * SV[rows] - d1**2 * W[rows]
+    return W, W1, W2
+
+
+def corotated_basis(model, omega, case, r, angles, start=0.0):
+    """V̂ (n, R): the lowest r undamped frozen modes at ``angles`` equispaced angles, co-rotated."""
+    th = start + TWO_PI * np.arange(angles) / angles
+    p = periodic_pieces(model, th, case)
+    kin = solve_kinematics(model.mechanism, th)
+    pairs = corotated_pairs(model.mechanism)
+    pat, cols = model.pattern, []
+    stiff = p.potential if p.lagrangian else p.speed_stiffness
+    for i in range(angles):
+        K = pat.matrix(p.stiffness[i] + omega * omega * stiff[i])
+        _, x = spla.eigsh(0.5 * (K + K.T), k=min(r, model.n_free - 1), M=pat.matrix(p.mass[i]),
+                          sigma=0.0, which="LM")
+        cols.append(rotate_rows(x, pairs, kin.phi[i, pairs[2]], sign=-1.0))
+    U, s, _ = np.linalg.svd(np.hstack(cols), full_matrices=False)
+    return U[:, s > 1e-10 * s[0]]
+
+
+def reduced_coefficients(model, p, thetas, omega, damping, Vhat):
+    """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring)."""
+    kin = solve_kinematics(model.mechanism, thetas)
+    pairs = corotated_pairs(model.mechanism)
+    pat = model.pattern
+    w = float(omega)
+    lag, damped = p.lagrangian, damping and p.damping is not None
+    out = {k: [] for k in "M C K N V Cd Kd".split()}
+    for i in range(len(thetas)):
+        W, W1, W2 = basis_derivatives(Vhat, pairs, kin.phi[i], kin.dphi[i], kin.ddphi[i])
+        mat = lambda data: pat.matrix(data)
+        Mm = mat(p.mass[i])
+        MW, MW1 = Mm @ W, Mm @ W1
+        Cm = mat(w * p.gyro[i] + (p.damping[i] if damped else 0.0))
+        Km = mat(p.stiffness[i] + w * w * p.speed_stiffness[i] + (w * p.damping_stiffness[i] if damped else 0.0))
+        out["M"].append(W.T @ MW)
+        out["C"].append(2 * w * W.T @ MW1 + W.T @ (Cm @ W))
+        out["K"].append(w * w * W.T @ (Mm @ W2) + w * W.T @ (Cm @ W1) + W.T @ (Km @ W))
+        if lag:
+            NW = mat(w * p.coupling[i]) @ W
+            X = W1.T @ NW
+            out["N"].append(w * W.T @ MW1 + W.T @ NW)
+            out["V"].append(W.T @ (mat(p.stiffness[i] + w * w * p.potential[i]) @ W)
+                            - w * w * W1.T @ MW1 - w * (X + X.T))
+        if damped:
+            Cd = mat(p.damping[i])
+            out["Cd"].append(W.T @ (Cd @ W))
+            out["Kd"].append(w * W.T @ (Cd @ W1) + W.T @ (mat(w * p.damping_stiffness[i]) @ W))
+    return tuple(np.stack(v) if v else None for v in out.values())
