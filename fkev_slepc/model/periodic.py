@@ -34,11 +34,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-import scipy.sparse as sp
 
 from fkev_slepc.model import elements as el
-from fkev_slepc.model.kinematics import solve_kinematics
-from fkev_slepc.model.kinetostatics import axial_polynomials, solve_loads
 from fkev_slepc.scene.cases import CASE_NAMES, CASES
 
 LAGRANGIAN_CASES = ("structure", "full", "no_normal", "no_pseudo_normal")
@@ -82,28 +79,9 @@ def frame_rate(n_dof: int) -> np.ndarray:
     return E
 
 
-class _Scatter:
-    """Stacked scatter of (n_θ, n_el, d, d) element stacks into (n_θ, nnz) CSR data."""
-
-    def __init__(self, pattern):
-        cols = np.flatnonzero(pattern.valid)
-        self.op = sp.csr_matrix((np.ones(cols.size), (pattern.position, cols)),
-                                shape=(pattern.nnz, pattern.valid.size))
-
-    def __call__(self, stack: np.ndarray) -> np.ndarray:
-        k = stack.shape[0]
-        return np.asarray((self.op @ stack.reshape(k, -1).T).T)
-
-
-def _stacks(model):
-    """Local element stacks m, m_a, k (public names when the model has them)."""
-    names = (("elem_mass", "_m"), ("elem_skew_mass", "_ma"), ("elem_structural", "_ks"))
-    return tuple(getattr(model, pub) if hasattr(model, pub) else getattr(model, priv)
-                 for pub, priv in names)
-
-
 def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
-    """Exact periodic coefficient pieces of ``model`` at crank angles ``thetas`` (rad)."""
+    """Exact periodic coefficient pieces of ``model`` at crank angles ``thetas`` (rad), built on
+    its element stacks and vectorised angle state (model/stacks.py) in one batched product."""
     if case not in CASES:
         raise ValueError(f"case: unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
     acc = model.scene.driver.acceleration
@@ -111,71 +89,56 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
         raise ValueError(
             f"driver.acceleration_rad_s2: the periodic coefficients need a constant crank speed, "
             f"got {acc:g} rad/s²")
-    mech, pat, et = model.mechanism, model.pattern, model.element
-    thetas = np.atleast_1d(np.asarray(thetas, dtype=float))
-    kin = solve_kinematics(mech, thetas)
-    if not np.all(kin.ok):
-        bad = np.degrees(thetas[~kin.ok][0])
-        raise ValueError(f"crank angle: the linkage cannot be assembled at {bad:g} deg; the "
-                         f"periodic analysis needs a crank that turns fully")
     t = CASES[case]
     cc, ct, cn, cp = (float(t.keeps(x)) for x in ("coriolis", "tangential", "normal", "pseudo_normal"))
-    lk = mech.elem_link
-    k_ang, n_el, d = thetas.size, lk.size, et.n_dof
-    T = el.rotation((kin.phi[:, lk] + mech.elem_angle).ravel(), d).reshape(k_ang, n_el, d, d)
-    frames = getattr(model, "_node_frames", None)
-    if frames is not None:
-        T = T @ frames
-    m, ma, ks = _stacks(model)
-    E = frame_rate(d)
+    mech, pat, st = model.mechanism, model.pattern, model.stacks
+    thetas = np.atleast_1d(np.asarray(thetas, dtype=float))
+    state = model.angle_state(thetas, with_loads=bool(cp))
+    if not np.all(state.ok):
+        bad = np.degrees(thetas[~state.ok][0])
+        raise ValueError(f"crank angle: the linkage cannot be assembled at {bad:g} deg; the "
+                         f"periodic analysis needs a crank that turns fully")
+    m, ma, ks = st.mass, st.skew_mass, st.structural
+    E = frame_rate(st.n_dof)
     mE, maE, Ema, EmE = m @ E, ma @ E, E @ ma, E @ m @ E
-    dp = kin.dphi[:, lk][:, :, None, None]
-    ddp = kin.ddphi[:, lk][:, :, None, None]
-    Tt = np.swapaxes(T, 2, 3)
-    g = lambda X: Tt @ X @ T  # local -> global, broadcast over (θ, element)
-    scatter = _Scatter(pat)
+    dp, ddp = state.dphi[..., None, None], state.ddphi[..., None, None]
+    g = lambda X: el.to_global(X, state.T)  # Tᵀ X T over (θ, element)
 
-    mass = scatter(np.broadcast_to(g(m), (k_ang, n_el, d, d)))
-    mass = np.stack([pat.add_diagonal(
-        pat.add_diagonal(row, mech.mass_dofs[:, :2], mech.mass_value[:, None]),
-        mech.mass_dofs[:, 2], mech.mass_inertia) for row in mass])
-    stiff = scatter(g(ks))
-    gyro = scatter(g(dp * (2.0 * cc * ma - 2.0 * mE)))
-    kg = np.zeros((k_ang, n_el, d, d))
-    if cp:
-        loads = solve_loads(mech, kin)
-        l = mech.elem_length
-        kg = np.stack([et.axial_force(axial_polynomials(mech, kin, loads, a)[0], l)
-                       for a in range(k_ang)])
-    speed = scatter(g(ct * ddp * ma - ddp * mE + dp**2 * (m @ E @ E - 2.0 * cc * maE - cn * m) + kg))
+    mass = pat.scatter(g(m))
+    for dofs, values in ((mech.mass_dofs[:, :2], mech.mass_value[:, None]),
+                         (mech.mass_dofs[:, 2], mech.mass_inertia)):
+        mass = pat.add_diagonal(mass, dofs, values)
+    stiff = pat.scatter(g(ks))
+    gyro = pat.scatter(g(dp * (2.0 * cc * ma - 2.0 * mE)))
+    kg = st.axial_force(state.axial[0]) if cp else 0.0
+    speed = pat.scatter(g(ct * ddp * ma - ddp * mE + dp**2 * (m @ E @ E - 2.0 * cc * maE - cn * m) + kg))
     coupling = potential = None
     if case in LAGRANGIAN_CASES:
-        coupling = scatter(g(dp * (cc * ma - mE)))
-        potential = scatter(g(kg + dp**2 * (EmE - cc * (Ema + maE) - cn * m)))
+        coupling = pat.scatter(g(dp * (cc * ma - mE)))
+        potential = pat.scatter(g(kg + dp**2 * (EmE - cc * (Ema + maE) - cn * m)))
     damping = damping_k = None
     dm = model.scene.damping
     if dm is not None and dm.active:
         a_d, b_d = dm.mass_proportional, dm.stiffness_proportional
-        ce = a_d * m + b_d * ks
         damping = a_d * mass + b_d * stiff
-        damping_k = scatter(g(-dp * (ce @ E)))
+        damping_k = pat.scatter(g(-dp * ((a_d * m + b_d * ks) @ E)))
         if mech.mass_value.size and a_d:
-            damping_k = _lumped_frame_damping(pat, damping_k, mech, kin, a_d)
+            damping_k = _lumped_frame_damping(pat, damping_k, mech, state.kinematics, a_d)
     return PeriodicPieces(thetas, case, mass, gyro, stiff, speed, coupling, potential, damping, damping_k)
 
 
 def _lumped_frame_damping(pat, data, mech, kin, a_d):
     """-α_d m_P φ'_P S on each particle's (U, V) pair: its velocity relative to its link's frame."""
     out = data.copy()
-    lookup = {}
-    indptr, indices = pat.indptr, pat.indices
-    for r in range(pat.n):
-        for pos in range(indptr[r], indptr[r + 1]):
-            lookup[(r, int(indices[pos]))] = pos
+
+    def position(r, c):
+        row = slice(pat.indptr[r], pat.indptr[r + 1])
+        return pat.indptr[r] + int(np.flatnonzero(pat.indices[row] == c)[0])
+
     for p, (u, v) in enumerate(mech.mass_dofs[:, :2]):
         if u < 0 or v < 0:
             continue  # a slider block: its normal DOF is fixed, S has no entry on the free one
-        w = -a_d * mech.mass_value[p] * kin.dphi[:, mech.mass_link[p]]
-        out[:, lookup[(u, v)]] -= w  # S = [[0, -1], [1, 0]]
-        out[:, lookup[(v, u)]] += w
+        w = a_d * mech.mass_value[p] * kin.dphi[:, mech.mass_link[p]]
+        out[:, position(u, v)] += w  # -α_d m φ' S, S = [[0, -1], [1, 0]]
+        out[:, position(v, u)] -= w
     return out
