@@ -100,6 +100,7 @@ def test_ctrl_c_one_process_then_resume_equals_uninterrupted(tmp_path, reference
     proc = start([sys.executable, "-m", "fkev_slepc", "run", str(BW), *GRID, "-o", str(out)])
     code, stderr, written = interrupt_when_paused(proc)
     args = check_interrupted(code, stderr, out, written)
+    assert "interrupted by Ctrl-C (SIGINT)" in stderr
     r = fkev(*args)
     assert r.returncode == 0, r.stderr
     assert_same_archive(out, reference)
@@ -113,6 +114,7 @@ def test_ctrl_c_with_np_2_stops_both_ranks_cleanly(tmp_path, reference):
                  MPI_ENV)
     code, stderr, written = interrupt_when_paused(proc)
     args = check_interrupted(code, stderr, out, written)
+    assert "interrupted by Ctrl-C or SIGTERM (passed on by fkev run --np as SIGUSR1)" in stderr  # not "by SIGUSR1"
     assert args[-2:] == ["--np", "2"]  # resumes on 2 ranks too
     r = fkev(*args, env_extra=MPI_ENV)
     assert r.returncode == 0, r.stderr

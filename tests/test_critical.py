@@ -68,20 +68,39 @@ def test_structure_has_no_critical_speed_and_max_speed_bounds():
 
 
 def test_flutter_onset_with_structural_damping_is_refined_to_1e8():
-    """With Rayleigh damping the modes are stable at rest; the flutter speed is where the
-    smallest damping ratio first reaches -damping_tol: on each side of it within 1e-7."""
+    """With Rayleigh damping the modes are stable at rest; the flutter speed is the root of the
+    smallest damping ratio, min ζ = 0, refined to 1e-8 (issue 20: -damping_tol only decides
+    that there is a crossing): ζ changes sign within 1e-7 on each side, and is positive on a
+    finer grid below it."""
     base = turcic_midha(3, cases=("full",))
     model = Model(replace(base, damping=Damping(0.05, 1e-7)))  # ζ ≈ 1e-4 at rest
     p = model.pieces(np.radians(10.0))
     eng, tol = DenseEngine(), 1e-6
     r = critical_speeds(eng, model, 10.0, "full", 3, tol)
     wf = r.flutter_speed
-    assert 0 < wf < r.divergence_speed
+    assert 0 < wf < r.divergence_speed and r.scan_points == 64 and r.notes == ()
     assert min_damping_ratio(eng, model, p, "full", 0.0, 3) > 0  # damped at rest
-    assert min_damping_ratio(eng, model, p, "full", wf * (1 - 1e-7), 3) > -tol
-    assert min_damping_ratio(eng, model, p, "full", wf * (1 + 1e-7), 3) < -tol
+    assert min_damping_ratio(eng, model, p, "full", wf * (1 - 1e-7), 3) > 0
+    assert -tol < min_damping_ratio(eng, model, p, "full", wf * (1 + 1e-7), 3) < 0  # past the root, within tol
     below = np.linspace(0, wf, 40)[1:-1]  # the lowest crossing: none below it on a finer grid
-    assert all(min_damping_ratio(eng, model, p, "full", w, 3) > -tol for w in below)
+    assert all(min_damping_ratio(eng, model, p, "full", w, 3) > 0 for w in below)
+
+
+def test_undamped_flutter_onset_is_at_rest_and_its_notes_are_silenced_by_q():
+    """Undamped, the Coriolis and tangential terms give ± real parts as soon as Ω > 0: min ζ is
+    never positive below the first unstable scan speed, so the onset is Ω = 0 (no -damping_tol
+    artefact); `fkev critical` prints the scan once and -q prints the two speeds only."""
+    model = Model(turcic_midha(3, cases=("full",)))
+    r = critical_speeds(DenseEngine(), model, 10.0, "full", 3, 1e-6)
+    assert r.flutter_speed == 0.0 and r.divergence_speed > 0
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    cmd = [sys.executable, "-m", "fkev_slepc", "critical", os.path.join(ROOT, "runs/turcic-midha-1984.toml"),
+           "--case", "full", "--angle", "10"]
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True).stdout.splitlines()
+    assert "from 0 rad/s" in out[2] and "crosses 0" in out[2]
+    assert sum("scanned on 64 speeds" in ln for ln in out) == 1 and "from none" not in "\n".join(out)
+    quiet = subprocess.run(cmd + ["-q"], capture_output=True, text=True, env=env, check=True).stdout.splitlines()
+    assert quiet == out[:3]
 
 
 def test_cli_over_the_scene_angles_reports_the_lowest(tmp_path):

@@ -92,7 +92,7 @@ class PointResult:
         f = ", ".join("—" if not np.isfinite(v) else f"{v:.6g}" for v in self.frequency_hz)
         msg = f" ({self.message})" if self.message else ""
         return (f"PointResult(θ={self.angle_deg:g}°, Ω={self.speed_rad_s:g} rad/s, case {self.case}: "
-                f"{self.status.value}{msg}; f = [{f}] Hz; max Re λ = {self.max_real:.3g} 1/s)")
+                f"{self.status.value}{msg}; f = [{f}] Hz; max Re λ = {self.max_real + 0.0:.3g} 1/s)")
 
     def sensitivity(self, key: str):
         """d f_k/d p and d ζ_k/d p of every reported mode for the numeric scene key ``key``
@@ -168,7 +168,7 @@ class PointResult:
     def as_dict(self) -> dict:
         """JSON-ready summary (None for missing values), as ``fkev point --json`` prints it."""
         def num(v):
-            return None if not np.isfinite(v) else float(v)
+            return None if not np.isfinite(v) else float(v) + 0.0  # + 0.0: no -0.0 (an exact zero Re λ)
 
         out = {"scene": self.title, "angle_deg": self.angle_deg, "speed_rad_s": self.speed_rad_s,
                "case": self.case, "n_free": self.n_free, "kind": self.kind, "solver": self.solver,

@@ -233,8 +233,8 @@ class Study:
         """Divergence (buckling) and flutter onset speeds of ``case``: the code path of ``fkev critical``.
 
         Divergence: the lowest Ω at which K(Ω) = K₀ + Ω²K₂ is singular, an eigenproblem in Ω²;
-        flutter: the lowest Ω at which a reported mode's damping ratio falls below
-        ``-analysis.damping_tol``, bracketed then refined to 1e-8 relative (docs/stability.md).
+        flutter: the lowest Ω at which the smallest damping ratio of the reported modes crosses 0
+        on its way below ``-analysis.damping_tol``, refined to 1e-8 relative (docs/stability.md).
 
         Parameters
         ----------

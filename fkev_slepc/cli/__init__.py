@@ -16,6 +16,7 @@ import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
 SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "design", "loads")
+COLLECTIVE = ("run", "design")  # every rank of mpiexec takes part; any other command runs on rank 0 alone
 GLOBAL_FLAGS = {"-v": ("verbose", 1), "--verbose": ("verbose", 1), "-q": ("quiet", 1), "--quiet": ("quiet", 1)}
 
 
@@ -63,6 +64,25 @@ def split_petsc_options(argv: list[str]) -> tuple[list[str], list[str]]:
         ours.append(tok)
         i += 1
     return ours, petsc
+
+
+def attach_negative_values(argv: list[str]) -> list[str]:
+    """``--speed -5e2`` as ``--speed=-5e2``: argparse reads only ``-5`` and ``-0.5`` as negative
+    numbers and takes ``-5e2`` or ``-inf`` for an unknown option.
+
+    Examples
+    --------
+    >>> attach_negative_values(["point", "s.toml", "--speed", "-5e2", "--angle", "-10"])
+    ['point', 's.toml', '--speed=-5e2', '--angle=-10']
+    """
+    out: list[str] = []
+    for tok in argv:
+        prev = out[-1] if out else ""
+        if tok.startswith("-") and _is_number(tok) and prev.startswith("--") and len(prev) > 2 and "=" not in prev:
+            out[-1] = f"{prev}={tok}"
+        else:
+            out.append(tok)
+    return out
 
 
 def _is_number(tok: str) -> bool:
@@ -117,8 +137,20 @@ def main(argv: list[str] | None = None) -> int:
     from fkev_slepc.solve.petsc_init import init_petsc
 
     init_petsc(petsc)
+    from fkev_slepc.cli import pipes
+
+    pipes.guard()  # a closed stdout ends quietly (exit 141), not in PETSc's SIGPIPE handler
+    try:
+        code = _main(full_argv, environ, flags, ours)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        return pipes.closed()
+    return code
+
+
+def _main(full_argv: list[str], environ: dict, flags: dict, ours: list[str]) -> int:
     parser = build_parser()
-    args, extra = parser.parse_known_args(ours)
+    args, extra = parser.parse_known_args(attach_negative_values(ours))
     if args.version:
         print(version_text())
         return EXIT_OK
@@ -134,8 +166,10 @@ def main(argv: list[str] | None = None) -> int:
             return code
     args.verbose, args.quiet = flags["verbose"], flags["quiet"] or getattr(args, "quiet", 0)
     level = logging.ERROR if args.quiet else logging.WARNING - 10 * min(args.verbose, 2)
-    from fkev_slepc.sweep.parallel import configure_logging
+    from fkev_slepc.sweep.parallel import configure_logging, world
 
+    if args.command not in COLLECTIVE and world().rank > 0:
+        return EXIT_OK  # under mpiexec: one process computes and prints (rank 0), once
     configure_logging(level)
     try:
         return int(args.func(args) or 0)

@@ -24,8 +24,9 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "critical", help="divergence (buckling) and flutter onset speeds",
         description="Lowest crank speed at which K(Ω) = K₀ + Ω²K₂ becomes singular (divergence, an "
-        "eigenproblem in Ω²) and lowest speed at which a reported mode's damping ratio falls below "
-        "-damping_tol (flutter), at one crank angle or the lowest over the scene's angles.")
+        "eigenproblem in Ω²) and lowest speed at which the smallest damping ratio of the reported modes "
+        "crosses 0 on its way below -damping_tol (flutter), at one crank angle or the lowest over the "
+        "scene's angles. -q: the two speeds only.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--case", help="case name or Table 3.1 number (default: the scene's first)")
     p.add_argument("--angle", type=float, help="crank angle, deg (default: every angle of the scene)")
@@ -66,22 +67,48 @@ def run(args) -> int:
         json.dump(out, sys.stdout, indent=1)
         print()
     else:
-        _print(out)
+        _print(out, quiet=bool(args.quiet))
     return EXIT_OK
 
 
-def _print(o: dict) -> None:
-    def speed(v, a):
-        return "none" if v is None else f"{v:.10g} rad/s ({v * 30 / np.pi:.6g} rpm) at θ = {a:g}°"
+def _speed(v: float, angle: float) -> str:
+    return f"{v:.10g} rad/s ({v * 30 / np.pi:.6g} rpm) at θ = {angle:g}°"
 
-    print(f"{o['scene']}: case {o['case']}, {o['n_free']} DOFs, {len(o['per_angle'])} crank angle(s); frozen-time "
+
+def _print(o: dict, quiet: bool = False) -> None:
+    """The two speeds; unless ``quiet``, how flutter was searched (one line) and any note
+    (what stopped a search), sorted by crank angle and marked with it."""
+    per = o["per_angle"]
+    print(f"{o['scene']}: case {o['case']}, {o['n_free']} DOFs, {len(per)} crank angle(s); frozen-time "
           "critical speeds (the matrices held at each crank angle)")
-    print(f"  divergence (K singular) from {speed(o['divergence_speed_rad_s'], o['divergence_angle_deg'])}")
-    print(f"  frozen-time flutter (min ζ of {o['modes']} modes < -{o['damping_tol']:g}) from "
-          f"{speed(o['flutter_speed_rad_s'], o['flutter_angle_deg'])}; unstable speed bands over a revolution: "
-          "fkev floquet")
-    for note in sorted({n for r in o["per_angle"] for n in r["notes"]}):
-        print(f"  note: {note}")
+    top = o["max_speed_rad_s"]
+    if o["divergence_speed_rad_s"] is not None:
+        div = "from " + _speed(o["divergence_speed_rad_s"], o["divergence_angle_deg"])
+    else:
+        div = f"none up to {top:g} rad/s" if top is not None else "none: K(Ω) is nonsingular at every speed"
+    print(f"  divergence (K singular): {div}")
+    if o["flutter_speed_rad_s"] is not None:
+        flut = "from " + _speed(o["flutter_speed_rad_s"], o["flutter_angle_deg"])
+    else:
+        bounds = [r["flutter_search_max_rad_s"] for r in per if r["flutter_scan_points"]]
+        flut = f"none up to {min(bounds):g} rad/s" if bounds else "not searched"
+    print(f"  frozen-time flutter (min ζ of {o['modes']} modes crosses 0 and falls below -{o['damping_tol']:g}): "
+          f"{flut}; unstable speed bands over a revolution: fkev floquet")
+    if quiet:
+        return
+    scanned = [r for r in per if r["flutter_scan_points"]]
+    if scanned:
+        spacing = sorted({r["flutter_search_max_rad_s"] / r["flutter_scan_points"] for r in scanned})
+        span = f"{spacing[0]:.4g}" if len(spacing) == 1 else f"{spacing[0]:.4g}-{spacing[-1]:.4g}"
+        print(f"  flutter scanned on {scanned[0]['flutter_scan_points']} speeds per angle (spacing {span} rad/s; "
+              f"a dip and return between two is not seen), onset refined to {o['flutter_rtol']:g} relative")
+    for r in sorted(per, key=lambda r: r["angle_deg"]):
+        for note in r["notes"]:
+            print(f"  note, θ = {r['angle_deg']:g}°: {_flag_words(note)}")
+
+
+def _flag_words(note: str) -> str:
+    return note.replace("no maximum speed given", "no --max-speed given")
 
 
 _FLAGS = {"angle_deg": "--angle", "max_speed_rad_s": "--max-speed", "modes": "--modes", "case": "--case"}

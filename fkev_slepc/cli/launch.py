@@ -20,9 +20,9 @@ import subprocess
 import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT
+from fkev_slepc.sweep.interrupt import NP_VARIABLE  # set for the launched ranks: their resume hint repeats --np N
 
 ROOT_VARS = ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM")
-NP_VARIABLE = "FKEV_NP"  # set for the launched ranks: their resume hint repeats --np N
 
 
 def strip_np(argv: list[str]) -> list[str]:

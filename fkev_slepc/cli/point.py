@@ -94,7 +94,7 @@ def _print_table(o: dict, scene: str = "SCENE") -> None:
     pairs = (f"every reported pair accepted (largest pair error {worst:.1e} <= max_pair_error {o['max_pair_error']:g})"
              if o["pairs_accepted"] else "pairs NOT accepted: the frequencies are not trustworthy")
     grow = o["unstable_modes"]
-    grows = (f"mode{'s' if len(grow) > 1 else ''} {', '.join(map(str, grow))} grow "
+    grows = (f"{'modes' if len(grow) > 1 else 'mode'} {', '.join(map(str, grow))} {'grow' if len(grow) > 1 else 'grows'} "
              "(damping ratio < -analysis.damping_tol)") if grow else "no reported mode grows"
     print(f"accuracy: {pairs}; frozen-time stability: {grows}")
     if o["speed_rad_s"] != 0:

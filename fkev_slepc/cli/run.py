@@ -35,8 +35,9 @@ def add_parser(sub) -> None:
     p.add_argument("--angles", metavar="START:STOP:STEP|a,b,c",
                    help="crank angles, deg (STOP included when on the grid); default the scene's")
     speeds = p.add_mutually_exclusive_group()
-    speeds.add_argument("--speeds", metavar="a,b,c", help="crank speeds, rad/s; default the scene's")
-    speeds.add_argument("--speeds-rpm", metavar="a,b,c", help="crank speeds, rev/min")
+    speeds.add_argument("--speeds", metavar="START:STOP:STEP|a,b,c",
+                        help="crank speeds, rad/s (STOP included when on the grid); default the scene's")
+    speeds.add_argument("--speeds-rpm", metavar="START:STOP:STEP|a,b,c", help="crank speeds, rev/min")
     p.add_argument("--cases", metavar="c1,c2,...", help="case names or Table 3.1 numbers, or 'all'")
     p.add_argument("--modes", type=int, metavar="N", help="modes per point (default the scene's)")
     add_elements_argument(p)

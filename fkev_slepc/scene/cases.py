@@ -48,7 +48,11 @@ def case_name(value: str | int) -> str:
         return case_name(int(text))
     if text in CASES:
         return text
-    raise ValueError(f"unknown case {value!r}; known: {', '.join(CASE_NAMES)} or 0-5")
+    import difflib
+
+    near = difflib.get_close_matches(text.lower().replace("-", "_").replace(" ", "_"), CASE_NAMES, n=1, cutoff=0.6)
+    hint = f"did you mean {near[0]!r}? " if near else ""
+    raise ValueError(f"unknown case {value!r}; {hint}known: {', '.join(CASE_NAMES)} or 0-5")
 
 
 def terms_used(cases: tuple[str, ...]) -> set[str]:

@@ -8,9 +8,13 @@ the stiffness of every case is K(Ω) = K₀ + Ω² K₂ (:meth:`Model.stiffness_
   the generalized eigenproblem K₀ x = -ν K₂ x, solved as -K₂ x = η K₀ x with η = 1/ν (K₀ is
   invertible: K_s is positive definite). No bisection. Above it det K < 0 for a simple root,
   and solve/stability.py proves the point divergent.
-* **Flutter speed**: the lowest Ω at which the smallest damping ratio of the reported modes
-  crosses -``damping_tol`` (the threshold at which a point is classified ``unstable``):
-  bracketed on a grid of speeds, then refined by Brent's method to ``rtol`` relative.
+* **Flutter speed**: where the smallest damping ratio ζ of the reported modes crosses zero on
+  its way to instability. ``damping_tol`` (the threshold at which a point is classified
+  ``unstable``) only decides whether there is a crossing: the first of a grid of speeds with
+  min ζ < -``damping_tol``; the onset is then the root of min ζ = 0 between the last grid speed
+  with min ζ > 0 and that one, refined by Brent's method to ``rtol`` relative. When min ζ is
+  not positive at any grid speed below it (undamped Coriolis + tangential terms: ζ = 0 at rest,
+  ± real parts as soon as Ω > 0) the onset is at rest, 0.
 
 docs/stability.md explains what the two speeds mean.
 """
@@ -43,7 +47,8 @@ class CriticalSpeeds:
     divergence_speed: float
     flutter_speed: float
     max_speed: float  # upper end of the flutter search (inf: divergence unbounded, no flutter search)
-    notes: tuple[str, ...] = field(default_factory=tuple)
+    notes: tuple[str, ...] = field(default_factory=tuple)  # what limited the search, if anything
+    scan_points: int = 0  # speeds of the flutter scan (spacing max_speed / scan_points); 0: not searched
 
 
 def divergence_speed(model, pieces, case: str, accel: float | None = None, max_speed: float = np.inf,
@@ -84,35 +89,58 @@ def min_damping_ratio(engine, model, pieces, case: str, omega: float, n_modes: i
 
 def flutter_speed(engine, model, pieces, case: str, max_speed: float, n_modes: int, damping_tol: float,
                   accel=None, n_scan: int = SCAN_POINTS, rtol: float = FLUTTER_RTOL) -> tuple[float, list[str]]:
-    """Lowest Ω in (0, ``max_speed``] where min ζ crosses -``damping_tol``, and notes.
+    """Lowest Ω in [0, ``max_speed``] where min ζ crosses 0 towards a point with min ζ <
+    -``damping_tol``, and notes on what limited the search (none when nothing did).
 
     The speeds Ω_k = k·max_speed/n_scan are scanned upwards; the first k whose min ζ is below
-    -damping_tol brackets the onset with Ω_{k-1}, which Brent's method refines to ``rtol``.
-    A crossing and return between two scan speeds is not seen (the notes give the spacing).
+    -damping_tol says there is a crossing; the root of min ζ = 0 is bracketed by the last scan
+    speed with min ζ > 0 and refined by Brent's method to ``rtol`` (0 when there is none: min ζ
+    never positive below the crossing). A dip and return between two scan speeds is not seen.
     """
-    notes = [f"flutter bracketed on {n_scan} speeds up to {max_speed:g} rad/s (spacing {max_speed / n_scan:g}),"
-             f" refined to {rtol:g} relative"]
+    notes: list[str] = []
     if not CASES[case].motion or not np.isfinite(max_speed) or max_speed <= 0:
         return float("nan"), notes
 
-    def f(w):
-        z = min_damping_ratio(engine, model, pieces, case, w, n_modes, accel)
-        return z + damping_tol
+    def zeta(w):
+        return min_damping_ratio(engine, model, pieces, case, w, n_modes, accel)
 
-    lo, f_lo = 0.0, f(0.0)
-    if not f_lo > 0:
-        notes.append("already unstable (or not converged) at rest")
-        return (0.0 if np.isfinite(f_lo) else float("nan")), notes
-    for k in range(1, n_scan + 1):
-        hi = max_speed * k / n_scan
-        f_hi = f(hi)
-        if not np.isfinite(f_hi):
-            notes.append(f"not converged at {hi:g} rad/s: search stopped there")
+    last_positive = None  # the last scan speed where every mode decays (min ζ > 0)
+    for k in range(n_scan + 1):
+        w = max_speed * k / n_scan
+        z = zeta(w)
+        if not np.isfinite(z):
+            notes.append(f"not converged at {w:g} rad/s: flutter search stopped there")
             return float("nan"), notes
-        if f_hi < 0:
-            return float(brentq(f, lo, hi, xtol=1e-3 * rtol * hi, rtol=rtol)), notes
-        lo = hi
+        if z < -damping_tol:
+            if k == 0:
+                notes.append("unstable already at rest")
+                return 0.0, notes
+            if last_positive is None:
+                return 0.0, notes  # min ζ <= 0 from rest on: the onset is Ω = 0
+            return _zeta_root(zeta, last_positive, w, rtol, notes), notes
+        if z > 0:
+            last_positive = w
     return float("nan"), notes
+
+
+class _NotConverged(Exception):
+    pass
+
+
+def _zeta_root(zeta, lo: float, hi: float, rtol: float, notes: list[str]) -> float:
+    """The root of min ζ = 0 in (lo, hi) (min ζ(lo) > 0 > min ζ(hi)) by Brent's method; NaN
+    (and a note) if a point on the way does not converge."""
+    def f(w):
+        z = zeta(w)
+        if not np.isfinite(z):
+            raise _NotConverged(w)
+        return z
+
+    try:
+        return float(brentq(f, lo, hi, xtol=1e-3 * rtol * hi, rtol=rtol))
+    except _NotConverged as exc:
+        notes.append(f"not converged at {exc.args[0]:g} rad/s while refining the flutter onset")
+        return float("nan")
 
 
 def critical_speeds(engine, model, angle_deg: float, case: str, n_modes: int, damping_tol: float,
@@ -128,14 +156,14 @@ def critical_speeds(engine, model, angle_deg: float, case: str, n_modes: int, da
     bound = np.inf if max_speed is None else float(max_speed)
     div = divergence_speed(model, pieces, case, accel, bound, engine.solve_settings.imag_tol)
     top = bound if max_speed is not None else (div if np.isfinite(div) else float(default_max))
-    notes = []
-    if top > 0 and np.isfinite(top):
+    notes, searched = [], CASES[case].motion and top > 0 and np.isfinite(top)
+    if searched:
         flut, notes = flutter_speed(engine, model, pieces, case, top, n_modes, damping_tol, accel, n_scan)
     else:
         flut = float("nan")
         if CASES[case].motion:
-            notes = ["flutter not searched: no divergence speed and no speed range (give --max-speed)"]
-    return CriticalSpeeds(float(angle_deg), div, flut, float(top), tuple(notes))
+            notes = ["flutter not searched: no divergence speed and no maximum speed given"]
+    return CriticalSpeeds(float(angle_deg), div, flut, float(top), tuple(notes), n_scan if searched else 0)
 
 
 @dataclass(frozen=True)
@@ -166,7 +194,8 @@ class CriticalScan:
             "flutter_speed_rad_s": _num(flut), "flutter_angle_deg": _num(a_flut),
             "per_angle": [{"angle_deg": r.angle_deg, "divergence_speed_rad_s": _num(r.divergence_speed),
                            "flutter_speed_rad_s": _num(r.flutter_speed), "flutter_search_max_rad_s": _num(r.max_speed),
-                           "notes": list(r.notes)} for r in self.results],
+                           "flutter_scan_points": r.scan_points, "notes": list(r.notes)} for r in self.results],
+            "flutter_rtol": FLUTTER_RTOL,
         }  # fmt: skip
 
 

@@ -24,14 +24,14 @@ CLI_NAMES = {"angles": "--angles", "speeds": "--speeds", "speeds_rpm": "--speeds
 """The same for ``fkev run`` (its flags)."""
 
 
-def parse_angles(value) -> tuple[float, ...]:
-    """Crank angles (deg): ``START:STOP:STEP`` (STOP included when it lies on the grid),
-    ``a,b,c``, or a sequence of numbers.
+def parse_range(value, what: str = "values") -> tuple[float, ...]:
+    """``START:STOP:STEP`` (STOP included when it lies on the grid), ``a,b,c``, or a
+    sequence of numbers; ``what`` names the values in the message for too long a range.
 
     Examples
     --------
-    >>> parse_angles("0:90:45"), parse_angles([10, 20.5])
-    ((0.0, 45.0, 90.0), (10.0, 20.5))
+    >>> parse_range("0:300:100"), parse_range("0:1:0.4"), parse_range("5,1")
+    ((0.0, 100.0, 200.0, 300.0), (0.0, 0.4, 0.8), (5.0, 1.0))
     """
     if not isinstance(value, str) or ":" not in value:
         return _list(value)
@@ -45,21 +45,38 @@ def parse_angles(value) -> tuple[float, ...]:
         raise ValueError(f"STOP must be >= START (got {value!r})")
     n = int(np.floor((stop - start) / step + 1e-9)) + 1
     if n > MAX_POINTS_PER_AXIS:
-        raise ValueError(f"{n} angles is too many (got {value!r})")
+        raise ValueError(f"{n} {what} is too many (got {value!r})")
     return tuple(float(v) for v in start + step * np.arange(n))
 
 
+def parse_angles(value) -> tuple[float, ...]:
+    """Crank angles (deg): ``START:STOP:STEP``, ``a,b,c`` or a sequence (:func:`parse_range`).
+
+    Examples
+    --------
+    >>> parse_angles("0:90:45"), parse_angles([10, 20.5])
+    ((0.0, 45.0, 90.0), (10.0, 20.5))
+    """
+    return parse_range(value, "angles")
+
+
 def parse_speeds(value) -> tuple[float, ...]:
-    """Crank speeds (rad/s, >= 0): ``a,b,c`` or a sequence of numbers."""
-    values = _list(value)
+    """Crank speeds (rad/s, >= 0): ``START:STOP:STEP``, ``a,b,c`` or a sequence of numbers.
+
+    Examples
+    --------
+    >>> parse_speeds("0:300:150")
+    (0.0, 150.0, 300.0)
+    """
+    values = parse_range(value, "speeds")
     if any(v < 0 for v in values):
         raise ValueError(f"speeds must be >= 0 rad/s (got {value!r})")
     return values
 
 
 def parse_speeds_rpm(value) -> tuple[float, ...]:
-    """Crank speeds given in rev/min (>= 0), returned in rad/s."""
-    values = _list(value)
+    """Crank speeds given in rev/min (>= 0; ranges as :func:`parse_speeds`), returned in rad/s."""
+    values = parse_range(value, "speeds")
     if any(v < 0 for v in values):
         raise ValueError(f"speeds must be >= 0 rpm (got {value!r})")
     return tuple(v * RAD_S_PER_RPM for v in values)
@@ -137,7 +154,8 @@ def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=
     scene : Scene
     angles, speeds, speeds_rpm, cases : str or sequence, optional
         Crank angles (deg), speeds (rad/s, or rev/min) and cases (see :func:`parse_angles`,
-        :func:`parse_speeds`, :func:`parse_cases`); None keeps the scene's.
+        :func:`parse_speeds`, :func:`parse_cases`; angles and speeds also as a range
+        ``"START:STOP:STEP"``); None keeps the scene's.
     modes : int, optional
         Modes per point (>= 1, at most the model's free DOFs); None keeps the scene's.
     mode_shapes : bool

@@ -35,6 +35,7 @@ from pathlib import Path
 from fkev_slepc.status import EXIT_INTERRUPTED
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
+NP_VARIABLE = "FKEV_NP"  # set by ``fkev run --np N`` for the ranks it launches (cli/launch.py)
 PAUSE_VARIABLE = "FKEV_PAUSE_AFTER"
 PAUSED = "fkev run: paused"  # start of rank 0's stderr line while paused
 PAUSE_LIMIT_S = 600.0
@@ -51,6 +52,23 @@ def pause_after(environ=None) -> int | None:
         print(f"fkev: ignoring {PAUSE_VARIABLE}={value!r} (expected a whole number of points)",
               file=sys.stderr, flush=True)
         return None
+
+
+def signal_words(signum: int, environ=None) -> str:
+    """How the notice names the signal: Ctrl-C as the user pressed it, also when
+    ``fkev run --np N`` passed it on to the ranks as SIGUSR1.
+
+    Examples
+    --------
+    >>> signal_words(signal.SIGINT), signal_words(signal.SIGUSR1, {NP_VARIABLE: "2"})
+    ('Ctrl-C (SIGINT)', 'Ctrl-C or SIGTERM (passed on by fkev run --np as SIGUSR1)')
+    """
+    if signum == signal.SIGINT:
+        return "Ctrl-C (SIGINT)"
+    name = signal.Signals(signum).name
+    if signum == signal.SIGUSR1 and (os.environ if environ is None else environ).get(NP_VARIABLE):
+        return "Ctrl-C or SIGTERM (passed on by fkev run --np as SIGUSR1)"
+    return name
 
 
 class StopRequest:
@@ -74,7 +92,7 @@ class StopRequest:
             signal.raise_signal(signum)
             return
         self.requested = signum
-        self._tell(signal.Signals(signum).name)
+        self._tell(signal_words(signum))
 
     def _tell(self, what: str) -> None:
         if self._notify is not None:
