@@ -93,10 +93,7 @@ def _print_table(o: dict, scene: str = "SCENE") -> None:
     worst = max((r for r in o["residual"] if r is not None), default=None)
     pairs = (f"every reported pair accepted (largest pair error {worst:.1e} <= max_pair_error {o['max_pair_error']:g})"
              if o["pairs_accepted"] else "pairs NOT accepted: the frequencies are not trustworthy")
-    grow = o["unstable_modes"]
-    grows = (f"{'modes' if len(grow) > 1 else 'mode'} {', '.join(map(str, grow))} {'grow' if len(grow) > 1 else 'grows'} "
-             "(damping ratio < -analysis.damping_tol)") if grow else "no reported mode grows"
-    print(f"accuracy: {pairs}; frozen-time stability: {grows}")
+    print(f"accuracy: {pairs}; frozen-time stability: {growing(o['unstable_modes'])}")
     if o["speed_rad_s"] != 0:
         print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; whether vibration grows over a crank "
               f"revolution is the Floquet verdict: fkev floquet {scene} --speeds {o['speed_rad_s']:g} --case {o['case']}")
@@ -106,3 +103,18 @@ def _print_table(o: dict, scene: str = "SCENE") -> None:
               f"link, estimated max relative error {o['rel_error_estimate']:.1e}")
     if "cross_check_max_rel_diff" in o:
         print(f"cross-check SLEPc vs dense: max relative frequency difference {o['cross_check_max_rel_diff']:.2e}")
+
+
+def growing(modes: list[int]) -> str:
+    """The frozen-time stability words for the modes that grow.
+
+    Examples
+    --------
+    >>> growing([]), growing([2]), growing([1, 2])
+    ('no reported mode grows', 'mode 2 grows (damping ratio < -analysis.damping_tol)', \
+'modes 1, 2 grow (damping ratio < -analysis.damping_tol)')
+    """
+    if not modes:
+        return "no reported mode grows"
+    words = f"modes {', '.join(map(str, modes))} grow" if len(modes) > 1 else f"mode {modes[0]} grows"
+    return words + " (damping ratio < -analysis.damping_tol)"
