@@ -66,6 +66,8 @@ def test_cli_margins_json_and_band_campbell(archive, tmp_path, capsys):
     assert "2Ω 20." in capsys.readouterr().out.splitlines()[2]
     assert main(["margins", str(archive), "--speed", "100"]) == 2
     assert "--speed: 100 rad/s is not on the archive's speed grid" in capsys.readouterr().err
+    assert main(["margins", str(archive), "--speed-rpm", str(W * 60 / (2 * math.pi)), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["modes"][0]["orders_inside"] == [3]
     assert main(["margins", str(archive), "--speed", "0"]) == 2
     assert "speed > 0" in capsys.readouterr().err
 

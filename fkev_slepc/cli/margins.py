@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from fkev_slepc.scene.units import RAD_S_PER_RPM
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
 
 
@@ -18,7 +19,9 @@ def add_parser(sub) -> None:
         "(min-max over the crank angles), the crank orders n·W/2π inside or near it, and the margin of the "
         "closest order (%, relative to the band edge it approaches) with the angles where it is closest.")
     p.add_argument("archive", type=Path, help="HDF5 archive written by `fkev run` (several crank angles)")
-    p.add_argument("--speed", type=float, required=True, metavar="W", help="operating crank speed, rad/s (on the grid)")
+    speed = p.add_mutually_exclusive_group(required=True)
+    speed.add_argument("--speed", type=float, metavar="W", help="operating crank speed, rad/s (on the grid)")
+    speed.add_argument("--speed-rpm", type=float, metavar="RPM", help="operating crank speed, rev/min")
     p.add_argument("--case", help="case name or Table 3.1 number (default full, else the archive's first)")
     p.add_argument("--orders", type=int, metavar="N", help="orders n = 1..N (default: one past the highest band)")
     p.add_argument("--order", choices=("tracked", "sorted"),
@@ -39,7 +42,8 @@ def run(args) -> int:
         if args.plot is not None:
             check_output(args.plot, (".png", ".pdf", ".svg"), "--plot")
         res = load(args.archive)
-        table = margins(res, args.speed, args.case, args.orders, args.order, args.modes)
+        speed = args.speed if args.speed is not None else args.speed_rpm * RAD_S_PER_RPM
+        table = margins(res, speed, args.case, args.orders, args.order, args.modes)
         fig = None
         if args.plot is not None:
             from fkev_slepc.plots.bands import band_campbell
