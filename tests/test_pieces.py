@@ -56,9 +56,11 @@ def test_stack_rows_are_the_one_angle_pieces(model):
 
 
 def test_blocks_of_angles_join_to_the_same_stack(model, monkeypatch):
-    whole = model.piece_stack(THETA)
+    whole, loads = model.piece_stack(THETA), model.load_pieces(THETA)
     monkeypatch.setattr(operators, "BLOCK_FLOATS", 2 * model.stacks.n_el * model.stacks.n_dof**2)  # 2 angles
     parts = model.piece_stack(THETA)
+    for f in ("per_w2", "per_accel", "gravity", "gravity_x"):
+        np.testing.assert_array_equal(getattr(model.load_pieces(THETA), f), getattr(loads, f))
     for f in FIELDS + ("theta", "ok"):
         a, b = getattr(whole, f), getattr(parts, f)
         assert (a is None) == (b is None)
