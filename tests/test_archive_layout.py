@@ -28,7 +28,7 @@ from fkev_slepc.sweep.units import assign, pending, run_units
 
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "fkev_slepc"
-TABLES = {PKG / "archive" / "products.py"}
+TABLES = {PKG / "archive" / name for name in ("products.py", "product_types.py", "products_floquet.py")}
 # where datasets are read and written (the archive and plots stages, the sweep modules that use
 # the archive, the commands that read archives, any module importing h5py): every root dataset
 # or group name used as a key there must come from the tables. Elsewhere "case" or "modes" are

@@ -64,3 +64,137 @@ def test_info_labels_its_regions_frozen_time(tmp_path):
     assert "frozen-time, not a growth per revolution" in region and " x1." not in region
     cycle = next(ln for ln in info.splitlines() if ln.strip().startswith("cycle"))
     assert cycle.endswith(f"fkev floquet {BW} --speeds 1000")
+
+
+# --------------------------------------------------------------------------- fkev floquet
+CANTILEVER = RUNS / "rotating-cantilever.toml"
+OMEGA0 = 10.0  # rad/s: the Mathieu oscillator put through the run in place of the linkage monodromy
+
+
+def mathieu_evaluator(model, case, tol, eps=0.2, calls=None):
+    """evaluate(speed) of ẍ + ω₀²(1 - 2ε cos Ωt)x = 0 through solve/floquet.py's monodromy (its
+    bands: tests/test_floquet_bands.py), counting the speeds evaluated in ``calls``."""
+    import numpy as np
+
+    from fkev_slepc.solve.floquet import monodromy
+    from fkev_slepc.solve.floquet_bands import SpeedPoint
+
+    def evaluate(speed):
+        if calls is not None:
+            calls.append(speed)
+        r = (OMEGA0 / speed) ** 2
+
+        def gen(theta):
+            A = np.zeros((theta.size, 2, 2))
+            A[:, 0, 1] = 1.0
+            A[:, 1, 0] = -r * (1.0 - 2.0 * eps * np.cos(theta))
+            return A
+
+        return SpeedPoint.of(speed, monodromy(gen, 2 * np.pi, tol=1e-12)), ""
+
+    return evaluate
+
+
+def mathieu_edges(n, eps=0.2):
+    import numpy as np
+    from scipy.optimize import brentq
+    from scipy.special import mathieu_a, mathieu_b
+
+    def speed(char):
+        a = brentq(lambda a: a - char(n, eps * a), 0.5 * n * n, 2.0 * n * n + 1.0, xtol=1e-14)
+        return 2.0 * OMEGA0 / np.sqrt(a)
+
+    return sorted((speed(mathieu_a), speed(mathieu_b)))
+
+
+def _request(tmp_path, speeds="8:26:0.4", **kw):
+    from fkev_slepc.api.floquet import speed_list
+    from fkev_slepc.scene import load_scene, with_elements
+    from fkev_slepc.sweep.floquet_run import FloquetRequest
+    from fkev_slepc.sweep.grid import configure
+
+    scene = configure(with_elements(load_scene(CANTILEVER), 2), angles=[0, 180], speeds=speed_list(speeds), cases=["full"])
+    return FloquetRequest(scene, tmp_path / "fq.h5", **kw)
+
+
+def test_floquet_run_archives_bands_resumes_and_opens_with_xarray(tmp_path, monkeypatch):
+    """The whole run (frozen sweep, /floquet units, brackets refined, labels, finalize) with a
+    Mathieu oscillator in place of the monodromy: both tongues in 8-26 rad/s found with edges
+    within 1e-6 of the closed form and labelled 2ω̄1/1, 2ω̄1/2 (ω̄ patched to ω₀); the archive
+    verifies and opens with xarray (dimension scales); a resume solves only the pending speeds
+    and gives the same bands."""
+    import h5py
+    import numpy as np
+    import xarray as xr
+
+    from fkev_slepc.archive import products as P
+    from fkev_slepc.archive.verify import verify
+    from fkev_slepc.sweep import floquet_run as fr
+
+    monkeypatch.setattr(fr, "_mean_frequencies", lambda part: (lambda w: [OMEGA0]))
+    calls = []
+    req = _request(tmp_path)
+    out = fr.run_floquet(req, evaluator=lambda *a: mathieu_evaluator(*a, calls=calls))
+    res = fr.read_floquet(out)
+    assert verify(out).ok and len(res.speed_rad_s) == 46
+    assert [b.resonance for b in res.bands] == ["2ω̄1/2", "2ω̄1/1"]
+    for band, n in zip(res.bands, (2, 1)):
+        lo, hi = mathieu_edges(n)
+        assert abs(band.lower / lo - 1) < 1e-6 and abs(band.upper / hi - 1) < 1e-6, (band, lo, hi)
+    d = res.as_dict()
+    assert {"speed_rad_s", "multipliers", "max_abs_multiplier", "bands"} <= set(d)
+    assert len(d["multipliers"][0]) == 2 and all(len(z) == 2 for z in d["multipliers"][0])
+    assert set(d["bands"][0]) >= {"lower_rad_s", "upper_rad_s", "resonance"}
+    with xr.open_dataset(out, group="floquet", engine="h5netcdf") as ds:
+        assert ds.max_abs_multiplier.dims == ("speed_rad_s", "case") and ds.status.attrs["units"] == "1"
+    with xr.open_dataset(out, group="floquet/bands", engine="h5netcdf") as ds:
+        assert ds.sizes["band"] == 2 and ds.lower_rad_s.attrs["units"] == "rad/s"
+    # resume: three speeds back to pending are the only ones solved on the grid again
+    with h5py.File(out, "r+") as f:
+        f[P.F_STATUS.path][[3, 20, 40], 0] = 0
+    n_before = len(calls)
+    again = fr.read_floquet(fr.run_floquet(_request(tmp_path, resume=True),
+                                           evaluator=lambda *a: mathieu_evaluator(*a, calls=calls)))
+    grid_again = [w for w in calls[n_before:] if np.any(np.isclose(w, res.speed_rad_s, rtol=0, atol=1e-12))]
+    assert sorted(grid_again) == sorted(res.speed_rad_s[[3, 20, 40]].tolist())
+    assert [(b.lower, b.upper) for b in again.bands] == [(b.lower, b.upper) for b in res.bands]
+
+
+def test_floquet_run_over_two_ranks_gives_the_serial_bands(tmp_path):
+    """mpiexec -n 2: the speeds and the brackets dealt to two ranks give the serial run's
+    multipliers to 1e-12 and the same band edges."""
+    import os
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    from fkev_slepc.sweep import floquet_run as fr
+
+    serial = fr.read_floquet(fr.run_floquet(_request(tmp_path / "s", speeds="8:26:1.0"), evaluator=mathieu_evaluator))
+    script = tmp_path / "two_ranks_script"
+    script.write_text(
+        "import sys; from pathlib import Path; sys.path.insert(0, sys.argv[1])\n"
+        "from mpi4py import MPI\nimport test_floquet_cli as t\nfrom fkev_slepc.sweep import floquet_run as fr\n"
+        "fr.run_floquet(t._request(Path(sys.argv[2]), speeds='8:26:1.0'), MPI.COMM_WORLD, evaluator=t.mathieu_evaluator)\n")
+    (tmp_path / "p").mkdir()
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=str(ROOT),
+               OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    r = subprocess.run(["mpiexec", "-n", "2", sys.executable, str(script), str(ROOT / "tests"), str(tmp_path / "p")],
+                       env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    par = fr.read_floquet(tmp_path / "p" / "fq.h5")
+    np.testing.assert_allclose(par.max_abs, serial.max_abs, rtol=1e-12)
+    assert len(par.bands) == len(serial.bands) == 2
+    assert [(b.lower, b.upper) for b in par.bands] == [(b.lower, b.upper) for b in serial.bands]
+
+
+def test_floquet_refuses_bad_flags_naming_them():
+    """Speeds must be > 0 (at rest the frozen verdict is exact), tolerances in (0, 1), a range
+    START:STOP:STEP well formed: exit 2, the flag named, nothing computed."""
+    from clitools import BW, fkev
+
+    for flags, name in ((("--speeds", "0,100"), "--speeds"), (("--speeds", "100:50:10"), "--speeds"),
+                        (("--speeds", "100", "--tol", "2"), "--tol"), (("--speeds", "100", "--case", "9"), "--case")):
+        r = fkev("floquet", BW, *flags, "-o", "/nonexistent/x.h5")
+        assert r.returncode == 2 and name in r.stderr and "Traceback" not in r.stderr, (flags, r.stderr)

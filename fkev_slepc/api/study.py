@@ -304,6 +304,12 @@ class Study:
         from fkev_slepc.api.loads import study_loads
         return study_loads(self.scene, speed_rad_s, angles_deg, accel_rad_s2, gravity_m_s2)
 
+    def floquet(self, speeds_rad_s=None, case="full", output=None, **options):
+        """Floquet multipliers over a speed range, unstable bands labelled (``fkev floquet``):
+        :func:`fkev_slepc.api.floquet.study_floquet` (options: angles_deg, resume, force, tol, rtol, ...)."""
+        from fkev_slepc.api.floquet import study_floquet
+        return study_floquet(self, speeds_rad_s, case, output, **options)
+
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
               retry_failed: bool = False, cross_check: bool = False, progress: bool = False,

@@ -1,0 +1,91 @@
+"""``Study.floquet``: the cycle (Floquet) verdict over a speed range, its unstable bands and the
+frozen-time critical speeds beside them (docs/stability.md, "Frozen-time and cycle verdicts")."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
+
+API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "angles_deg", "cases": "case",
+             "modes": "modes", "element": "element", "rel_error": "rel_error", "tol": "tol", "rtol": "rtol",
+             "monodromy_tol": "monodromy_tol", "output": "output"}
+
+
+def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_deg=None, resume: bool = False,
+                  force: bool = False, tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL, monodromy_tol: float = 1e-10,
+                  solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
+                  command_line: str = "", notify=None, progress: bool = False):
+    """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
+    messages name the arguments (the CLI passes its flags)."""
+    from fkev_slepc.scene.cases import case_name
+    from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, FloquetRequest, read_floquet, run_floquet
+    from fkev_slepc.sweep.grid import configure
+    from fkev_slepc.sweep.parallel import local
+    from fkev_slepc.sweep.session import default_output
+
+    sc = study.scene
+    bad = []
+    try:
+        case = case_name(case)
+    except ValueError as err:
+        bad.append(Problem(names["cases"], str(err)))
+    for key, v, lo, hi in (("tol", tol, 0.0, 1.0), ("rtol", rtol, 0.0, 1.0), ("monodromy_tol", monodromy_tol, 0.0, 1.0)):
+        if not (np.isfinite(v) and lo < v < hi):
+            bad.append(Problem(names[key], f"must be in (0, 1) (got {v})"))
+    if sc.driver.acceleration != 0.0:
+        bad.append(Problem("driver.acceleration_rad_s2", "the Floquet analysis needs a constant crank speed "
+                           f"(got {sc.driver.acceleration:g} rad/s²)"))
+    if bad:
+        raise SceneError(sc.source, bad)
+    scene = configure(sc, angles=angles_deg, speeds=speed_list(speeds_rad_s, sc.source, names["speeds"]), cases=[case],
+                      names=names)
+    speeds = np.asarray(scene.driver.speeds, dtype=float)
+    if not np.all(speeds > 0):
+        raise SceneError(sc.source, [Problem(names["speeds"], "Floquet speeds must be > 0 rad/s (at rest the frozen "
+                                             f"verdict is exact; use fkev point) (got {', '.join(f'{w:g}' for w in speeds)})")])
+    if output is None:
+        if study.path is None:
+            raise SceneError(sc.source, [Problem(names["output"], "required for a study made from text")])
+        output = default_output(study.path).with_name(Path(study.path).stem + "-floquet.h5")
+    request = FloquetRequest(scene, Path(output), tol=float(tol), rtol=float(rtol),
+                             monodromy_tol=float(monodromy_tol or MONODROMY_TOL), resume=resume, force=force,
+                             solver=solver, command_line=command_line)
+    comm = local(comm)
+    out = run_floquet(request, comm, notify=notify, progress=progress)
+    res = read_floquet(out)
+    if critical and comm.rank == 0:
+        res = replace(res, extras={"frozen_time_critical": _frozen_critical(study, scene, case, speeds, solver)})
+    return res
+
+
+def speed_list(spec, source: str = "", name: str = "speeds_rad_s"):
+    """``"START:STOP:STEP"`` (STOP included) as a list of speeds; anything else unchanged (the sweep's
+    speed parsing: ``"a,b,c"`` or numbers)."""
+    if not (isinstance(spec, str) and ":" in spec):
+        return spec
+    try:
+        a, b, h = (float(x) for x in spec.split(":"))
+    except ValueError:
+        raise SceneError(source, [Problem(name, f"START:STOP:STEP needs three numbers (got {spec!r})")]) from None
+    if not (np.isfinite([a, b, h]).all() and h > 0 and b >= a):
+        raise SceneError(source, [Problem(name, f"START:STOP:STEP needs STEP > 0 and STOP >= START (got {spec!r})")])
+    n = int(np.floor((b - a) / h + 1e-9)) + 1
+    if n > 100000:
+        raise SceneError(source, [Problem(name, f"{n} speeds is too many (got {spec!r})")])
+    return [float(a + h * k) for k in range(n)]
+
+
+def _frozen_critical(study, scene, case, speeds, solver) -> dict:
+    """The lowest frozen-time divergence and flutter speeds over the frozen sweep's crank angles,
+    up to the top Floquet speed (solve/critical.py), with what they are."""
+    scan = type(study)(scene, study.path).critical(case, None, float(speeds.max()), None, solver)
+    d = scan.as_dict()
+    return {"divergence_speed_rad_s": d["divergence_speed_rad_s"], "divergence_angle_deg": d["divergence_angle_deg"],
+            "flutter_speed_rad_s": d["flutter_speed_rad_s"], "flutter_angle_deg": d["flutter_angle_deg"],
+            "max_speed_rad_s": float(speeds.max()),
+            "time": "frozen-time: lowest over the crank angles of the frozen sweep (fkev critical)"}

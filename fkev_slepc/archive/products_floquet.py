@@ -1,0 +1,58 @@
+"""The ``/floquet`` product's table (docs/archive.md): Floquet multipliers of one crank revolution per
+(speed, case) unit (``fkev floquet``, fkev_slepc/sweep/floquet_run.py), in the archive of the frozen sweep of
+the same speeds, and the unstable speed bands found from them (fkev_slepc/solve/floquet_bands.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fkev_slepc.archive.product_types import CASE, CNAN, SPEED, STATUS, STRING, Product, Var, error_table
+
+F_INDEX, F_BAND = "floquet/multiplier_index", "floquet/bands/band"
+FLOQUET_ERRORS = error_table("floquet/errors", ("speed", "case"))
+MULTIPLIER = Var("floquet/multiplier", (SPEED, CASE, F_INDEX), "c16", "1",
+                 "Floquet multiplier mu of one crank revolution, sorted by decreasing |mu|", CNAN, required=True,
+                 source="multipliers")
+MAX_ABS_MULTIPLIER = Var("floquet/max_abs_multiplier", (SPEED, CASE), "f8", "1",
+                         "largest |mu|: amplitude factor per crank revolution of the fastest-growing solution", np.nan,
+                         required=True, source="max_abs")
+MULTIPLIER_ERROR = Var("floquet/multiplier_error", (SPEED, CASE), "f8", "1",
+                       "estimated absolute error of the multipliers (monodromy step doubling)", np.nan, source="error")
+F_STATUS = Var("floquet/status", (SPEED, CASE), STATUS, "1", "outcome of the speed", 0, required=True,
+               source="status", attrs={"description": "ok: max|mu| - 1 <= tol + 10 x multiplier_error (tol: the "
+                                                      "floquet group's attribute); unstable above; not_converged: the "
+                                                      "monodromy missed its tolerance; failed: the solver raised"})
+_BAND = dict(growable=True, chunks=(64,))
+BAND_ROWS = (
+    Var(F_BAND, (F_BAND,), "i4", "1", "unstable speed band number", scale=True, **_BAND),
+    Var("floquet/bands/lower_rad_s", (F_BAND,), "f8", "rad/s", "lower edge of the band", np.nan, source="lower",
+        **_BAND),
+    Var("floquet/bands/upper_rad_s", (F_BAND,), "f8", "rad/s", "upper edge of the band", np.nan, source="upper",
+        **_BAND),
+    Var("floquet/bands/lower_open", (F_BAND,), "u1", "1", "1: the band reaches the lowest speed examined",
+        source="lower_open", **_BAND),
+    Var("floquet/bands/upper_open", (F_BAND,), "u1", "1", "1: the band reaches the highest speed examined",
+        source="upper_open", **_BAND),
+    Var("floquet/bands/resonance", (F_BAND,), STRING, "1",
+        "nearest resonance of the cycle-mean frozen frequencies: 2w_k/n, (w_j+w_k)/n or (w_j-w_k)/n",
+        source="resonance", **_BAND),
+    Var("floquet/bands/predicted_rad_s", (F_BAND,), "f8", "rad/s", "speed of that resonance", np.nan,
+        source="predicted_speed", **_BAND),
+    Var("floquet/bands/peak_rad_s", (F_BAND,), "f8", "rad/s", "grid speed of the largest max|mu| in the band",
+        np.nan, source="peak_speed", **_BAND),
+    Var("floquet/bands/peak_max_abs_multiplier", (F_BAND,), "f8", "1", "max|mu| there", np.nan,
+        source="peak_max_abs", **_BAND),
+)
+FLOQUET = Product(
+    name="floquet",
+    unit_dims=(SPEED, CASE),
+    point_dims=(),
+    status=F_STATUS.path,
+    variables=(Var(F_INDEX, (F_INDEX,), "i4", "1", "multiplier number, 1-based", scale=True, required=True),
+               MULTIPLIER, MAX_ABS_MULTIPLIER, MULTIPLIER_ERROR, F_STATUS) + FLOQUET_ERRORS.rows + BAND_ROWS,
+    errors=FLOQUET_ERRORS,
+    groups={"floquet": "Floquet multipliers of the time-periodic linkage over one crank revolution, per (speed, "
+                       "case) of the root grid (whose frozen sweep gives the cycle-mean frequencies of the labels)",
+            "floquet/errors": "messages of failed and not-converged speeds (one row per speed)",
+            "floquet/bands": "unstable speed bands, edges refined to the floquet group's rtol"},
+)

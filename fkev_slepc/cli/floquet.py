@@ -1,0 +1,123 @@
+"""``fkev floquet SCENE``: does vibration grow over crank revolutions, and in which speed bands?
+
+Wiring only: the run is ``Study.floquet`` (fkev_slepc/api/floquet.py, fkev_slepc/sweep/floquet_run.py),
+the bands fkev_slepc/solve/floquet_bands.py, the figure fkev_slepc/plots/floquet.py (docs/stability.md).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from fkev_slepc.scene import SceneError
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
+from .common import add_elements_argument, load_checked
+
+NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles", "cases": "--case",
+         "modes": "--modes", "element": "--element", "rel_error": "--rel-error", "tol": "--tol", "rtol": "--rtol",
+         "monodromy_tol": "--monodromy-tol", "output": "-o"}
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "floquet", help="Floquet multipliers over a speed range: unstable speed bands and their resonances",
+        description="The cycle verdict: Floquet multipliers μ of one crank revolution of the time-periodic linkage "
+        "(exact periodic coefficients) at each speed, the edges of every unstable band (max|μ| > 1) refined to "
+        "--rtol, each labelled with its resonance 2ω̄ₖ/n or (ω̄ⱼ ± ω̄ₖ)/n of the cycle-mean frozen frequencies, "
+        "beside the frozen-time verdicts of the same speeds. Archived (HDF5 /floquet, resumable over MPI ranks).")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--speeds", metavar="START:STOP:STEP|a,b,c", help="crank speeds > 0, rad/s (default the scene's)")
+    p.add_argument("--case", default="full", help="case name or Table 3.1 number (default full)")
+    p.add_argument("--angles", metavar="START:STOP:STEP|a,b,c",
+                   help="crank angles of the frozen sweep (cycle-mean frequencies, frozen verdicts; default the scene's)")
+    p.add_argument("-o", "--output", type=Path, help="archive (default <scene dir>/out/<stem>-floquet.h5)")
+    p.add_argument("--tol", type=float, default=None, help="max|μ| - 1 above which (and above 10x the multiplier "
+                   "error estimate) a speed is unstable (default 1e-6)")
+    p.add_argument("--rtol", type=float, default=None, help="relative accuracy of the band edges (default 1e-6)")
+    p.add_argument("--monodromy-tol", type=float, default=None, help="relative error asked of the monodromy (default 1e-10)")
+    add_elements_argument(p)
+    p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver of the frozen sweep")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted run (only pending speeds are solved)")
+    p.add_argument("--force", action="store_true", help="replace an existing archive")
+    p.add_argument("--plot", type=Path, metavar="FIG", help="also draw max|μ| vs speed with the bands (png, pdf, svg)")
+    p.add_argument("--no-critical", action="store_true", help="skip the frozen-time critical speeds (fkev critical)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from fkev_slepc.api import Study
+    from fkev_slepc.api.floquet import study_floquet
+    from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
+    from fkev_slepc.sweep.floquet_run import MONODROMY_TOL
+    from fkev_slepc.sweep.parallel import install_abort_hook, world
+    from fkev_slepc.sweep.session import RunRefused
+
+    comm = world()
+    install_abort_hook()
+    rank0 = comm.rank == 0
+    try:
+        study = Study(load_checked(args.scene, args.elements, check_angles=False), Path(args.scene))
+        res = study_floquet(study, args.speeds, args.case, args.output, angles_deg=args.angles, resume=args.resume,
+                            force=args.force, tol=DEFAULT_TOL if args.tol is None else args.tol,
+                            rtol=EDGE_RTOL if args.rtol is None else args.rtol,
+                            monodromy_tol=MONODROMY_TOL if args.monodromy_tol is None else args.monodromy_tol,
+                            solver=args.solver, comm=comm, critical=not args.no_critical, names=NAMES,
+                            command_line="fkev " + " ".join(sys.argv[1:]),
+                            notify=None if args.json or args.quiet else _note)
+    except SceneError as err:
+        if rank0:
+            print(str(err), file=sys.stderr, flush=True)
+        return EXIT_BAD_INPUT
+    except RunRefused as err:
+        if rank0:
+            _note(str(err))
+        return err.exit_code
+    if not rank0:
+        return EXIT_OK
+    out = res.as_dict()
+    if args.plot is not None:
+        from fkev_slepc.plots.floquet import speed_map
+
+        speed_map(res).savefig(args.plot, dpi=130)
+        out["figure"] = str(args.plot)
+    if args.json:
+        json.dump(out, sys.stdout, indent=1)
+        print()
+    else:
+        print("\n".join(lines(out)))
+    return EXIT_NOT_CONVERGED if any(s in ("failed", "not_converged") for s in out["status"]) else EXIT_OK
+
+
+def lines(o: dict) -> list[str]:
+    """The text report of ``fkev floquet``."""
+    w = o["speed_rad_s"]
+    mx = [v - 1.0 for v in o["max_abs_multiplier"] if v is not None]
+    n_bad = sum(s == "unstable" for s in o["status"])
+    out = [f"{o['scene']}: case {o['case']}, {len(w)} speeds {min(w):g}-{max(w):g} rad/s; archive {o['archive']}",
+           f"  cycle verdict (Floquet multipliers of one revolution): {n_bad} of {len(w)} speeds unstable "
+           f"(max|μ| - 1 > {o['tol']:g} + 10 x error estimate); max|μ| - 1 from {min(mx):.3g} to {max(mx):.3g}"]
+    frozen = [v for v in o["frozen_time_unstable_fraction"] if v is not None]
+    if frozen:
+        out.append(f"  frozen-time verdict of the same speeds: {100 * min(frozen):.0f}-{100 * max(frozen):.0f} % of "
+                   "crank angles unstable or divergent")
+    out.append(f"  unstable bands (edges to {o['edge_rtol']:g} relative):" + ("" if o["bands"] else " none"))
+    for b in o["bands"]:
+        lo = "below" if b["lower_open"] else f"{b['lower_rad_s']:.10g}"
+        hi = "above" if b["upper_open"] else f"{b['upper_rad_s']:.10g}"
+        res = f"{b['resonance']} = {b['predicted_rad_s']:.6g} rad/s" if b["resonance"] else "no resonance in range"
+        out.append(f"    {lo} - {hi} rad/s: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} at {b['peak_rad_s']:g} rad/s")
+    crit = o.get("frozen_time_critical")
+    if crit:
+        def show(v, a):
+            return "none" if v is None else f"{v:.10g} rad/s (θ = {a:g}°)"
+
+        out.append(f"  frozen-time critical speeds up to {crit['max_speed_rad_s']:g} rad/s: divergence "
+                   f"{show(crit['divergence_speed_rad_s'], crit['divergence_angle_deg'])}, flutter "
+                   f"{show(crit['flutter_speed_rad_s'], crit['flutter_angle_deg'])}")
+    return out
+
+
+def _note(message: str) -> None:
+    print(f"fkev floquet: {message}", file=sys.stderr, flush=True)

@@ -1,0 +1,48 @@
+"""The cycle verdict over speed (``fkev floquet --plot``): the largest Floquet exponent per crank
+revolution, log max|μ|, with the unstable bands shaded and labelled, the frozen-time critical
+speeds beside them, and below it the share of crank angles the frozen-time verdict calls unstable."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from fkev_slepc.plots.common import SPEED_LABEL
+
+
+def speed_map(res) -> Figure:
+    """Figure of a :class:`fkev_slepc.sweep.floquet_run.FloquetResults`."""
+    w = np.asarray(res.speed_rad_s, dtype=float)
+    growth = np.log(np.asarray(res.max_abs, dtype=float))  # per revolution
+    fig = Figure(figsize=(8.0, 5.6), layout="constrained")
+    ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
+    for i, b in enumerate(res.bands):
+        ax.axvspan(b.lower, b.upper, color="tab:red", alpha=0.2, lw=0, label="unstable bands" if i == 0 else None)
+        ax.annotate(b.resonance or "?", (b.centre, 1.0), xycoords=("data", "axes fraction"), xytext=(0, -10),
+                    textcoords="offset points", ha="center", va="top", fontsize=8, color="tab:red")
+    ax.plot(w, growth, ".-", color="k", lw=1, ms=4, label="log max|μ| per revolution (Floquet)")
+    ax.axhline(np.log1p(res.tol), color="0.5", lw=0.8, ls=":", label=f"threshold log(1 + {res.tol:g})")
+    crit = res.extras.get("frozen_time_critical") or {}
+    for key, style, name in (("flutter_speed_rad_s", "--", "frozen-time flutter"),
+                             ("divergence_speed_rad_s", "-.", "frozen-time divergence")):
+        v = crit.get(key)
+        if v is not None:
+            for a in (ax, ax2):
+                a.axvline(v, color="tab:blue", ls=style, lw=1, label=f"{name} {v:.4g} rad/s" if a is ax else None)
+    finite = np.abs(growth[np.isfinite(growth)])
+    lin = max(res.tol, 1e-14)
+    ax.set_yscale("symlog", linthresh=lin, linscale=0.5)
+    ax.set_ylim(-max(finite.max() if finite.size else lin, 10 * lin) * 2, max(finite.max() if finite.size else lin, 10 * lin) * 5)
+    ax.set_ylabel("largest Floquet exponent\nlog max|μ| per revolution")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left", framealpha=0.85)
+    frac = 100 * np.asarray(res.frozen_unstable_fraction, dtype=float)
+    ax2.step(w, frac, where="mid", color="tab:blue")
+    ax2.set_ylim(0, 105)
+    ax2.set_ylabel("frozen-time\nunstable θ (%)")
+    ax2.set_xlabel(SPEED_LABEL)
+    ax2.grid(alpha=0.3)
+    n = len(res.bands)
+    fig.suptitle(f"{res.title}: cycle (Floquet) verdict, case {res.case}; {n} unstable band{'s' if n != 1 else ''}",
+                 fontsize=10)
+    return fig

@@ -1,0 +1,239 @@
+"""Unstable crank-speed bands from Floquet multipliers, and the resonance each band is.
+
+A crank speed Ω is **unstable** over the cycle when its largest Floquet multiplier exceeds 1 by
+more than the tolerance and the engine's own error estimate can explain:
+
+    margin(Ω) = max|μ|(Ω) - 1 - (tol + SAFETY · error(Ω))  > 0.
+
+Undamped and stable, max|μ| = 1 to round-off (the multipliers sit on the unit circle); at a band
+edge two multipliers collide (at ±1 for a parametric resonance 2ω/n, elsewhere on the circle for
+a combination resonance) and leave it, max|μ| - 1 growing like the square root of the distance
+into the band. The margin is therefore a continuous function with a sign change at each edge:
+
+1. :func:`scan`: the margin on a speed grid (the caller's evaluations, e.g. spread over MPI ranks);
+2. :func:`brackets`: consecutive grid speeds whose margins differ in sign bracket an edge;
+3. :func:`refine_edge`: Brent's method on the margin inside a bracket, to ``rtol`` relative
+   (the edge is where max|μ| - 1 reaches tol + SAFETY·error, inside the band by about
+   ((tol + SAFETY·error)/c)² for max|μ| - 1 ≈ c·√(relative distance): 1e-12 relative for
+   tol = 1e-6, c = 1);
+4. :func:`bands_from`: runs of unstable grid speeds between refined edges; a band reaching the end
+   of the grid is open there (``lower_open``/``upper_open``).
+
+A band narrower than the grid spacing, between two stable grid speeds, is not seen; the
+resonance speeds of :func:`resonance_speeds` are the places to add grid points.
+
+**Labels.** A band is labelled with the resonance whose predicted speed is nearest its centre,
+from the cycle-mean frozen frequencies ω̄ₖ (rad/s) at the band's speed: parametric resonances
+Ω = 2ω̄ₖ/n and combination resonances Ω = (ω̄ⱼ + ω̄ₖ)/n, Ω = (ω̄ⱼ - ω̄ₖ)/n (j > k), n = 1, 2, ...
+The frequencies depend on the speed; the caller computes them at the band's centre
+(:func:`label`). For a Mathieu oscillator ẍ + ω₀²(1 - 2ε cos Ωt)x = 0 the bands are the
+instability tongues a = 4ω₀²/Ω² ≈ n², i.e. Ω ≈ 2ω̄/n (tests/test_floquet_bands.py checks their
+edges against scipy.special.mathieu_a/b).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+from scipy.optimize import brentq
+
+SAFETY = 10.0  # the error estimate counts this many times against an apparent growth
+DEFAULT_TOL = 1e-6  # max|μ| - 1 above which (and above SAFETY·error) a speed is unstable
+EDGE_RTOL = 1e-6  # band edges to this relative accuracy
+MAX_ORDER = 8  # resonance orders n = 1..MAX_ORDER are candidate labels
+
+
+@dataclass(frozen=True)
+class SpeedPoint:
+    """The Floquet verdict at one crank speed: multipliers sorted by decreasing |μ|."""
+
+    speed: float  # rad/s
+    multipliers: np.ndarray  # complex
+    error: float  # the engine's estimate of the absolute multiplier error
+    converged: bool = True
+
+    @property
+    def max_abs(self) -> float:
+        return float(np.max(np.abs(self.multipliers))) if self.multipliers.size else float("nan")
+
+    @classmethod
+    def of(cls, speed: float, result) -> SpeedPoint:
+        """From anything with ``multipliers`` and ``error`` (a :class:`~fkev_slepc.solve.floquet.Monodromy`,
+        a linkage's Floquet result); ``converged`` from it or its ``monodromy`` when present."""
+        mono = getattr(result, "monodromy", result)
+        mu = np.asarray(result.multipliers, dtype=complex)
+        mu = mu[np.argsort(-np.abs(mu), kind="stable")]
+        return cls(float(speed), mu, float(result.error), bool(getattr(mono, "converged", True)))
+
+
+def margin(point: SpeedPoint, tol: float = DEFAULT_TOL) -> float:
+    """max|μ| - 1 - (tol + SAFETY·error): > 0 unstable, NaN if the monodromy did not converge."""
+    if not point.converged or not np.isfinite(point.error):
+        return float("nan")
+    return point.max_abs - 1.0 - (tol + SAFETY * point.error)
+
+
+@dataclass(frozen=True)
+class Band:
+    """An unstable speed band [lower, upper] (rad/s) and what it is."""
+
+    lower: float
+    upper: float
+    lower_open: bool = False  # the band starts at (or below) the lowest speed examined
+    upper_open: bool = False  # ... ends at (or above) the highest
+    peak_speed: float = float("nan")  # the grid speed of largest max|μ| inside the band
+    peak_max_abs: float = float("nan")
+    resonance: str = ""  # e.g. "2ω̄1/1", "(ω̄1+ω̄2)/3"
+    predicted_speed: float = float("nan")  # the labelled resonance's speed, rad/s
+    mean_frequencies: tuple[float, ...] = field(default_factory=tuple)  # ω̄ₖ at the band centre, rad/s
+
+    @property
+    def centre(self) -> float:
+        return 0.5 * (self.lower + self.upper)
+
+    def as_dict(self) -> dict:
+        num = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
+        return {"lower_rad_s": num(self.lower), "upper_rad_s": num(self.upper), "resonance": self.resonance or None,
+                "lower_open": self.lower_open, "upper_open": self.upper_open,
+                "predicted_rad_s": num(self.predicted_speed), "peak_rad_s": num(self.peak_speed),
+                "peak_max_abs_multiplier": num(self.peak_max_abs),
+                "mean_frequencies_rad_s": [float(w) for w in self.mean_frequencies]}
+
+
+def scan(speeds: Sequence[float], evaluate: Callable[[float], SpeedPoint]) -> list[SpeedPoint]:
+    """``evaluate`` at each speed, in order (one rank's loop; the caller may spread speeds over ranks)."""
+    return [evaluate(float(w)) for w in speeds]
+
+
+def brackets(points: Sequence[SpeedPoint], tol: float = DEFAULT_TOL) -> list[tuple[int, int]]:
+    """Index pairs (i, i+1) of neighbouring grid speeds (sorted) whose margins differ in sign;
+    a speed that did not converge breaks the grid (no bracket across it)."""
+    m = np.array([margin(p, tol) for p in points])
+    ok = np.isfinite(m[:-1]) & np.isfinite(m[1:])
+    hit = np.flatnonzero(ok & ((m[:-1] > 0) != (m[1:] > 0)))
+    return [(int(i), int(i) + 1) for i in hit]
+
+
+def refine_edge(lo: SpeedPoint, hi: SpeedPoint, evaluate: Callable[[float], SpeedPoint],
+                tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL) -> tuple[float, list[SpeedPoint]]:
+    """The speed in [lo, hi] where the margin changes sign (Brent, to ``rtol`` relative), and
+    every point evaluated on the way. Returns NaN if an evaluation inside does not converge."""
+    seen: list[SpeedPoint] = []
+    known = {lo.speed: lo, hi.speed: hi}  # Brent starts at the ends: they are evaluated already
+
+    def f(w):
+        p = known.get(float(w))
+        if p is None:
+            p = evaluate(float(w))
+            seen.append(p)
+        v = margin(p, tol)
+        if not np.isfinite(v):
+            raise _Unconverged(w)
+        return v
+
+    a, b = lo.speed, hi.speed
+    try:
+        x = brentq(f, a, b, xtol=0.25 * rtol * min(abs(a), abs(b)), rtol=max(0.25 * rtol, 4 * np.finfo(float).eps),
+                   maxiter=200)
+    except _Unconverged:
+        return float("nan"), seen
+    return float(x), seen
+
+
+class _Unconverged(Exception):
+    pass
+
+
+def bands_from(points: Sequence[SpeedPoint], edges: dict[tuple[int, int], float],
+               tol: float = DEFAULT_TOL) -> list[Band]:
+    """The bands of a scanned, sorted grid: runs of unstable speeds, closed by the refined edges
+    of their brackets (``edges[(i, i+1)]``), open where they reach the grid's ends."""
+    m = np.array([margin(p, tol) for p in points])
+    bad = m > 0
+    out = []
+    i, n = 0, len(points)
+    while i < n:
+        if not bad[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and bad[j + 1]:
+            j += 1
+        lower = edges.get((i - 1, i), float("nan")) if i > 0 else points[0].speed
+        upper = edges.get((j, j + 1), float("nan")) if j + 1 < n else points[-1].speed
+        inside = points[i:j + 1]
+        k = int(np.argmax([p.max_abs for p in inside]))
+        out.append(Band(lower, upper, i == 0, j == n - 1, inside[k].speed, inside[k].max_abs))
+        i = j + 1
+    return out
+
+
+def find_bands(speeds: Sequence[float], evaluate: Callable[[float], SpeedPoint], tol: float = DEFAULT_TOL,
+               rtol: float = EDGE_RTOL, points: Sequence[SpeedPoint] | None = None
+               ) -> tuple[list[SpeedPoint], list[Band], list[SpeedPoint]]:
+    """Scan (unless ``points`` are given: the grid already evaluated), bracket and refine.
+
+    Returns (grid points sorted by speed, bands unlabelled, the extra points the refinement evaluated)."""
+    pts = sorted(points if points is not None else scan(speeds, evaluate), key=lambda p: p.speed)
+    edges, extra = {}, []
+    for i, j in brackets(pts, tol):
+        edges[(i, j)], seen = refine_edge(pts[i], pts[j], evaluate, tol, rtol)
+        extra += seen
+    return pts, bands_from(pts, edges, tol), extra
+
+
+# ------------------------------------------------------------------------------ labels
+@dataclass(frozen=True)
+class Resonance:
+    """A candidate resonance: its label, speed (rad/s), kind, modes (1-based) and order n."""
+
+    label: str
+    speed: float
+    kind: str  # "parametric" (2ω̄ₖ/n), "sum" ((ω̄ⱼ + ω̄ₖ)/n), "difference" ((ω̄ⱼ - ω̄ₖ)/n)
+    modes: tuple[int, ...]
+    order: int
+
+
+def resonance_speeds(mean_freq: Sequence[float], max_order: int = MAX_ORDER) -> list[Resonance]:
+    """Every 2ω̄ₖ/n and (ω̄ⱼ ± ω̄ₖ)/n (j > k, n = 1..max_order) of the mean frequencies (rad/s)."""
+    w = np.asarray(mean_freq, dtype=float)
+    out = []
+    for n in range(1, max_order + 1):
+        for k in range(w.size):
+            out.append(Resonance(f"2ω̄{k + 1}/{n}", 2.0 * w[k] / n, "parametric", (k + 1,), n))
+            for j in range(k + 1, w.size):
+                out.append(Resonance(f"(ω̄{k + 1}+ω̄{j + 1})/{n}", (w[j] + w[k]) / n, "sum", (k + 1, j + 1), n))
+                out.append(Resonance(f"(ω̄{j + 1}-ω̄{k + 1})/{n}", (w[j] - w[k]) / n, "difference", (j + 1, k + 1), n))
+    return [r for r in out if np.isfinite(r.speed) and r.speed > 0]
+
+
+def nearest_resonance(band: Band, mean_freq: Sequence[float], max_order: int = MAX_ORDER) -> Resonance | None:
+    """The candidate whose speed is nearest the band (0 inside it), ties to the lowest order,
+    then parametric before sum before difference."""
+    cands = resonance_speeds(mean_freq, max_order)
+    if not cands:
+        return None
+    rank = {"parametric": 0, "sum": 1, "difference": 2}
+
+    def distance(r):
+        d = 0.0 if band.lower <= r.speed <= band.upper else min(abs(r.speed - band.lower), abs(r.speed - band.upper))
+        return (round(d / max(band.centre, 1e-300), 9), r.order, rank[r.kind])
+
+    return min(cands, key=distance)
+
+
+def label(bands: Sequence[Band], mean_frequencies: Callable[[float], Sequence[float]],
+          max_order: int = MAX_ORDER) -> list[Band]:
+    """Each band with the resonance nearest it, from ``mean_frequencies(speed)`` (the cycle-mean
+    frozen frequencies ω̄ₖ, rad/s, at the band's centre speed)."""
+    from dataclasses import replace
+
+    out = []
+    for b in bands:
+        w = tuple(float(x) for x in mean_frequencies(b.centre))
+        r = nearest_resonance(b, w, max_order)
+        out.append(replace(b, resonance=r.label if r else "", predicted_speed=r.speed if r else float("nan"),
+                           mean_frequencies=w))
+    return out

@@ -1,0 +1,46 @@
+"""What ``Study.floquet`` / ``fkev floquet`` return: :class:`FloquetResults` (read from the archive by
+:func:`fkev_slepc.sweep.floquet_run.read_floquet`), with the JSON of ``fkev floquet --json``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fkev_slepc.solve.floquet_bands import Band
+from fkev_slepc.status import Status
+
+
+@dataclass(frozen=True)
+class FloquetResults:
+    """What a Floquet archive holds (the JSON of ``fkev floquet --json``)."""
+
+    path: Path
+    title: str
+    case: str
+    speed_rad_s: np.ndarray
+    multipliers: np.ndarray  # (speed, index) complex, NaN padding
+    max_abs: np.ndarray
+    error: np.ndarray
+    status: np.ndarray  # codes
+    bands: tuple[Band, ...]
+    tol: float
+    rtol: float
+    frozen_unstable_fraction: np.ndarray  # per speed: share of crank angles frozen-time unstable or divergent
+    extras: dict = field(default_factory=dict)  # e.g. the frozen-time critical speeds
+
+    def as_dict(self) -> dict:
+        num = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
+        return {
+            "scene": self.title, "case": self.case, "archive": str(self.path),
+            "speed_rad_s": [float(w) for w in self.speed_rad_s],
+            "multipliers": [[[float(z.real), float(z.imag)] for z in row if np.isfinite(z)] for row in self.multipliers],
+            "max_abs_multiplier": [num(v) for v in self.max_abs],
+            "multiplier_error": [num(v) for v in self.error],
+            "status": [Status.from_code(c).value for c in self.status],
+            "bands": [b.as_dict() for b in self.bands],
+            "tol": self.tol, "edge_rtol": self.rtol,
+            "frozen_time_unstable_fraction": [num(v) for v in self.frozen_unstable_fraction],
+            **self.extras,
+        }

@@ -1,0 +1,254 @@
+"""``fkev floquet`` / ``Study.floquet``: Floquet multipliers over a speed range, unstable bands, labels.
+
+One archive holds both verdicts of the same speeds (docs/stability.md, "Frozen-time and cycle verdicts"):
+
+1. **Frozen sweep** (the root product, :func:`fkev_slepc.sweep.session.run_sweep`): the case at
+   every (crank angle, speed) of the grid; it gives the frozen-time verdicts and the cycle-mean
+   frozen frequencies ω̄ₖ(Ω) = mean over θ of Im λₖ(θ, Ω) that label the bands.
+2. **Floquet product** (``/floquet``, :data:`fkev_slepc.archive.products.FLOQUET`): one monodromy per
+   (speed, case) unit (``floquet_multipliers`` of the solve stage's linkage engine, the exact periodic
+   coefficients), units dealt to the MPI ranks by :func:`fkev_slepc.sweep.units.run_units` and
+   resumable like the sweep (``resume``: only pending speeds are solved).
+3. **Bands** (:mod:`fkev_slepc.solve.floquet_bands`): brackets on the grid, each refined by Brent's
+   method on one rank (brackets dealt cyclically), labelled on rank 0 from ω̄ₖ interpolated to the
+   band's centre, written to ``/floquet/bands``; then the archive is finalised (checksums, rename).
+   A resumed run refines the edges again (they are not resumable; the grid is).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from fkev_slepc.archive import lock, store
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive.writer import Block, Writer
+from fkev_slepc.scene import Scene
+from fkev_slepc.solve.floquet_bands import (
+    DEFAULT_TOL, EDGE_RTOL, Band, SpeedPoint, brackets, bands_from, label, margin, refine_edge,
+)
+from fkev_slepc.solve.floquet_results import FloquetResults
+from fkev_slepc.status import Status
+from fkev_slepc.sweep.parallel import local
+from fkev_slepc.sweep.units import pending, run_units
+
+log = logging.getLogger(__name__)
+MONODROMY_TOL = 1e-10  # relative error of Φ asked of the integrator
+BAND_ATTRS = ("lower", "upper", "lower_open", "upper_open", "resonance", "predicted_speed", "peak_speed",
+              "peak_max_abs")
+
+
+@dataclass(frozen=True)
+class FloquetRequest:
+    """A Floquet run: ``scene`` with the speeds (``driver.speeds``, all > 0), the crank angles of the
+    frozen sweep (``analysis.crank_angles_deg``) and the one case (``analysis.cases``) set."""
+
+    scene: Scene
+    output: Path
+    tol: float = DEFAULT_TOL
+    rtol: float = EDGE_RTOL
+    monodromy_tol: float = MONODROMY_TOL
+    resume: bool = False
+    force: bool = False
+    solver: str | None = None
+    command_line: str = ""
+    make_dirs: bool = True
+
+    @property
+    def case(self) -> str:
+        return self.scene.analysis.cases[0]
+
+
+def _evaluator(model, case: str, tol: float):
+    """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised)."""
+    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+    from fkev_slepc.sweep.runner import recoverable_errors
+
+    def evaluate(speed: float) -> tuple[SpeedPoint, str]:
+        try:
+            return SpeedPoint.of(speed, floquet_multipliers(model, float(speed), case, tol=tol)), ""
+        except recoverable_errors() as exc:
+            return SpeedPoint(float(speed), np.zeros(0, complex), float("nan"), False), f"{type(exc).__name__}: {exc}"
+
+    return evaluate
+
+
+def _engine_available() -> None:
+    """Refuse before any work when this checkout has no linkage monodromy engine."""
+    import importlib.util
+
+    from fkev_slepc.sweep.session import RunRefused
+
+    if importlib.util.find_spec("fkev_slepc.solve.floquet_linkage") is None:
+        raise RunRefused("the linkage Floquet engine (solve stage, module floquet_linkage: the exact periodic "
+                         "coefficients) is not in this checkout")
+
+
+def _status(point: SpeedPoint, message: str, tol: float) -> int:
+    if message:
+        return Status.FAILED.code
+    m = margin(point, tol)
+    if not np.isfinite(m):
+        return Status.NOT_CONVERGED.code
+    return (Status.UNSTABLE if m > 0 else Status.OK).code
+
+
+def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool = False, evaluator=None) -> Path:
+    """Collective over ``comm`` (None: this process alone). Returns the finished archive's path.
+
+    ``evaluator(model, case, monodromy_tol)`` -> ``evaluate(speed) -> (SpeedPoint, message)``
+    replaces the linkage monodromy (tests put a system with known bands through the same run)."""
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.sweep.session import SweepRequest, run_sweep
+
+    comm = local(comm)
+    t0 = time.monotonic()
+    sc, out = request.scene, Path(request.output)
+    if evaluator is None:
+        _engine_available()
+    run_sweep(SweepRequest(sc, out, resume=request.resume, force=request.force, solver=request.solver,
+                           command_line=request.command_line, make_dirs=request.make_dirs), comm, notify=notify,
+              progress=progress)
+    model = Model(sc, (request.case,))
+    n_index = 2 * model.n_free
+    part, status = None, None
+    if comm.rank == 0:
+        lock.hold(out)
+        part = store.reopen_finished(out)
+        status = store.read_status(part, P.FLOQUET)
+        if status is None or not request.resume or _settings_differ(part, request, n_index):
+            store.add_product(part, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)})
+            status = store.read_status(part, P.FLOQUET)
+        with h5py.File(part, "r+") as f:
+            f[P.FLOQUET.name].attrs.update(_settings(request))
+    part, status = comm.bcast((part, status), root=0)
+    speeds = np.asarray(sc.driver.speeds, dtype=float)
+    evaluate = (evaluator or _evaluator)(model, request.case, request.monodromy_tol)
+
+    def solve(unit, mask):
+        js, jc = unit
+        point, message = evaluate(speeds[js])
+        code = _status(point, message, request.tol)
+        mu = np.full(n_index, P.CNAN)
+        mu[: point.multipliers.size] = point.multipliers
+        data = {P.MULTIPLIER.path: mu, P.MAX_ABS_MULTIPLIER.path: np.array(point.max_abs),
+                P.MULTIPLIER_ERROR.path: np.array(point.error)}
+        errors = [((js, jc), code, message or "monodromy did not reach its tolerance")] if code in (
+            Status.FAILED.code, Status.NOT_CONVERGED.code) else []
+        return Block(unit, mask, data, np.array(code, np.uint8), errors)
+
+    todo = pending(status)
+    if notify is not None and comm.rank == 0:
+        notify(f"floquet: {int(todo.sum())} of {todo.size} speed(s) to solve")
+    writer = Writer(part, comm, product=P.FLOQUET)
+    try:
+        run_units(todo, solve, writer, comm, n_unit_axes=2)
+    finally:
+        writer.close()
+    grid = _read_grid(part, speeds) if comm.rank == 0 else None
+    grid = comm.bcast(grid, root=0)
+    bands = _bands(grid, lambda w: evaluate(w)[0], request, comm)
+    if comm.rank == 0:
+        bands = label(bands, _mean_frequencies(part))
+        _write_bands(part, bands)
+        store.finalize(part, out, {"last_command_line": request.command_line}, time.monotonic() - t0)
+        lock.release(out)
+    comm.Barrier()
+    return out
+
+
+def _settings(request: FloquetRequest) -> dict:
+    return {"tol": request.tol, "rtol": request.rtol, "monodromy_tol": request.monodromy_tol,
+            "safety": 10.0, "analysed_case": request.case}
+
+
+def _settings_differ(part, request: FloquetRequest, n_index: int) -> bool:
+    """A resume redoes every speed when the archived Floquet settings or size differ."""
+    with h5py.File(part, "r") as f:
+        g = f[P.FLOQUET.name]
+        old = {k: g.attrs.get(k) for k in ("tol", "monodromy_tol")}
+        return f[P.F_INDEX].shape[0] != n_index or any(
+            old[k] is None or float(old[k]) != float(v) for k, v in _settings(request).items() if k in old)
+
+
+def _read_grid(part, speeds) -> list[SpeedPoint]:
+    """The archived grid of case 0 as points (failed and not-converged ones not converged)."""
+    with h5py.File(part, "r") as f:
+        mu = f[P.MULTIPLIER.path][:, 0, :]
+        err = f[P.MULTIPLIER_ERROR.path][:, 0]
+        st = np.asarray(f[P.F_STATUS.path][:, 0], dtype=np.uint8)
+    ok = np.isin(st, [Status.OK.code, Status.UNSTABLE.code])
+    return [SpeedPoint(float(w), m[np.isfinite(m)], float(e), bool(c)) for w, m, e, c in zip(speeds, mu, err, ok)]
+
+
+def _bands(grid: list[SpeedPoint], evaluate, request: FloquetRequest, comm) -> list[Band]:
+    """Edges of every bracket, the brackets dealt cyclically to the ranks; the bands on every rank."""
+    pairs = brackets(grid, request.tol)
+    mine = {pair: refine_edge(grid[pair[0]], grid[pair[1]], evaluate, request.tol, request.rtol)[0]
+            for pair in pairs[comm.rank::comm.size]}
+    edges: dict = {}
+    for part in comm.allgather(mine):
+        edges.update(part)
+    return bands_from(grid, edges, request.tol)
+
+
+def _mean_frequencies(part):
+    """speed -> ω̄ₖ (rad/s): the frozen sweep's sorted Im λ averaged over the converged crank
+    angles at each grid speed (case 0), interpolated linearly in speed."""
+    from fkev_slepc.status import CONVERGED, codes
+
+    with h5py.File(part, "r") as f:
+        freq = f[P.FREQUENCY.path][:, :, 0, :]  # (angle, speed, mode), Hz
+        conv = np.isin(np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8), codes(CONVERGED))
+        speeds = f[P.SPEED][()]
+    w = 2.0 * np.pi * np.where(conv[..., None], freq, np.nan)
+    with np.errstate(invalid="ignore"):
+        mean = np.nanmean(w, axis=0)  # (speed, mode)
+
+    def at(speed: float):
+        return [float(np.interp(speed, speeds[np.isfinite(col)], col[np.isfinite(col)]))
+                for col in mean.T if np.any(np.isfinite(col))]
+
+    return at
+
+
+def _write_bands(part, bands: list[Band]) -> None:
+    rows = {v.source: v for v in P.BAND_ROWS if v.source}
+    with h5py.File(part, "r+") as f:
+        n = len(bands)
+        f[P.F_BAND].resize((n,))
+        f[P.F_BAND][...] = np.arange(1, n + 1, dtype="i4")
+        for name in BAND_ATTRS:
+            ds = f[rows[name].path]
+            ds.resize((n,))
+            if n:
+                vals = [getattr(b, name) for b in bands]
+                ds[...] = vals if rows[name].dtype == P.STRING else np.asarray(vals, dtype=ds.dtype)
+
+
+def read_floquet(path) -> FloquetResults:
+    """The Floquet product of an archive (case 0) with its bands and the frozen-time share of
+    unstable crank angles at each speed."""
+    path = Path(path)
+    with h5py.File(path, "r") as f:
+        g = f[P.FLOQUET.name]
+        cols = {v.source: f[v.path][()] for v in P.BAND_ROWS if v.source}
+        n = f[P.F_BAND].shape[0]
+        bands = tuple(Band(**{k: (_text(cols[k][i]) if k == "resonance" else
+                                  bool(cols[k][i]) if k.endswith("_open") else float(cols[k][i])) for k in BAND_ATTRS})
+                      for i in range(n))
+        st = np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8)
+        frozen = np.mean(np.isin(st, [Status.UNSTABLE.code, Status.DIVERGENT.code]), axis=0)
+        return FloquetResults(path, _text(f.attrs.get("title", path.stem)), _text(g.attrs["analysed_case"]), f[P.SPEED][()],
+                              f[P.MULTIPLIER.path][:, 0, :], f[P.MAX_ABS_MULTIPLIER.path][:, 0],
+                              f[P.MULTIPLIER_ERROR.path][:, 0], np.asarray(f[P.F_STATUS.path][:, 0], np.uint8), bands,
+                              float(g.attrs["tol"]), float(g.attrs["rtol"]), frozen)
+
+
+def _text(v) -> str:
+    return v.decode("utf-8") if isinstance(v, bytes) else str(v)

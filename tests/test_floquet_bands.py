@@ -1,0 +1,97 @@
+"""Unstable speed bands and their labels (solve/floquet_bands.py) on the Mathieu oscillator
+ẍ + ω₀²(1 - 2ε cos Ωt) x = 0, whose bands are known exactly: in the crank angle θ = Ωt it is
+x'' + (ω₀/Ω)²(1 - 2ε cos θ) x = 0, i.e. Mathieu's y'' + (a - 2q cos 2τ) y = 0 with τ = θ/2,
+a = 4ω₀²/Ω², q = εa; the n-th instability tongue lies between b_n(q) and a_n(q)
+(scipy.special.mathieu_b/mathieu_a), around Ω = 2ω̄/n. The monodromies come from
+solve/floquet.py's routine."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.special import mathieu_a, mathieu_b
+
+from fkev_slepc.solve.floquet import monodromy
+from fkev_slepc.solve.floquet_bands import (
+    Band, SpeedPoint, brackets, find_bands, label, margin, nearest_resonance, resonance_speeds,
+)
+
+OMEGA0, EPS = 1.0, 0.2
+
+
+def mathieu_point(speed: float, eps: float = EPS, damping: float = 0.0) -> SpeedPoint:
+    """Monodromy over one period of θ of x'' + 2ζ(ω₀/Ω) x' + (ω₀/Ω)²(1 - 2ε cos θ) x = 0."""
+    r = (OMEGA0 / speed) ** 2
+
+    def generator(theta):
+        A = np.zeros((theta.size, 2, 2))
+        A[:, 0, 1] = 1.0
+        A[:, 1, 0] = -r * (1.0 - 2.0 * eps * np.cos(theta))
+        A[:, 1, 1] = -2.0 * damping * OMEGA0 / speed
+        return A
+
+    return SpeedPoint.of(speed, monodromy(generator, 2.0 * np.pi, tol=1e-12))
+
+
+def exact_edges(n: int, eps: float = EPS) -> tuple[float, float]:
+    """(lower, upper) crank speed of the n-th tongue: a = mathieu_a(n, εa) and a = mathieu_b(n, εa)."""
+    def speed(char):
+        a = brentq(lambda a: a - char(n, eps * a), 0.5 * n * n, 2.0 * n * n + 1.0, xtol=1e-14)
+        return 2.0 * OMEGA0 / np.sqrt(a)
+
+    return tuple(sorted((speed(mathieu_a), speed(mathieu_b))))
+
+
+def mean_frequency(eps: float = EPS) -> float:
+    """Cycle mean of the frozen frequency ω₀√(1 - 2ε cos θ) (rad/s)."""
+    theta = np.linspace(0.0, 2.0 * np.pi, 4096, endpoint=False)
+    return float(OMEGA0 * np.mean(np.sqrt(1.0 - 2.0 * eps * np.cos(theta))))
+
+
+def test_mathieu_bands_edges_to_1e6_and_labels():
+    """The first two tongues on a grid of 0.02 rad/s: both found, edges within 1e-6 relative of
+    the closed form, labelled 2ω̄1/1 and 2ω̄1/2; stable speeds between them have |μ| = 1."""
+    speeds = np.arange(0.8, 2.6 + 1e-9, 0.02)
+    pts, bands, extra = find_bands(speeds, mathieu_point)
+    assert len(pts) == speeds.size and len(bands) == 2 and not any(b.lower_open or b.upper_open for b in bands)
+    for band, n in zip(bands, (2, 1)):
+        lo, hi = exact_edges(n)
+        assert abs(band.lower / lo - 1) < 1e-6 and abs(band.upper / hi - 1) < 1e-6, (band, lo, hi)
+        assert lo <= band.peak_speed <= hi and band.peak_max_abs > 1.0 + 1e-3
+    stable = [p for p in pts if margin(p) <= 0]
+    assert max(abs(p.max_abs - 1.0) for p in stable) < 1e-8
+    labelled = label(bands, lambda w: [mean_frequency()])
+    assert [b.resonance for b in labelled] == ["2ω̄1/2", "2ω̄1/1"]
+    assert all(b.lower <= b.predicted_speed <= b.upper for b in labelled)
+
+
+def test_damping_closes_the_narrow_tongue():
+    """Damping ζ = 0.05 lifts the second tongue (width ~ q²) off the grid but not the first."""
+    speeds = np.arange(0.8, 2.6 + 1e-9, 0.05)
+    pts, bands, _ = find_bands(speeds, lambda w: mathieu_point(w, damping=0.05))
+    assert len(bands) == 1 and bands[0].lower > 1.5
+    assert all(p.max_abs < 1.0 for p in pts if not bands[0].lower <= p.speed <= bands[0].upper)
+
+
+def test_open_band_and_unconverged_speed():
+    """A band running past the grid's end is open there; a speed that did not converge brackets
+    nothing (no edge is invented across it)."""
+    pts = [SpeedPoint(w, np.array([m, 1 / m]), 1e-14) for w, m in ((1.0, 1.2), (1.1, 1.1), (1.2, 1.0), (1.3, 1.0))]
+    assert brackets(pts) == [(1, 2)]
+    broken = pts[:2] + [SpeedPoint(1.2, np.array([1.0, 1.0]), 1e-14, converged=False)] + pts[3:]
+    assert brackets(broken) == []
+    from fkev_slepc.solve.floquet_bands import bands_from
+
+    (band,) = bands_from(pts, {(1, 2): 1.15})
+    assert band.lower_open and not band.upper_open and (band.lower, band.upper) == (1.0, 1.15)
+
+
+def test_resonance_candidates_and_nearest():
+    """2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of ω̄ = (100, 250): the candidate inside a band wins, lowest order first."""
+    cands = {r.label: r.speed for r in resonance_speeds([100.0, 250.0], max_order=2)}
+    assert cands == pytest.approx({"2ω̄1/1": 200.0, "(ω̄1+ω̄2)/1": 350.0, "(ω̄2-ω̄1)/1": 150.0, "2ω̄2/1": 500.0,
+                                   "2ω̄1/2": 100.0, "(ω̄1+ω̄2)/2": 175.0, "(ω̄2-ω̄1)/2": 75.0, "2ω̄2/2": 250.0})
+    assert nearest_resonance(Band(340.0, 352.0), [100.0, 250.0]).label == "(ω̄1+ω̄2)/1"
+    assert nearest_resonance(Band(248.0, 251.0), [100.0, 250.0]).label == "2ω̄2/2"
+    assert nearest_resonance(Band(480.0, 490.0), [100.0, 250.0]).label == "2ω̄2/1"
