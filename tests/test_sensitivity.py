@@ -44,6 +44,21 @@ def test_adjoint_equals_central_differences_of_the_eigenvalues(scene, key, angle
     np.testing.assert_allclose(s.damping_ratio, dz, rtol=0, atol=1e-5 * np.abs(dz).max() + 1e-12)
 
 
+@pytest.mark.parametrize("key, h", [("speed_rad_s", 1e-2), ("angle_deg", 1e-4)])
+def test_the_point_own_speed_and_angle(key, h):
+    """d/dΩ (the Campbell slope) and d/dθ at a point, against central differences of point solves."""
+    study = fk.load(BW)
+    r = study.point(10, 1000, "full")
+    s = r.sensitivity(key)
+    at = {"speed_rad_s": lambda d: study.point(10, 1000 + d, "full"),
+          "angle_deg": lambda d: study.point(10 + d, 1000, "full")}
+    fd = (at[key](h).eigenvalues - at[key](-h).eigenvalues) / (2 * h)
+    assert s.method == "adjoint" and s.value == {"speed_rad_s": 1000.0, "angle_deg": 10.0}[key]
+    assert np.abs(s.eigenvalue - fd).max() <= 1e-5 * np.abs(fd).max()
+    if key == "speed_rad_s":  # the structure does not depend on speed
+        assert np.all(study.point(10, 1000, "structure").sensitivity(key).eigenvalue == 0)
+
+
 def test_frequencies_at_rest_scale_like_the_root_of_e_over_rho():
     """BW: one material, no lumped masses: f ∝ sqrt(E/ρ), so (p/f) df/dp = +1/2 for E, -1/2 for ρ."""
     r = fk.load(BW).point(10, 0, "structure")

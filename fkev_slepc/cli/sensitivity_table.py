@@ -6,7 +6,8 @@ from __future__ import annotations
 def add_sensitivity_argument(p) -> None:
     p.add_argument("--sensitivity", action="append", metavar="KEY", default=[],
                    help="also d f/d p and d ζ/d p of every mode for the numeric scene key KEY "
-                        "(e.g. links[1].length_m, per unit of the key); repeatable")
+                        "(e.g. links[1].length_m, per unit of the key), or the point's own speed_rad_s or "
+                        "angle_deg; repeatable")
 
 
 def sensitivities(res, keys) -> dict:

@@ -13,6 +13,8 @@ truncation error of the difference is O(h²) ~ 1e-12 relative. A key that change
 connectivity (a node moving past another, a DOF count) has no operator derivative on one
 pattern; there dλ/dp is the central difference of the whole point's eigenvalues (h = 1e-4·|p|,
 each mode matched to the nearest eigenvalue). Integer keys (``elements``) have no derivative.
+Besides scene keys, ``speed_rad_s`` and ``angle_deg`` differentiate with respect to the point's
+own crank speed (d f/dΩ: the slope of the Campbell diagram) and crank angle (per degree).
 
 Frequency f = Im λ / 2π and damping ratio ζ = -Re λ / |λ| follow:
 df = Im dλ / 2π, dζ = -Re dλ / |λ| + Re λ · Re(λ̄ dλ) / |λ|³. Derivatives are per unit of the
@@ -35,6 +37,8 @@ from fkev_slepc.scene.schema import is_number, show
 REL_STEP = 1e-6  # operator differences: truncation h² ~ 1e-12, round-off ε/h ~ 1e-10 of the derivative
 REPEATED_RTOL = 1e-9  # eigenvalues this close (relative) are taken as one double eigenvalue
 REL_STEP_POINTS = 1e-4  # whole-point differences: eigenvalue errors ~1e-12 / h stay ~1e-8
+# the point's own coordinates, differentiable like scene keys: d f/dΩ is the Campbell slope
+POINT_KEYS = {"speed_rad_s": lambda theta, speed: float(speed), "angle_deg": lambda theta, speed: float(np.degrees(theta))}
 # keys a scene may leave out, with the value the reader then uses
 DEFAULTS = {"driver.acceleration_rad_s2": 0.0, "damping.mass_proportional_1_s": 0.0,
             "damping.stiffness_proportional_s": 0.0}
@@ -149,14 +153,34 @@ def mode_derivatives(lam: np.ndarray, dlam: np.ndarray) -> tuple[np.ndarray, np.
     return dlam.imag / (2 * np.pi), dzeta
 
 
-def _operators(model, theta: float, speed: float, case: str):
-    """(QEP, [M, C, K_s, K - K_s]) of ``model`` at one point, C = 0 when absent. K_s and the
-    rest are apart so that each is differenced against its own size: a key that leaves K_s
-    alone (an acceleration, a damping) differences to an exact zero there."""
-    pieces = model.pieces(theta)
+def _parts(model, pieces, speed: float, case: str) -> list:
+    """[M, C, K_s, K - K_s] of one point, C = 0 when absent. K_s and the rest are apart so that
+    each is differenced against its own size: a key that leaves K_s alone (an acceleration, a
+    damping, the speed) differences to an exact zero there."""
     qep = model.qep(pieces, speed, case)
     C = qep.damping if qep.damping is not None else model.pattern.matrix(np.zeros(model.pattern.nnz))
-    return qep, [qep.mass, C, model.pattern.matrix(pieces.structural), qep.stiffness_rest]
+    return [qep.mass, C, model.pattern.matrix(pieces.structural), qep.stiffness_rest]
+
+
+MESH_CHANGED = "mesh changed"
+
+
+def _operators_at(model, key: str, theta: float, speed: float, case: str):
+    """``ops(v, must)``: the operator parts with ``key`` at ``v`` (None when ``v`` is out of range
+    and not ``must``; :data:`MESH_CHANGED` where the DOFs would not mean the same)."""
+    if key == "speed_rad_s":
+        pieces = model.pieces(theta)
+        return lambda v, must: _parts(model, pieces, v, case)
+    if key == "angle_deg":
+        return lambda v, must: _parts(model, model.pieces(float(np.radians(v))), speed, case)
+
+    def ops(v, must):
+        moved = _moved(model, key, v, case, must)
+        if moved is None:
+            return None
+        return _parts(moved, moved.pieces(theta), speed, case) if same_mesh(model, moved) else MESH_CHANGED
+
+    return ops
 
 
 def _change(plus, minus) -> float:
@@ -169,22 +193,18 @@ def _change(plus, minus) -> float:
     return out
 
 
-def _operator_derivative(model, key: str, p: float, h: float, theta: float, speed: float, case: str):
-    """(dM, dC, dK, h, how) by differencing the operators at p ± h (forward from p where p - h is
-    out of range), or None where the key changes the mesh. A step that moves no part by more
-    than ~1e-9 relative (a zero-valued key, whose unit sets no scale) is rescaled once so the
-    largest part moves by ~1e-7: round-off stays ~ε/1e-7 ~ 2e-9 of the derivative."""
-    base = None
+def _operator_derivative(ops, p: float, h: float):
+    """(dM, dC, dK, h, how) by differencing ``ops`` (:func:`_operators_at`) at p ± h (forward from
+    p where p - h is out of range), or None where the key changes the mesh. A step that moves no
+    part by more than ~1e-9 relative (a zero-valued key, whose unit sets no scale) is rescaled
+    once so the largest part moves by ~1e-7: round-off stays ~ε/1e-7 ~ 2e-9 of the derivative."""
     for attempt in range(2):
-        plus, minus = _moved(model, key, p + h, case), _moved(model, key, p - h, case, must=False)
-        if not same_mesh(model, plus) or (minus is not None and not same_mesh(model, minus)):
+        hi, lo = ops(p + h, True), ops(p - h, False)
+        if hi is MESH_CHANGED or lo is MESH_CHANGED:
             return None
-        if minus is None:
-            base = base or _operators(model, theta, speed, case)[1]
-            hi, lo, width, how = _operators(plus, theta, speed, case)[1], base, h, "adjoint (forward difference)"
-        else:
-            hi, lo, width, how = (_operators(plus, theta, speed, case)[1], _operators(minus, theta, speed, case)[1],
-                                  2 * h, "adjoint")
+        width, how = 2 * h, "adjoint"
+        if lo is None:
+            lo, width, how = ops(p, True), h, "adjoint (forward difference)"
         r = _change(hi, lo)
         if attempt == 1 or r == 0.0 or r > 1e-9:
             break
@@ -217,13 +237,13 @@ def point_sensitivity(model, theta: float, speed: float, case: str, eigenvalues:
     from fkev_slepc.model.operators import AssemblyError
 
     scene = model.scene
-    p = key_value(scene, key)
+    p = POINT_KEYS[key](theta, speed) if key in POINT_KEYS else key_value(scene, key)
     lam = np.asarray(eigenvalues, dtype=complex)
     found = np.isfinite(lam)
     scale = abs(p) if p != 0 else 1.0
     h = (rel_step or REL_STEP) * scale
     try:
-        op = _operator_derivative(model, key, p, h, theta, speed, case)
+        op = _operator_derivative(_operators_at(model, key, theta, speed, case), p, h)
         if op is not None:
             dM, dC, dK, h, method = op
             qep = model.qep(model.pieces(theta), speed, case)
