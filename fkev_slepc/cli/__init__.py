@@ -1,4 +1,4 @@
-"""Command line: ``fkev run | point | check | info | verify | plot | export | critical | loads | floquet``. Wiring only.
+"""Command line: ``fkev run | point | check | info | verify | plot | export | critical | loads | floquet | response``. Wiring only.
 
 Each subcommand lives in its own module exposing ``add_parser(subparsers)``, which registers
 the parser and sets ``func`` (args -> exit code). PETSc/SLEPc options (``-fkev_pep_type toar``)
@@ -16,7 +16,7 @@ import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
 SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "design", "loads",
-               "floquet")
+               "floquet", "response")
 COLLECTIVE = ("run", "design", "floquet")  # every rank of mpiexec takes part; any other command runs on rank 0 alone
 GLOBAL_FLAGS = {"-v": ("verbose", 1), "--verbose": ("verbose", 1), "-q": ("quiet", 1), "--quiet": ("quiet", 1)}
 

@@ -1,0 +1,211 @@
+"""``Study.response``: the steady periodic elastic response at a crank speed, with its stations
+(deflection, moment, axial force, stress), saved (HDF5) and drawn (docs/response.md §3-4).
+The physics is in fkev_slepc/solve/response*.py; this module checks the arguments and wraps."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fkev_slepc.scene import Problem, Scene, SceneError
+
+RESPONSE_FORMAT = "fkev-response"
+DEFAULT_ANGLES_DEG = tuple(float(a) for a in np.arange(0.0, 360.0, 5.0))
+
+
+@dataclass(frozen=True)
+class ResponseResult:
+    """The periodic response of one (speed, case) at the output angles."""
+
+    title: str
+    scene_text: str
+    speed: float
+    case: str
+    gravity: np.ndarray
+    angle_deg: np.ndarray  # (n,)
+    q: np.ndarray  # (n, n_free) global DOFs
+    node_positions: np.ndarray  # (n, n_node, 2) undeformed (rigid-body) positions
+    node_displacement: np.ndarray  # (n, n_node, 2) elastic displacement, ground frame
+    link_names: tuple[str, ...]
+    stations: object  # solve.response_stations.StationResponse
+    harmonics: int
+    hb_error: float
+    hb_condition: float
+    max_abs_multiplier: float  # NaN without shooting
+    multiplier_error: float
+    methods_difference: float  # max |q_HB - q_shooting| / max |q|
+    closure: float  # ‖x(2π) − x(0)‖ / ‖x(0)‖ of the shooting trajectory
+
+    @property
+    def attracting(self) -> bool | None:
+        """False where some |μ| > 1 beyond its error: the periodic response does not attract."""
+        if not np.isfinite(self.max_abs_multiplier):
+            return None
+        return bool(self.max_abs_multiplier <= 1.0 + max(1e-8, 10 * self.multiplier_error))
+
+    def peak_stress(self) -> dict | None:
+        s = self.stations.stress
+        if not np.isfinite(s).any():
+            return None
+        a, k = np.unravel_index(np.nanargmax(s), s.shape)
+        st = self.stations.stations[k]
+        return {"stress_pa": float(s[a, k]), "link": self.link_names[st.link], "s_m": st.s,
+                "crank_angle_deg": float(self.angle_deg[a])}
+
+    def as_dict(self) -> dict:
+        from fkev_slepc.model.joint_loads import _list
+
+        sr = self.stations
+        stations = []
+        for k, st in enumerate(sr.stations):
+            stations.append({
+                "link": self.link_names[st.link], "s_m": st.s,
+                "axial_m": _list(sr.axial[:, k]), "transverse_m": _list(sr.transverse[:, k]),
+                "transverse_chord_m": _list(sr.transverse_chord[:, k]),
+                "moment_n_m": _list(sr.moment[:, k]), "axial_force_n": _list(sr.axial_force[:, k]),
+                "axial_force_rigid_n": _list(sr.axial_force_rigid[:, k]), "shear_n": _list(sr.shear[:, k]),
+                "stress_pa": _list(sr.stress[:, k]),
+                "envelope": {key: [float(np.nanmin(x[:, k])), float(np.nanmax(x[:, k]))] for key, x in (
+                    ("transverse_m", sr.transverse), ("transverse_chord_m", sr.transverse_chord), ("axial_m", sr.axial), ("moment_n_m", sr.moment),
+                    ("axial_force_n", sr.axial_force))},
+            })
+        return {
+            "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": _list(self.gravity),
+            "crank_angle_deg": _list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
+            "max_abs_multiplier": _none(self.max_abs_multiplier), "attracting": self.attracting,
+            "multiplier_error": _none(self.multiplier_error), "harmonics": self.harmonics,
+            "harmonic_balance_error": _none(self.hb_error), "methods_difference": _none(self.methods_difference),
+            "periodicity_closure": _none(self.closure),
+            "max_deflection_m": float(np.nanmax(np.hypot(*np.moveaxis(self.node_displacement, -1, 0)))),
+        }
+
+    def save(self, path, attrs: dict | None = None):
+        """HDF5 with dimension scales (``xarray.open_dataset(path, engine="h5netcdf")``)."""
+        from fkev_slepc.archive.labelled import write_labelled
+
+        sr = self.stations
+        n_st = len(sr.stations)
+        coords = {
+            "crank_angle_deg": (self.angle_deg, "deg", "crank angle"),
+            "station": (np.arange(n_st), "1", "station number"),
+            "dof": (np.arange(self.q.shape[1]), "1", "free DOF (model numbering)"),
+            "node": (np.arange(self.node_positions.shape[1]), "1", "node number"),
+            "component": (["x", "y"], "1", "ground-frame component"),
+        }
+        st = sr.stations
+        variables = {
+            "q": (("crank_angle_deg", "dof"), self.q, "m or rad", "elastic DOFs, global frame"),
+            "node_xy_m": (("crank_angle_deg", "node", "component"), self.node_positions, "m",
+                          "rigid-body node positions"),
+            "node_displacement_m": (("crank_angle_deg", "node", "component"), self.node_displacement, "m",
+                                    "elastic node displacement, ground frame"),
+            "station_link": (("station",), np.array([s.link for s in st]), "1", "link index (scene order)"),
+            "station_s_m": (("station",), np.array([s.s for s in st]), "m", "distance from the link's root"),
+        }
+        for name, x, units, long in (("axial_m", sr.axial, "m", "axial elastic displacement (link frame)"),
+                                     ("transverse_m", sr.transverse, "m", "transverse elastic displacement"),
+                                     ("transverse_chord_m", sr.transverse_chord, "m",
+                                      "transverse displacement from the chord through the link's deflected ends"),
+                                     ("moment_n_m", sr.moment, "N m", "bending moment EI v''"),
+                                     ("axial_force_n", sr.axial_force, "N", "axial force EA u', tension > 0"),
+                                     ("axial_force_rigid_n", sr.axial_force_rigid, "N", "rigid-body axial force"),
+                                     ("shear_n", sr.shear, "N", "shear force -dM/ds"),
+                                     ("stress_pa", sr.stress, "Pa", "extreme-fibre stress max |N/A +- M c/I|")):
+            variables[name] = (("crank_angle_deg", "station"), x, units, long)
+        meta = {"title": self.title, "scene_toml": self.scene_text, "speed_rad_s": self.speed, "case": self.case,
+                "gravity_m_s2": self.gravity.tolist(), "link_names": list(self.link_names),
+                "harmonics": self.harmonics, "harmonic_balance_error": self.hb_error,
+                "max_abs_multiplier": self.max_abs_multiplier, "methods_difference": self.methods_difference,
+                **(attrs or {})}
+        return write_labelled(path, RESPONSE_FORMAT, coords, variables, meta)
+
+
+def _none(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
+                   harmonics: int | None = None, tol: float = 1e-8, shoot: bool = True, stations=None,
+                   names=None) -> ResponseResult:
+    """The steady periodic response at ``speed_rad_s`` for ``case``: the code path of
+    ``Study.response`` and ``fkev response`` (docs/response.md §3-4).
+
+    Harmonic balance (``harmonics`` fixed, or doubled until the estimated error <= ``tol``)
+    gives the response; with ``shoot`` the monodromy gives the Floquet multipliers (some
+    |μ| > 1: the response exists but does not attract) and the shooting solution, whose
+    difference from harmonic balance is reported. ``stations``: {link name: [s_m, ...]}
+    (default every link's root, midspan and tip). Raises SceneError for a bad argument, a
+    crank acceleration (constant speed only) or an exact resonance ((I − Φ) singular).
+    """
+    from fkev_slepc.api.loads import operating_point_problems
+    from fkev_slepc.model.joint_loads import joint_loads
+    from fkev_slepc.model.kinematics import point_local
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.scene.cases import case_name
+    from fkev_slepc.solve.response import LinkageSystem, periodic_response
+    from fkev_slepc.solve.response_shooting import ResonanceError
+    from fkev_slepc.solve.response_stations import stations_at
+
+    names = names or {}
+    gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
+    bad = operating_point_problems(speed_rad_s, 0.0, gravity, names)
+    try:
+        case = case_name(case)
+    except ValueError as err:
+        bad.append(Problem(names.get("case", "case"), str(err)))
+    if scene.driver.acceleration != 0.0:
+        bad.append(Problem("driver.acceleration_rad_s2", "the periodic response needs a constant crank speed "
+                           f"(got {scene.driver.acceleration:g} rad/s²)"))
+    if harmonics is not None and (int(harmonics) != harmonics or harmonics < 1):
+        bad.append(Problem(names.get("harmonics", "harmonics"), f"must be an integer >= 1 (got {harmonics!r})"))
+    if bad:
+        raise SceneError(scene.source, bad)
+    model = Model(scene, cases=(case,))
+    mech = model.mechanism
+    from fkev_slepc.api.loads import checked_angles
+
+    a = checked_angles(scene, mech, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
+                       names.get("angles_deg", "angles_deg"))
+    full_turn = checked_angles(scene, mech, np.arange(0.0, 360.0, 1.0), names.get("angles_deg", "angles_deg"))
+    del full_turn  # the periodic response needs a crank that turns fully (refused above otherwise)
+    chosen = None
+    if stations is not None:
+        chosen = []
+        for link, s_list in stations.items():
+            if link not in mech.link_names:
+                raise SceneError(scene.source, [Problem(names.get("stations", "stations"), f"unknown link {link!r}")])
+            try:
+                chosen += stations_at(mech, mech.link_names.index(link), s_list)
+            except ValueError as err:
+                raise SceneError(scene.source, [Problem(names.get("stations", "stations"), str(err))]) from None
+    system = LinkageSystem(model, case, float(speed_rad_s), gravity)
+    try:
+        r = periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot)
+    except ResonanceError as err:
+        raise SceneError(scene.source, [Problem(names.get("speed_rad_s", "speed_rad_s"), str(err))]) from None
+    theta = np.radians(a)
+    q = r.hb.at(theta)
+    rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
+    from fkev_slepc.solve.response_stations import station_response
+
+    st = station_response(model, theta, q, chosen, rigid)
+    kin = model.angle_state(theta, with_loads=False).kinematics
+    pos = point_local(kin, mech.node_link, mech.node_local)[0]
+    disp = _node_displacement(mech, q)
+    sh = r.shoot
+    return ResponseResult(
+        scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
+        mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
+        r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
+        float("nan") if sh is None else sh.closure)
+
+
+def _node_displacement(mech, q) -> np.ndarray:
+    """Ground-frame (x, y) elastic displacement of every node (n, n_node, 2); a slider node's
+    translations are along/normal to its guide (``node_axis``), the normal one fixed."""
+    qp = np.concatenate([q, np.zeros((q.shape[0], 1))], axis=1)
+    d = np.where(mech.node_dofs >= 0, mech.node_dofs, q.shape[1])
+    a, b = qp[:, d[:, 0]], qp[:, d[:, 1]]
+    ax = mech.node_axis
+    return np.stack([ax[:, 0] * a - ax[:, 1] * b, ax[:, 1] * a + ax[:, 0] * b], axis=-1)

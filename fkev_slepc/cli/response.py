@@ -1,0 +1,123 @@
+"""``fkev response``: the steady periodic elastic response at a crank speed: deflections,
+bending moments, axial forces and extreme-fibre stresses at stations along the links over one
+revolution (docs/response.md §3-4). Wiring only; the physics is in fkev_slepc/solve/response*.py."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+
+from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.status import EXIT_OK
+from .common import add_elements_argument, load_checked, report_scene_error
+
+FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
+         "harmonics": "--harmonics", "stations": "--station"}
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "response", help="steady periodic elastic response: deflection and stress over the cycle",
+        description="The periodic solution of M(θ)q̈ + C(θ)q̇ + K(θ)q = f(θ) at a constant crank speed, with the "
+        "exact periodic coefficients and the rigid-body inertia loads (and gravity), by harmonic balance, cross-"
+        "checked by shooting on the monodromy, whose Floquet multipliers say whether the response attracts.")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
+    p.add_argument("--case", help="case name or Table 3.1 number (default: full)")
+    p.add_argument("--gravity", metavar="GX,GY", help="gravity in the ground frame, m/s² (default: the scene's "
+                   "analysis.gravity_m_s2, else none)")
+    p.add_argument("--angles", metavar="SPEC", help="output crank angles, deg (default 0:355:5)")
+    p.add_argument("--station", action="append", metavar="LINK:S1,S2", help="stations on LINK at these distances "
+                   "from its root, m (repeatable; default every link's root, midspan and tip)")
+    p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
+                   "until the estimated error is below --tol)")
+    p.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (default 1e-8)")
+    p.add_argument("--no-shooting", action="store_true", help="skip the monodromy (no multipliers, no cross-check)")
+    add_elements_argument(p)
+    p.add_argument("--output", "-o", metavar="PATH.h5", help="archive the response (HDF5, xarray-readable)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=run)
+
+
+def _parse(args):
+    from fkev_slepc.sweep.grid import parse_angles
+
+    bad, angles, gravity, stations = [], None, None, None
+    if args.angles is not None:
+        try:
+            angles = parse_angles(args.angles)
+        except ValueError as err:
+            bad.append(Problem("--angles", str(err)))
+    if args.gravity is not None:
+        try:
+            gravity = tuple(float(v) for v in args.gravity.split(","))
+        except ValueError:
+            gravity = args.gravity
+    if args.station:
+        stations = {}
+        for text in args.station:
+            link, _, values = text.partition(":")
+            try:
+                stations.setdefault(link, []).extend(float(v) for v in values.split(","))
+            except ValueError:
+                bad.append(Problem("--station", f"expected LINK:S1,S2,... in m (got {text!r})"))
+    if not (np.isfinite(args.tol) and 0 < args.tol < 1):
+        bad.append(Problem("--tol", f"must be in (0, 1) (got {args.tol})"))
+    if bad:
+        raise SceneError(args.scene, bad)
+    return angles, gravity, stations
+
+
+def run(args) -> int:
+    from fkev_slepc.api.response import study_response
+
+    try:
+        angles, gravity, stations = _parse(args)
+        scene = load_checked(args.scene, args.elements, check_angles=False)
+        speed = max(scene.driver.speeds, key=abs) if args.speed is None else args.speed
+        res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
+                             harmonics=args.harmonics, tol=args.tol, shoot=not args.no_shooting, stations=stations,
+                             names=FLAGS)
+    except SceneError as err:
+        return report_scene_error(err)
+    if args.output:
+        res.save(args.output, {"command_line": " ".join(sys.argv)})
+    d = res.as_dict()
+    if args.json:
+        json.dump(d, sys.stdout)
+        print()
+    else:
+        _print(d)
+    return EXIT_OK
+
+
+def _print(d: dict) -> None:
+    print(f"{d['scene']}: steady periodic response at Ω = {d['speed_rad_s']:g} rad/s, case {d['case']}, "
+          f"{len(d['crank_angle_deg'])} output angles")
+    err = d["harmonic_balance_error"]
+    print(f"  harmonic balance: {d['harmonics']} harmonics, estimated error {err:.1e}" if err is not None else
+          f"  harmonic balance: {d['harmonics']} harmonics")
+    if d["max_abs_multiplier"] is not None:
+        verdict = "attracts" if d["attracting"] else "does NOT attract (some |μ| > 1: the machine would not settle on it)"
+        print(f"  Floquet: max |μ| = {d['max_abs_multiplier']:.10g} (±{d['multiplier_error']:.1e}): the response "
+              f"{verdict}; shooting vs harmonic balance {d['methods_difference']:.1e}")
+    print(f"  {'station':>16} {'transverse (mm)':>22} {'from chord (mm)':>22} {'moment (N m)':>20} "
+          f"{'axial force (N)':>20} {'max |σ| (MPa)':>14}")
+    for s in d["stations"]:
+        env = s["envelope"]
+        stress = [v for v in s["stress_pa"] if v is not None]
+        smax = f"{max(stress) / 1e6:14.4g}" if stress else f"{'(no c)':>14}"
+        print(f"  {s['link'] + ' @ ' + format(s['s_m'], 'g') + ' m':>16} "
+              f"{env['transverse_m'][0] * 1e3:10.4g} {env['transverse_m'][1] * 1e3:10.4g}   "
+              f"{env['transverse_chord_m'][0] * 1e3:10.4g} {env['transverse_chord_m'][1] * 1e3:10.4g}   "
+              f"{env['moment_n_m'][0]:9.4g} {env['moment_n_m'][1]:9.4g}  "
+              f"{env['axial_force_n'][0]:9.4g} {env['axial_force_n'][1]:9.4g} {smax}")
+    p = d["peak_stress"]
+    if p:
+        print(f"  peak stress {p['stress_pa'] / 1e6:.4g} MPa on {p['link']} at s = {p['s_m']:g} m, θ = "
+              f"{p['crank_angle_deg']:g}°")
+    else:
+        print("  stresses need each section's fibre distance: give section = {shape = ...} or fibre_distance_m")
+    print(f"  largest node deflection {d['max_deflection_m'] * 1e3:.4g} mm (envelopes are min and max over the cycle)")

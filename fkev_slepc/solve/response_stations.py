@@ -1,0 +1,136 @@
+"""Engineering outputs of a periodic response (docs/response.md §4): deflection, bending moment,
+axial force and extreme-fibre stress at stations along the links, over the crank cycle.
+
+A station is a point of a link's axis at distance s from the link's first joint (its root).
+From the global DOFs q(θ) the element DOFs in the element's own frame are q_e = T(θ) q; the
+element's shape functions give there the elastic axial and transverse displacements u, v, the
+axial strain u' and the curvature v'', hence
+
+    N = EA u',   M = EI v'',   σ = N/A ± M c/I,   |σ|max = |N|/A + |M| c/I
+
+(c the extreme-fibre distance of the section, scene/shapes.py; NaN where the scene does not give
+it). N and M are the elastic model's internal forces: in the quasi-static limit of a statically
+determinate linkage N tends to the rigid-body kinetostatic axial force, which is reported beside
+it (``axial_force_rigid_n``); their difference is the elastic correction of the axial load the
+link's joints see.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fkev_slepc.model.element_types import _axial, _bending, _scale
+
+
+@dataclass(frozen=True)
+class Station:
+    link: int
+    s: float  # m from the link's root along its axis
+    element: int
+    xi: float  # element coordinate in [0, 1]
+
+
+def default_stations(mech) -> list[Station]:
+    """Every link's root, midspan and tip on its axis beam."""
+    out = []
+    for lk in range(mech.n_link):
+        out += stations_at(mech, lk, (0.0, 0.5 * mech.length[lk], mech.length[lk]))
+    return out
+
+
+def stations_at(mech, link: int, s_values) -> list[Station]:
+    """Stations of ``link`` at distances ``s_values`` (m) from its root along its axis; a
+    distance on a node belongs to the element before it (the element after it at s = 0)."""
+    axis_beam = mech.beam_link.tolist().index(link)
+    sel = np.flatnonzero(mech.elem_beam == axis_beam)
+    s0, l = mech.elem_s0[sel], mech.elem_length[sel]
+    L = float(s0[-1] + l[-1])
+    out = []
+    for s in s_values:
+        if not -1e-12 * L <= s <= L * (1 + 1e-12):
+            raise ValueError(f"station s = {s:g} m is not on link {mech.link_names[link]!r} (0 to {L:g} m)")
+        i = int(np.clip(np.searchsorted(s0 + l, s - 1e-12 * L), 0, sel.size - 1))
+        out.append(Station(link, float(s), int(sel[i]), float(np.clip((s - s0[i]) / l[i], 0.0, 1.0))))
+    return out
+
+
+def element_sections(mech) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Area A, second moment I and fibre distance c (NaN: not given) of every element, from the
+    scene's links and segments (a ternary branch has the link's uniform section)."""
+    n_el = mech.elem_link.size
+    A, I, c = np.empty(n_el), np.empty(n_el), np.full(n_el, np.nan)
+    first_beam = {lk: mech.beam_link.tolist().index(lk) for lk in range(mech.n_link)}
+    for e in range(n_el):
+        link = mech.scene.links[mech.elem_link[e]]
+        piece = link.pieces[0]
+        if mech.elem_beam[e] == first_beam[mech.elem_link[e]]:
+            ends = np.cumsum([p.length for p in link.pieces])
+            mid = mech.elem_s0[e] + 0.5 * mech.elem_length[e]
+            piece = link.pieces[min(int(np.searchsorted(ends, mid)), len(link.pieces) - 1)]
+        A[e], I[e] = piece.area, piece.second_moment
+        if piece.fibre_distance is not None:
+            c[e] = piece.fibre_distance
+    return A, I, c
+
+
+@dataclass(frozen=True)
+class StationResponse:
+    """Station outputs over the angles: each (n_θ, n_station)."""
+
+    stations: tuple[Station, ...]
+    axial: np.ndarray  # u, m (link frame, along the link)
+    transverse: np.ndarray  # v, m (link frame, left normal)
+    moment: np.ndarray  # M, N m
+    axial_force: np.ndarray  # N, N (tension > 0)
+    shear: np.ndarray  # V = -dM/ds, N
+    stress: np.ndarray  # max |σ| over the section, Pa (NaN without c)
+    axial_force_rigid: np.ndarray  # rigid-body kinetostatic axial force, N
+    # v minus the chord through the link's deflected ends: the deflection a floating frame on
+    # the link's ends sees (the slider-crank benchmark's "midpoint transverse deflection"), m
+    transverse_chord: np.ndarray
+
+
+def station_response(model, theta, q, stations=None, rigid_axial=None) -> StationResponse:
+    """Station outputs of the global response ``q`` (n_θ, n_free) at crank angles ``theta``;
+    ``rigid_axial`` (n_θ, n_el, 3) the kinetostatic axial-force polynomials at the same angles."""
+    mech = model.mechanism
+    stations = tuple(default_stations(mech) if stations is None else stations)
+    links = sorted({st.link for st in stations})
+    ends = [e for lk in links for e in stations_at(mech, lk, (0.0, mech.length[lk]))]
+    n_st = len(stations)
+    stations_all = stations + tuple(ends)
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    state = model.angle_state(theta, with_loads=False)
+    e = np.array([st.element for st in stations_all], dtype=int)
+    xi = np.array([st.xi for st in stations_all])
+    dofs = mech.elem_dofs[e]  # (n_st, d)
+    qp = np.concatenate([q, np.zeros((q.shape[0], 1))], axis=1)
+    q_el = qp[:, np.where(dofs >= 0, dofs, q.shape[1])]  # (n_θ, n_st, d)
+    T = state.T[:, e]  # (n_θ, n_st, d, d)
+    n_dof = T.shape[-1]
+    l = mech.elem_length[e]
+    q_loc = np.einsum("asij,asj->asi", T, q_el) * _scale(l, n_dof)[None]
+
+    def at(fn, deriv):
+        rows = np.stack([fn(np.array([x]), n_dof, deriv)[0] for x in xi])  # (n_st, d)
+        return np.einsum("sd,asd->as", rows, q_loc)
+
+    u, v = at(_axial, 0), at(_bending, 0)
+    v_end = {lk: (v[:, n_st + 2 * i], v[:, n_st + 2 * i + 1]) for i, lk in enumerate(links)}
+    chord = np.stack([v[:, k] - (1 - st.s / mech.length[st.link]) * v_end[st.link][0]
+                      - st.s / mech.length[st.link] * v_end[st.link][1] for k, st in enumerate(stations)], axis=1)
+    keep = slice(0, n_st)
+    u, v, q_loc, l, e, xi = u[:, keep], v[:, keep], q_loc[:, keep], l[keep], e[keep], xi[keep]
+    du, d2v = at(_axial, 1) / l, at(_bending, 2) / l**2
+    d3v = np.einsum("sd,asd->as", np.tile([0, 12, 6, 0, -12, 6, 0, 0][:n_dof], (xi.size, 1)), q_loc) / l**3
+    ea, ei = mech.elem_ea[e], mech.elem_ei[e]
+    N, M, V = ea * du, ei * d2v, -ei * d3v
+    A, I, c = (x[e] for x in element_sections(mech))
+    stress = np.abs(N) / A + np.abs(M) * c / I
+    rigid = np.full_like(N, np.nan)
+    if rigid_axial is not None:
+        co = rigid_axial[:, e]
+        rigid = co[..., 0] + co[..., 1] * xi + co[..., 2] * xi**2
+    return StationResponse(stations, u, v, M, N, V, stress, rigid, chord)
