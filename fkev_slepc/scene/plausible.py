@@ -25,7 +25,7 @@ SLENDERNESS = (2.0, 10000.0)  # L/r: below, no beam at all (shear dominates); ab
 class LinkSummary:
     name: str
     length_m: float
-    mass_kg: float
+    mass_kg: float  # the axis beam and a ternary link's branch; lumped masses not included
     slenderness: float  # L / r, r = sqrt(I/A) the radius of gyration (the smallest of the segments)
     pinned_frequency_hz: float  # (π / 2L²) sqrt(EI/ρA)
     warnings: tuple[str, ...]
@@ -36,9 +36,11 @@ def summarize(link: Link, index: int) -> LinkSummary:
     pieces = link.pieces
     L = link.length
     mass = math.fsum(s.density * s.area * s.length for s in pieces)
+    if link.third is not None:  # a ternary link's branch beam, of the uniform section, to its third point
+        mass += link.density * link.area * abs(link.third[1])
     r = min(math.sqrt(s.second_moment / s.area) for s in pieces)
     ei = math.fsum(s.youngs_modulus * s.second_moment * s.length for s in pieces) / L
-    rho_a = mass / L
+    rho_a = math.fsum(s.density * s.area * s.length for s in pieces) / L
     f_pp = math.pi / (2 * L * L) * math.sqrt(ei / rho_a)
     where = f"links[{index}] {link.name!r}"
     warn = []
