@@ -95,3 +95,13 @@ def test_point_under_mpirun_prints_once():
                         "--speed", "500", "--case", "full"], capture_output=True, text=True, env=env, timeout=300)
     assert r.returncode == 0, r.stderr
     assert r.stdout.count("Bahgat-Willmert") == 1 and r.stdout.count("max Re λ") == 1
+
+
+def test_readme_quick_start_says_how_to_get_fkev():
+    """A new user with only the README: `make setup` is documented, and the quick start says
+    how plain `fkev` gets onto PATH (or to type .venv/bin/fkev)."""
+    text = (ROOT / "README.md").read_text()
+    quick = text[text.index("## Quick start"):]
+    quick = quick[:quick.index("\n## ", 3)]
+    assert "make setup" in text and "setup:" in (ROOT / "Makefile").read_text()
+    assert ". .venv/bin/activate" in quick and ".venv/bin/fkev" in quick

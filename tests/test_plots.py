@@ -395,7 +395,8 @@ def test_campbell_tracks_modes_along_speed_or_says_sorted(archives):
         want = r["frequency_hz"] if fb[a, full] else trk
         for m in range(3):
             np.testing.assert_array_equal(lines[f"mode {m + 1}"].get_ydata(), want[a, :, full, m])
-        assert ("SORTED order for full" in fig._suptitle.get_text()) == bool(fb[a, full])
+        title = fig._suptitle.get_text()
+        assert ("sorted modes" in title) == bool(fb[a, full]) and ("tracked" in title) != bool(fb[a, full])
     # speed 0 is the start of the walk: the sorted order
     np.testing.assert_array_equal(trk[:, 0], np.where(np.isin(r["status"][:, 0], [1, 3, 4])[..., None],
                                                       r["frequency_hz"][:, 0], np.nan))
@@ -458,3 +459,42 @@ def test_title_names_scene_mesh_and_completeness(archives, tmp_path):
         f.attrs["complete"] = 0
     assert plots.error_angle(load(part))._suptitle.get_text().splitlines()[0].endswith("[incomplete archive]")
     assert "[" not in plots.error_angle(load(archives["bw"]))._suptitle.get_text().splitlines()[0]
+
+
+# --------------------------------------------------- issue 20 item 5: maps draw what was computed
+@pytest.fixture(scope="module")
+def two_speeds(tmp_path_factory):
+    out = tmp_path_factory.mktemp("two_speeds") / "sc.h5"
+    fkev("run", ROOT / "runs/turcic-midha-1984.toml", "-o", out, "--elements", 1, "--angles", "0:90:30",
+         "--speeds", "0,150", "--cases", "full", "--modes", 2, "--solver", "dense", "--quiet", check=False)
+    return load(out)
+
+
+def _overlaps(fig, artist, ax) -> bool:
+    fig.canvas.draw()
+    a, b = artist.get_window_extent(), ax.get_window_extent()
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def test_stability_map_covers_only_the_computed_speeds_and_its_legend_no_data(two_speeds):
+    """A 2-speed archive (0, 150 rad/s) drew its y axis to 225 rad/s, never computed, and the
+    legend over divergent cells: the cells now end at the first and last speed and angle, the
+    legend sits below the axes."""
+    fig = plots.stability(two_speeds, "full")
+    ax = fig.axes[0]
+    mesh = next(c for c in ax.collections if isinstance(c, QuadMesh))
+    xy = mesh.get_coordinates()
+    assert (xy[..., 1].min(), xy[..., 1].max()) == (0.0, 150.0)
+    assert (xy[..., 0].min(), xy[..., 0].max()) == (0.0, 90.0)
+    leg = ax.get_legend()
+    if leg is not None:  # only when some point is divergent or did not converge
+        assert not _overlaps(fig, leg, ax)
+
+
+def test_campbell_from_two_speeds_warns_instead_of_marking_crossings(two_speeds):
+    with pytest.warns(UserWarning, match="from 2 crank speed"):
+        fig = plots.campbell(two_speeds, angle=30.0, orders=4)
+    ax = fig.axes[0]
+    assert not any(c.get_label().startswith("crossings") for c in ax.collections)
+    assert "crossings not marked" in fig._suptitle.get_text()
+    assert not _overlaps(fig, ax.get_legend(), ax)

@@ -92,6 +92,22 @@ def test_a_crossing_is_confirmed_by_refinement_then_followed_by_shape():
     assert not np.allclose(res.tracked[..., 1], f[:, None, None, 1])  # sorted order switches at 180°
 
 
+def test_refinement_stops_at_its_budget_and_says_so():
+    """Issue 20: a 481-point sweep solved 693 extra points and still fell back to sorted order.
+    Refinement solves at most Criteria.budget(grid points) extra points (the grid's count, at
+    least 100), the earliest requests first, and records the budget and whether it ran out."""
+    angles = np.arange(0.0, 301.0, 30.0)
+    assert Criteria().budget(481) == 481 and Criteria().budget(20) == 100
+    calls = []
+    tight = Criteria(refine_budget=0.0, refine_budget_min=3)
+    res = refine_angles(samples(angles, 0.0, centre=172.0), exact_solver(0.0, calls, centre=172.0), MPI.COMM_SELF, tight)
+    assert len(calls) == 3 < Criteria().max_halvings  # the crossing needs 6 halvings: cut at 3
+    assert res.refined_points == 3 and res.budget_exhausted and res.attrs()["refine_budget_points"] == 3
+    calls.clear()
+    res = refine_angles(samples(angles, 0.0, centre=172.0), exact_solver(0.0, calls, centre=172.0), MPI.COMM_SELF)
+    assert len(calls) == 6 and not res.budget_exhausted and res.attrs()["refine_budget_exhausted"] == 0
+
+
 def test_veering_ambiguity_criterion():
     """Across a veering the MAC of a continuation is cos²(Δφ), Δφ the turn of the shapes."""
     c = 0.02  # shapes exchange within about ±2° of 180°

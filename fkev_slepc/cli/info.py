@@ -235,7 +235,8 @@ def _tracking(res) -> list[str]:
     out = [f"  tracking    MAC >= {t['mac_min']:g} with a margin >= {t['mac_margin']:g} over the competitors; "
            f"links halved at most {int(t['max_halvings'])} times",
            f"    along crank angle: {int(t['ambiguous_links'])} ambiguous (link, line) pairs on the grid; "
-           f"{int(t['refined_angles'])} extra angles solved ({int(t['refined_points'])} points, /tracking/refined); "
+           f"{int(t['refined_angles'])} extra angles solved ({int(t['refined_points'])} points, /tracking/refined"
+           + _budget_words(t) + "); "
            f"{int(t['unresolved_links'])} ambiguous links left; {int(t.get('crossings', 0))} crossings confirmed; "
            f"{int(t['open_loops'])} open loops"]
     if fb is not None and fb.any():
@@ -256,3 +257,10 @@ def _errors(res, n: int) -> list[str]:
     out = [f"  errors      {len(errs)} point(s) failed or did not converge; first {min(n, len(errs))}:"]
     out += [f"    {e.angle_deg:g} deg, {e.speed_rad_s:g} rad/s, {e.case}: {e.message}" for e in errs[:n]]
     return out
+
+
+def _budget_words(t: dict) -> str:
+    """``, budget 240 points: exhausted`` (archives written before the budget: nothing)."""
+    if "refine_budget_points" not in t:
+        return ""
+    return f", budget {int(t['refine_budget_points'])} points" + (": exhausted" if t.get("refine_budget_exhausted") else "")

@@ -152,10 +152,24 @@ def set_title(fig: Figure, res: SweepResults, what: str) -> None:
 
 
 def edges(centers: np.ndarray) -> np.ndarray:
-    """Cell edges around grid centres (midpoints; half a step beyond the ends)."""
+    """Cell edges around grid centres: the midpoints, and the first and last centres themselves
+    (the end cells are half cells), so that a map covers exactly the computed range; a single
+    centre gets a cell of its own size around it.
+
+    Examples
+    --------
+    >>> edges([0.0, 150.0]), edges([0.0, 10.0, 20.0])
+    (array([  0.,  75., 150.]), array([ 0.,  5., 15., 20.]))
+    """
     c = np.asarray(centers, dtype=float)
     if c.size == 1:
         h = 0.5 * (abs(c[0]) or 1.0)
         return np.array([c[0] - h, c[0] + h])
-    mid = 0.5 * (c[1:] + c[:-1])
-    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+    return np.concatenate([[c[0]], 0.5 * (c[1:] + c[:-1]), [c[-1]]])
+
+
+def legend_outside(ax, where: str = "right", **options):
+    """The legend beside (``"right"``) or below (``"below"``) the axes, never over the data."""
+    if where == "below":
+        return ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), borderaxespad=0, **options)
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, **options)

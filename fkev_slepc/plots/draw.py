@@ -109,11 +109,15 @@ def freq_angle(
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     names = sorted({first.cases[c] for c in pick_cases(first, cases, [default_case(first)])})
-    what = f"natural frequency vs crank angle ({', '.join(names)}; {order} modes)"
+    n_lines = sum(len(pick_cases(r, cases, [default_case(r)])) * (len(speeds) if speeds else r.speed_rad_s.size)
+                  for r in runs)
+    if sorted_lines and len(set(sorted_lines)) >= n_lines:  # the archive could not tell any apart (docs/tracking.md)
+        what = f"natural frequency vs crank angle ({', '.join(names)}; sorted modes: tracking ambiguous, MAC)"
+    else:
+        what = f"natural frequency vs crank angle ({', '.join(names)}; {order} modes"
+        what += f", sorted for {', '.join(sorted(set(sorted_lines)))}: MAC ambiguous)" if sorted_lines else ")"
     if extra_angles:
         what += f"; dots: {len(extra_angles)} extra angles solved where the MAC was ambiguous"
-    if sorted_lines:  # say so: the archive could not tell these modes apart (docs/tracking.md)
-        what += f"; SORTED order, MAC ambiguous: {', '.join(sorted(set(sorted_lines)))}"
     if len(runs) > 1:  # the meshes differ by design: name the scene, list the meshes
         meshes = ", ".join(elements_tag(r) for r in runs)
         fig.suptitle(f"{first.title}\n{what}; meshes: {meshes}", fontsize=11)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Sequence
 
 import numpy as np
@@ -16,6 +17,7 @@ from fkev_slepc.plots.common import (
     SPEED_LABEL,
     default_case,
     edges,
+    legend_outside,
     pick_angle,
     pick_cases,
     pick_modes,
@@ -27,6 +29,7 @@ from fkev_slepc.archive.tracks import read_tracking
 from fkev_slepc.scene import SceneError, parse_scene
 
 MAX_DEFAULT_ORDERS = 8
+MIN_CAMPBELL_SPEEDS = 3  # fewer: no crossings marked, and a warning
 STATUS_MARKS = (  # status, marker, colour, legend text
     (Status.DIVERGENT, "x", "k", "divergent (real λ > 0 in the spectrum)"),
     (Status.NOT_CONVERGED, "s", "0.4", "not converged"),
@@ -58,9 +61,7 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
     norm = SymLogNorm(linthresh=tol, vmin=-vmax, vmax=vmax, base=10)
     fig = Figure(figsize=(8.0, 4.6), layout="constrained")
     ax = fig.subplots()
-    speed_edges = edges(res.speed_rad_s)
-    if res.speed_rad_s.min() >= 0 and res.speed_rad_s.size > 1:  # no negative speeds on the axis
-        speed_edges = np.maximum(speed_edges, 0.0)
+    speed_edges = edges(res.speed_rad_s)  # the computed range only (half cells at the ends)
     a_edges = edges(res.crank_angle_deg)
     div = (st == Status.DIVERGENT.code).astype(float)
     if div.any():  # grey under the divergent points
@@ -82,7 +83,7 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
     if res.speeds_in_rpm:
         rpm_axis(ax, "y")
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8, loc="upper right", framealpha=0.85)
+        legend_outside(ax, "below", fontsize=8, ncol=3)
     set_title(fig, res, f"frozen-time stability map, case {res.cases[c]}{_damping_label(res)}\n{n_unst} unstable "
                         f"(ζ < -{tol:g}), {int(div.sum())} divergent of {st.size} points "
                         "(matrices held at each angle; over a revolution: fkev floquet)")
@@ -142,9 +143,7 @@ def campbell(
         else:
             f = np.where(res.converged[..., None], trk["speed_tracked"], np.nan)[a]
             fb = trk["speed_fallback"][a] if trk["speed_fallback"] is not None else np.zeros(len(res.cases), bool)
-            left = [res.cases[c] for c in c_idx if fb[c]]
-            note = "; modes tracked along speed" + (
-                f"; SORTED order for {', '.join(left)} (MAC ambiguous or crossing)" if left else "")
+            note = _order_note([res.cases[c] for c in c_idx if not fb[c]], [res.cases[c] for c in c_idx if fb[c]])
     if order != "tracked":
         f = res.frequency(order=order)[a]
     shown = f[:, c_idx][:, :, mode_idx]
@@ -171,6 +170,11 @@ def campbell(
                 label=f"crank orders k·Ω/2π, k = 1..{orders}" if k == 1 else "_order")
         ax.annotate(f"{k}×", (span[1], k * span[1] / (2 * np.pi)), fontsize=7, color="0.4",
                     xytext=(2, 0), textcoords="offset points")
+    if om.size < MIN_CAMPBELL_SPEEDS:  # straight lines between 2 speeds: their crossings would be guesses
+        cross_om = []
+        note += f"; only {om.size} speed(s): lines join the computed speeds, crossings not marked"
+        warnings.warn(f"Campbell diagram from {om.size} crank speed(s): the lines join computed points and say "
+                      f"nothing between them; crossings need at least {MIN_CAMPBELL_SPEEDS} speeds", stacklevel=2)
     if cross_om:
         ax.scatter(cross_om, cross_f, s=40, facecolors="none", edgecolors="r", zorder=5,
                    label=f"crossings: {len(cross_om)}")
@@ -181,7 +185,25 @@ def campbell(
     ax.set_ylim(0, 1.08 * fmax)
     ax.set_xlim(0, om.max() * 1.04 if om.max() > 0 else 1)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    legend_outside(ax, fontsize=7)
     names = ", ".join(res.cases[c] for c in c_idx)
     set_title(fig, res, f"Campbell diagram at θ = {res.crank_angle_deg[a]:g}° ({names}){note}")
     return fig
+
+
+def _order_note(tracked: list[str], left_sorted: list[str]) -> str:
+    """The title's words on mode order: tracked, sorted, or which cases are which; never
+    "tracked" and "SORTED" of the same lines.
+
+    Examples
+    --------
+    >>> _order_note(["full"], []), _order_note([], ["full"])
+    ('; modes tracked along speed', '; sorted modes (tracking along speed ambiguous: MAC)')
+    >>> _order_note(["structure"], ["full"])
+    '; modes tracked along speed for structure, sorted for full (MAC ambiguous)'
+    """
+    if not left_sorted:
+        return "; modes tracked along speed"
+    if not tracked:
+        return "; sorted modes (tracking along speed ambiguous: MAC)"
+    return f"; modes tracked along speed for {', '.join(tracked)}, sorted for {', '.join(left_sorted)} (MAC ambiguous)"

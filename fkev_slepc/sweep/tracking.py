@@ -38,6 +38,8 @@ TRACK_DOFS = 64  # eigenvector entries kept per mode for tracking (all DOFs of s
 MAC_MIN = 0.8
 MAC_MARGIN = 0.3
 MAX_HALVINGS = 6  # a 10° link is refined down to 10°/64 = 0.16° at most
+REFINE_BUDGET = 1.0  # extra points solved for tracking: at most as many as the grid has ...
+REFINE_BUDGET_MIN = 100  # ... or this many, whichever is larger
 
 
 @dataclass(frozen=True)
@@ -47,9 +49,16 @@ class Criteria:
     mac_min: float = MAC_MIN
     mac_margin: float = MAC_MARGIN
     max_halvings: int = MAX_HALVINGS
+    refine_budget: float = REFINE_BUDGET
+    refine_budget_min: int = REFINE_BUDGET_MIN
+
+    def budget(self, n_points: int) -> int:
+        """The most extra points tracking may solve for a grid of ``n_points`` points."""
+        return max(int(self.refine_budget_min), int(np.ceil(self.refine_budget * n_points)))
 
     def attrs(self) -> dict:
-        return {"mac_min": self.mac_min, "mac_margin": self.mac_margin, "max_halvings": self.max_halvings}
+        return {"mac_min": self.mac_min, "mac_margin": self.mac_margin, "max_halvings": self.max_halvings,
+                "refine_budget": self.refine_budget, "refine_budget_min": self.refine_budget_min}
 
 
 def tracking_dofs(n_free: int, n_angles: int, n_speeds: int = 1, limit: int = TRACK_DOFS) -> np.ndarray | None:

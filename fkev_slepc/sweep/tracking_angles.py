@@ -4,13 +4,15 @@ After the sweep, :func:`track_archive` (collective) walks every (speed, case) li
 angle (:func:`tracking.walk`); wherever a link is ambiguous (:func:`tracking.scored_match`) the
 line is solved again at the link's midpoint, on every rank (:func:`refine_angles`), and walked
 again, until no link is ambiguous or links are ``2**max_halvings`` times shorter than the grid
-step. Lines still ambiguous, or whose modes come back permuted after a revolution, fall back
-to sorted order. The extra angles go to ``/tracking/refined`` (docs/tracking.md).
+step, within a budget of extra points (:meth:`tracking.Criteria.budget`: as many as the grid has,
+at least 100; requests beyond it are not solved). Lines still ambiguous, or whose modes come
+back permuted after a revolution, fall back to sorted order. The extra angles go to
+``/tracking/refined`` (docs/tracking.md).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -55,6 +57,8 @@ class AngleTracking:
     refined: Samples | None  # the extra angles solved (None: none)
     refined_tracked: np.ndarray | None  # their frequencies in tracked order
     crit: Criteria = field(default_factory=Criteria)
+    budget_points: int = 0  # the most extra points refinement could solve (0: not refined)
+    budget_exhausted: bool = False  # requests were left unsolved for lack of budget
 
     @property
     def open_loops(self) -> int:
@@ -70,6 +74,7 @@ class AngleTracking:
         return dict(self.crit.attrs(), ambiguous_links=self.ambiguous_main, unresolved_links=self.unresolved,
                     crossings=self.crossings,
                     refined_angles=n_ref, refined_points=self.refined_points,
+                    refine_budget_points=self.budget_points, refine_budget_exhausted=int(self.budget_exhausted),
                     fallback_lines=int(np.count_nonzero(self.fallback)), open_loops=self.open_loops)
 
 
@@ -130,15 +135,22 @@ def refine_angles(main: Samples | None, solve, comm, crit: Criteria = Criteria()
     (speed, case) points of ``mask`` at one angle on the calling rank and returns a
     :class:`Samples` of that one angle (status 0 = pending where not solved). Requested angles
     are dealt to the ranks cyclically; rank 0 gathers them. ``extra``: angles already solved
-    (a resumed archive's). Returns the result on rank 0."""
-    result, amb = None, None
+    (a resumed archive's). At most ``crit.budget(points of main)`` extra points are solved, the
+    earliest requests first. Returns the result on rank 0."""
+    result, amb, exhausted = None, None, False
+    budget = spent = 0
+    if comm.rank == 0:
+        budget = crit.budget(int(np.count_nonzero(main.status)))
+        spent = 0 if extra is None else int(np.count_nonzero(extra.status))
     for _ in range(crit.max_halvings + 2):
         if comm.rank == 0:
             if amb is None and extra is not None:  # a resumed archive's angles: count main's links alone
                 amb = track_angles(main, None, crit)[0].ambiguous_main
             result, requests = track_angles(main, extra, crit, amb)
             amb = result.ambiguous_main
-            work = list(requests.items())
+            work, cut = _within(list(requests.items()), budget - spent)
+            exhausted |= cut
+            spent += sum(int(np.count_nonzero(m)) for _, m in work)
         else:
             work = None
         work = comm.bcast(work, root=0)
@@ -148,7 +160,21 @@ def refine_angles(main: Samples | None, solve, comm, crit: Criteria = Criteria()
         got = comm.gather(mine, root=0)
         if comm.rank == 0:
             extra = _merge(extra, [s for part in got for s in part])
+    if result is not None:
+        result = replace(result, budget_points=budget, budget_exhausted=exhausted)
     return result
+
+
+def _within(work: list, left: int) -> tuple[list, bool]:
+    """The requests (angle, mask) that fit in ``left`` points, in order; and whether any was cut."""
+    out, n = [], 0
+    for angle, mask in work:
+        k = int(np.count_nonzero(mask))
+        if n + k > left:
+            return out, True
+        out.append((angle, mask))
+        n += k
+    return out, False
 
 
 def _merge(have: Samples | None, new: list[Samples]) -> Samples | None:
