@@ -31,6 +31,7 @@ def central(study, key, p, h, angle, speed, case):
     (BW, "link_defaults.density_kg_m3", 10, 1000, 1e-2),
     (BW, "driver.acceleration_rad_s2", 10, 1000, 10.0),        # 0 in the scene: a step of its own
     (SC, "links[rod].length_m", 30, 150, 1e-5),                # SLEPc engine, a prismatic joint
+    (RUNS / "stephenson-six-bar.toml", "links[4].segments[1].area_m2", 10, 100, 2e-8),  # inherited from defaults
 ])
 def test_adjoint_equals_central_differences_of_the_eigenvalues(scene, key, angle, speed, h):
     study = fk.load(scene)

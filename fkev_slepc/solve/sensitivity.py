@@ -91,8 +91,9 @@ def key_value(scene: Scene, key: str) -> float:
     node = doc
     for part in parts:
         node = node[part] if isinstance(node, (dict, list)) and _has(node, part) else None
-    if node is None and len(parts) == 3 and parts[0] == "links":
-        node = doc.get("link_defaults", {}).get(parts[2])
+    if node is None and parts[0] == "links" and len(parts) in (3, 5):  # inherited: segment <- link <- defaults
+        link = doc["links"][parts[1]] if len(parts) == 5 else {}
+        node = link.get(parts[-1], doc.get("link_defaults", {}).get(parts[-1]))
     if node is None:
         node = DEFAULTS.get(path)
     if node is None:
