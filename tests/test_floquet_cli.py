@@ -149,6 +149,10 @@ def test_floquet_run_archives_bands_resumes_and_opens_with_xarray(tmp_path, monk
         assert ds.max_abs_multiplier.dims == ("speed_rad_s", "case") and ds.status.attrs["units"] == "1"
     with xr.open_dataset(out, group="floquet/bands", engine="h5netcdf") as ds:
         assert ds.sizes["band"] == 2 and ds.lower_rad_s.attrs["units"] == "rad/s"
+    from clitools import fkev
+
+    info = fkev("info", out).stdout
+    assert "cycle       Floquet verdict of this archive (fkev floquet):" in info and "2ω̄1/1 = " in info
     # resume: three speeds back to pending are the only ones solved on the grid again
     with h5py.File(out, "r+") as f:
         f[P.F_STATUS.path][[3, 20, 40], 0] = 0
@@ -198,3 +202,24 @@ def test_floquet_refuses_bad_flags_naming_them():
                         (("--speeds", "100", "--tol", "2"), "--tol"), (("--speeds", "100", "--case", "9"), "--case")):
         r = fkev("floquet", BW, *flags, "-o", "/nonexistent/x.h5")
         assert r.returncode == 2 and name in r.stderr and "Traceback" not in r.stderr, (flags, r.stderr)
+
+
+def test_fkev_floquet_json_on_the_undamped_four_bar(tmp_path):
+    """fkev floquet with the linkage's own monodromy (exact periodic coefficients): undamped
+    Bahgat-Willmert, case full, at 500 rad/s, where the frozen-time verdict calls most crank angles
+    unstable, is Floquet-stable: max|μ| = 1 to 1e-8, the multiplier set closed under μ -> 1/μ̄."""
+    import json
+
+    import numpy as np
+
+    from clitools import BW, fkev
+
+    r = fkev("floquet", BW, "--speeds", "500", "--angles", "0:360:60", "--no-critical", "--json", "-o",
+             tmp_path / "bw.h5")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["speed_rad_s"] == [500.0] and out["bands"] == [] and out["status"] == ["ok"]
+    assert abs(out["max_abs_multiplier"][0] - 1.0) < 1e-8
+    assert out["frozen_time_unstable_fraction"][0] > 0.5
+    mu = np.array([complex(*z) for z in out["multipliers"][0]])
+    assert mu.size == 30 and np.max(np.min(np.abs(mu[:, None] - 1 / mu.conj()[None, :]), axis=1)) < 1e-8

@@ -123,7 +123,7 @@ def report(res, n_errors: int = 5) -> list[str]:
     for jc, case in enumerate(res.cases):
         z = zeta[:, :, jc]
         lines.append(f"    {case:<17} " + (f"{np.nanmin(z):.4g}" if np.any(np.isfinite(z)) else "-"))
-    regions = []
+    regions, cycle_growth = [], _floquet_growth(res.path)
     for status in (Status.UNSTABLE, Status.DIVERGENT):
         for js, speed in enumerate(res.speed_rad_s):
             for jc, case in enumerate(res.cases):
@@ -131,10 +131,13 @@ def report(res, n_errors: int = 5) -> list[str]:
                 if mask.any():
                     regions.append(f"    {status.value:<9} {case} at {speed:g} rad/s: "
                                    f"{intervals(res.crank_angle_deg, mask)} ({int(mask.sum())} points, "
-                                   f"{_severity(res, status, mask, js, jc, speed)})")
+                                   f"{_severity(res, status, mask, js, jc, cycle_growth.get(jc, {}).get(js))})")
     lines.append("  unstable/divergent regions (frozen-time):" + ("" if regions else " none"))
     lines.extend(regions)
-    if np.any(res.speed_rad_s != 0):
+    cycle = _floquet_lines(res.path)
+    if cycle:
+        lines.extend(cycle)
+    elif np.any(res.speed_rad_s != 0):
         moving = ",".join(f"{w:g}" for w in res.speed_rad_s if w != 0)
         lines.append("  cycle       frozen-time verdicts hold the matrices at each crank angle; whether vibration grows "
                      f"over a revolution: fkev floquet {at.get('scene_source') or 'SCENE'} --speeds {moving}")
@@ -206,18 +209,49 @@ def crossing_lines(res, angle: float | None = None, orders: int | None = None) -
     return lines
 
 
-def _severity(res, status, mask, js, jc, speed) -> str:
+def _severity(res, status, mask, js, jc, floquet=None) -> str:
     """Unstable: smallest ζ and the worst frozen Re λ; divergent: the largest real eigenvalue.
-    No growth per crank revolution: a frozen eigenvalue holds for a fraction of a turn (the
-    growth over a revolution is ``fkev floquet``'s multiplier)."""
+    No growth per crank revolution stretched from a frozen eigenvalue (it holds for a fraction of
+    a turn): the Floquet max|μ| of that speed when the archive has it (``floquet``), else a pointer."""
     from fkev_slepc.status import Status
 
     if status == Status.DIVERGENT:
         return f"largest real eigenvalue {np.nanmax(res.max_real[:, js, jc][mask]):.4g} 1/s"
     zmin = np.nanmin(res.damping_ratio[:, js, jc][mask])
     worst = np.nanmax(res.eigenvalue[:, js, jc][mask].real)
-    return (f"min damping ratio {zmin:.3g}, max Re λ {worst:.4g} 1/s; frozen-time, not a growth per revolution: "
-            "fkev floquet")
+    cycle = (f"over a revolution (Floquet) max|μ| - 1 = {floquet - 1:.3g}" if floquet is not None
+             else "not a growth per revolution: fkev floquet")
+    return f"min damping ratio {zmin:.3g}, max Re λ {worst:.4g} 1/s; frozen-time, {cycle}"
+
+
+def _floquet_growth(path) -> dict:
+    """{case index: {speed index: Floquet max|μ|}} of an archive with the ``/floquet`` product, else {}."""
+    import h5py
+
+    from fkev_slepc.archive import products as P
+
+    with h5py.File(path, "r") as f:
+        if P.FLOQUET.status not in f:
+            return {}
+        mx = f[P.MAX_ABS_MULTIPLIER.path][()]
+    return {jc: {js: float(mx[js, jc]) for js in range(mx.shape[0]) if np.isfinite(mx[js, jc])}
+            for jc in range(mx.shape[1])}
+
+
+def _floquet_lines(path) -> list[str]:
+    """The cycle verdict of an archive written by ``fkev floquet`` (its ``/floquet`` product), else []."""
+    import h5py
+
+    from fkev_slepc.archive import products as P
+
+    with h5py.File(path, "r") as f:
+        if P.FLOQUET.status not in f:
+            return []
+    from fkev_slepc.cli.floquet import lines
+    from fkev_slepc.sweep.floquet_run import read_floquet
+
+    return ["  cycle       Floquet verdict of this archive (fkev floquet):"] + ["  " + ln for ln in
+                                                                              lines(read_floquet(path).as_dict())[1:]]
 
 
 def _tracking(res) -> list[str]:
