@@ -32,6 +32,7 @@ def add_parser(sub) -> None:
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted design study of the same grid")
     p.add_argument("--force", action="store_true", help="replace an existing archive (refused otherwise)")
+    p.add_argument("--np", type=int, metavar="N", help="start N MPI ranks (runs mpiexec itself, as fkev run --np)")
     p.set_defaults(func=run)
 
 
