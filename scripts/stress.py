@@ -8,7 +8,9 @@ Sub-commands: ``random`` (random Grashof crank-rockers, dense vs SLEPc in-proces
 (pair errors on meshes up to 9000 DOFs),
 ``fuzz`` (mutations of every scene in runs/ through the CLI), ``faults`` (kill -9 then resume,
 concurrent writers, truncated and corrupted archives), ``adversarial`` (absurd geometry and
-magnitudes, deeply divergent and overflowing speeds; scripts/stress_adversarial.py), ``all``. Seeded and reproducible; each
+magnitudes, deeply divergent and overflowing speeds; scripts/stress_adversarial.py), ``metadata``
+(one flipped byte in an object header of a finished archive, against fkev verify, info and
+export), ``all``. Seeded and reproducible; each
 prints its counts and whether the targets hold, and exits 1 if one does not.
 
 Every converged point is judged against its *conditioning floor*: the largest relative change
@@ -220,7 +222,7 @@ def main(argv=None) -> int:
 
     commands = {"random": cmd_random, "units": cmd_units, "toggle": cmd_toggle, "conditioning": cmd_conditioning,
                 "refine": cmd_refine, "fuzz": stress_io.cmd_fuzz, "faults": stress_io.cmd_faults,
-                "adversarial": stress_adversarial.cmd_adversarial}
+                "adversarial": stress_adversarial.cmd_adversarial, "metadata": stress_io.cmd_metadata}
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("command", choices=(*commands, "all"))
     ap.add_argument("--seed", type=int, default=2026)
@@ -245,7 +247,7 @@ def main(argv=None) -> int:
 
 
 DEFAULT_N = {"random": 150, "units": 30, "toggle": 0, "conditioning": 0, "refine": 4, "fuzz": 40, "faults": 3,
-             "adversarial": 0}
+             "adversarial": 0, "metadata": 3}
 BAD_KEYS = ("crashes (exceptions)", "status differs", f"dense != SLEPc beyond {FLOOR_FACTOR:g}x floor",
             "NOT invariant", "tracebacks", "damaged archives", "undetected", "without a warning", "not refused",
             "differs after resume", "first writer harmed", "NOT as many", "RuntimeWarnings", "wrong but ok",

@@ -182,3 +182,80 @@ def _judge_damaged(t: Tally, path: Path, what: str) -> None:
         t.add(f"{what} archive refused by fkev info (exit 2, one line)")
     else:
         t.add(f"{what} archive undetected (damaged archives)")
+
+
+_FINGERPRINT = r"""
+import hashlib, sys, h5py, numpy as np
+h = hashlib.sha256()
+def visit(name, obj):
+    h.update(name.encode())
+    for k in sorted(obj.attrs):
+        if k in ("DIMENSION_LIST", "REFERENCE_LIST"):
+            continue
+        h.update(k.encode() + repr(obj.attrs[k]).encode())
+    if isinstance(obj, h5py.Dataset):
+        v = obj[()]
+        h.update(str(obj.dtype).encode() + str(obj.shape).encode() + repr(v.tolist() if hasattr(v, "tolist") else v).encode())
+        h.update(repr([[s.name for s in obj.dims[i].values()] for i in range(obj.ndim)]).encode())
+with h5py.File(sys.argv[1], "r") as f:
+    visit("/", f)
+    f.visititems(visit)
+print(h.hexdigest())
+"""
+
+
+def _fingerprint(path: Path) -> str | None:
+    """Digest of everything h5py decodes from ``path`` (values, dtypes, shapes, attributes, the
+    scale attached to each axis), in a child process; None when decoding fails or crashes."""
+    r = subprocess.run([sys.executable, "-c", _FINGERPRINT, str(path)], capture_output=True, text=True)
+    return r.stdout.strip() if r.returncode == 0 else None
+
+
+def _headers(path) -> dict:
+    """(address, size) of the object header of every dataset and group of an archive."""
+    import h5py
+
+    found = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            info = h5py.h5o.get_info(obj.id)
+            found[name] = (info.addr, info.hdr.space.total)
+        f.visititems(visit)
+    return found
+
+
+def cmd_metadata(args) -> Tally:
+    """One flipped byte in the object header of a dataset or group of a finished archive (every
+    object, ``--n`` random bytes of each header, ``/errors/status`` first): ``fkev verify``,
+    ``fkev info`` and ``fkev export`` must refuse it with exit 2 and one line, or the flip must
+    be harmless (everything HDF5 decodes unchanged); never a crash or a traceback."""
+    rng, t = np.random.default_rng(args.seed), Tally("metadata byte flips (archives)")
+    scene = ROOT / "runs" / "turcic-midha-1984.toml"
+    with tempfile.TemporaryDirectory() as tmp:
+        ref = Path(tmp) / "ref.h5"
+        code, _, err = _wait(_fkev("run", scene, "--speeds", "0,100", "--cases", "structure,full", "--angles",
+                                   "0,20", "-o", ref))
+        assert code == 0, err
+        want, blob = _fingerprint(ref), ref.read_bytes()
+        headers = sorted(_headers(ref).items(), key=lambda kv: kv[0] != "errors/status")
+        for name, (addr, size) in headers:
+            for at in addr + rng.choice(size, size=min(args.n, size), replace=False):
+                data = bytearray(blob)
+                data[int(at)] ^= 0xFF
+                bad = Path(tmp) / "bad.h5"
+                bad.write_bytes(bytes(data))
+                runs = {cmd: _wait(_fkev(cmd, bad)) for cmd in ("verify", "info", "export")}
+                t.add("flips")
+                if any(c < 0 or c > 3 for c, _, _ in runs.values()):
+                    t.add("crashes (exceptions)")
+                    t.notes.append(f"{name} byte {int(at) - addr}: exits {[c for c, _, _ in runs.values()]}")
+                elif any("Traceback" in e for _, _, e in runs.values()):
+                    t.add("tracebacks")
+                elif all(c == 2 and e.strip().count("\n") == 0 for c, _, e in runs.values()):
+                    t.add("refused by verify, info and export (exit 2, one line)")
+                elif all(c == 0 for c, _, _ in runs.values()) and _fingerprint(bad) == want:
+                    t.add("harmless (every decoded value, dtype, shape, attribute and scale unchanged), accepted")
+                else:
+                    t.add("undetected or inconsistent (damaged archives)")
+                    t.notes.append(f"{name} byte {int(at) - addr}: exits {[c for c, _, _ in runs.values()]}")
+    return t

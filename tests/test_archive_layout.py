@@ -165,7 +165,8 @@ def test_assign_over_two_unit_axes():
     assert sorted(np.concatenate([p for p, _ in parts]).tolist()) == [0, 1, 2, 3, 4, 5, 7, 8, 9, 10, 11]
 
 
-def test_a_new_product_is_one_table_solved_unit_by_unit_and_resumed(tmp_path):
+def test_a_new_product_is_one_table_solved_unit_by_unit_and_resumed(tmp_path, monkeypatch):
+    monkeypatch.setattr(P, "PRODUCTS", P.PRODUCTS + (DEMO,))  # registered, as a real product would be
     grid = P.Grid(np.array([0.0, 10.0]), np.array([0.0, 100.0, 200.0]), ("structure", "full"), 2)
     part = store.partial_path(tmp_path / "d.h5")
     store.create(part, grid, {"scene_toml": "x"})
@@ -195,4 +196,7 @@ def test_a_new_product_is_one_table_solved_unit_by_unit_and_resumed(tmp_path):
     assert np.argwhere(again).tolist() == [[0, 0], [2, 1]]
     out = store.finalize(part, tmp_path / "d.h5", {})
     from fkev_slepc.archive.verify import verify
-    assert verify(out).ok
+
+    assert verify(out, isolate=False).ok  # in this process: the child would not see the registration
+    monkeypatch.setattr(P, "PRODUCTS", P.PRODUCTS[:-1])
+    assert any("/demo/value is not one of the format's" in p for p in verify(out, isolate=False).problems)

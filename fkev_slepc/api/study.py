@@ -53,15 +53,19 @@ def load(path, elements=None) -> Study:
     return Study(_remesh(scene, elements), Path(path))
 
 
-def open(archive) -> SweepResults:  # noqa: A001 - fkev_slepc.open(archive) reads like io.open
+def open(archive, verify: bool = True) -> SweepResults:  # noqa: A001 - fkev_slepc.open(archive) reads like io.open
     """Read a sweep archive (``fkev run`` / :meth:`Study.sweep` output) as :class:`SweepResults`.
+
+    ``verify`` (default): check it against its checksums first and warn
+    (``reader.DamagedArchiveWarning``) when it changed since its run finished; ``False`` reads it unchecked.
 
     Raises
     ------
     ArchiveError
-        The file is missing or not an fkev archive of a supported version.
+        The file is missing, not an fkev archive of a supported version, has damaged metadata,
+        or is being written.
     """
-    return reader.load(archive, cls=SweepResults)
+    return reader.load(archive, cls=SweepResults, verify=verify)
 
 
 def _remesh(scene: Scene, elements) -> Scene:

@@ -106,3 +106,42 @@ def release(path: str | Path) -> None:
     lock = _HELD.pop(Path(path).resolve(), None)
     if lock is not None:
         lock.release()
+
+
+def writer_of(path: str | Path) -> str | None:
+    """The live run writing the archive ``path`` (``<name>.h5`` or its ``<name>.h5.part``): the
+    text of its lock (``fkev pid N on HOST since T``), or None when no process holds the lock.
+
+    Read without taking the lock (a reader must never make a starting writer fail): Linux lists
+    every held ``flock`` in ``/proc/locks`` by inode; elsewhere a held lock is detected by a
+    non-blocking shared lock attempt, released at once."""
+    path = Path(path)
+    final = path.with_name(path.name[: -len(".part")]) if path.name.endswith(".part") else path
+    file = lock_path(final)
+    try:
+        fd = os.open(file, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        text = os.pread(fd, 200, 0).decode("utf-8", "replace").strip() or "another process"
+        held = _held_in_proc_locks(os.fstat(fd))
+        if held is None:  # no /proc/locks: probe
+            try:
+                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                fcntl.flock(fd, fcntl.LOCK_UN)
+                held = False
+            except BlockingIOError:
+                held = True
+        return f"{text} (lock {file})" if held else None
+    finally:
+        os.close(fd)
+
+
+def _held_in_proc_locks(st) -> bool | None:
+    """Whether ``/proc/locks`` lists a FLOCK on the file of ``st`` (None: no /proc/locks)."""
+    try:
+        lines = Path("/proc/locks").read_text().splitlines()
+    except OSError:
+        return None
+    dev = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+    return any(" FLOCK " in f" {ln} " and ln.split()[5 if "->" not in ln else 6] == dev for ln in lines)

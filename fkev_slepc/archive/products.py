@@ -236,10 +236,10 @@ ROOT_ATTRS = (
 )
 
 
-def datasets(products=PRODUCTS) -> tuple[Var, ...]:
-    """Every dataset of the given products (scales included), each once."""
+def datasets(products=None) -> tuple[Var, ...]:
+    """Every dataset of the given products (default :data:`PRODUCTS`; scales included), each once."""
     seen: dict[str, Var] = {}
-    for p in products:
+    for p in PRODUCTS if products is None else products:
         for v in p.variables:
             seen.setdefault(v.path, v)
     return tuple(seen.values())

@@ -38,6 +38,11 @@ class ArchiveError(ValueError):
     """An archive that cannot be read, or a selection it cannot satisfy (message says which)."""
 
 
+class DamagedArchiveWarning(UserWarning):
+    """The archive read does not match its checksums or its layout (``fkev verify`` would flag it):
+    its values may be wrong. Raised as an error instead with ``warnings.simplefilter("error", ...)``."""
+
+
 @dataclass(frozen=True)
 class Mesh:
     """Node and DOF map of the model (archive group ``/mesh``).
@@ -252,20 +257,36 @@ class SweepResults:
 
 
 # ------------------------------------------------------------------------------ loading
-def load(path: str | Path, cls: type[SweepResults] = SweepResults) -> SweepResults:
+def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool = True) -> SweepResults:
     """Read a sweep archive into :class:`SweepResults` (or the subclass ``cls``; mode shapes
     stay on disk).
+
+    ``verify`` (default): check it first (:func:`fkev_slepc.archive.verify.verify`, in a child
+    process): an archive whose values or attributes changed since its run finished is read
+    with a :class:`DamagedArchiveWarning`; one whose metadata HDF5 cannot decode, or that a
+    live run is still writing, is refused. ``verify=False`` reads without checking.
 
     Raises
     ------
     ArchiveError
-        The file is missing, is not HDF5, or is not an fkev archive of a supported version.
+        The file is missing, is not HDF5, is not an fkev archive of a supported version, has
+        damaged metadata, or is being written.
     """
     import h5py
 
     path = Path(path)
     if not path.is_file():
         raise ArchiveError(f"{path}: no such archive")
+    if verify:
+        check = verified(path)
+        if check.writer is not None:
+            raise ArchiveError(check.summary() + "; read it when the run finishes")
+        if check.crashed or any("cannot open" in p or "cannot read its structure" in p for p in check.problems):
+            raise ArchiveError(check.summary())
+        if not check.ok:
+            import warnings
+
+            warnings.warn(check.summary(), DamagedArchiveWarning, stacklevel=2)
     try:
         h5 = h5py.File(path, "r")
     except OSError as exc:
@@ -306,6 +327,25 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults) -> SweepResul
             attrs=attrs,
             status_flags=_flags(h5[P.STATUS_VAR.path].attrs),
         )
+
+
+_VERIFIED: dict = {}
+
+
+def verified(path: Path):
+    """:func:`~fkev_slepc.archive.verify.verify` of ``path``, remembered for this process while
+    the file is unchanged (same inode, size and modification time): reading one archive many
+    times checks it once."""
+    from fkev_slepc.archive.verify import verify
+
+    st = path.stat()
+    key = (str(path.resolve()), st.st_ino, st.st_size, st.st_mtime_ns)
+    if key not in _VERIFIED:
+        check = verify(path)
+        if check.writer is not None:  # a live run: it changes, remember nothing
+            return check
+        _VERIFIED[key] = check
+    return _VERIFIED[key]
 
 
 def _damping_ratio(h5) -> np.ndarray:

@@ -32,6 +32,8 @@ def add_parser(sub) -> None:
     p.add_argument("archive", type=Path, help="archive (.h5) written by `fkev run`")
     p.add_argument("--format", choices=FORMATS, default="csv", help="table format (default csv)")
     p.add_argument("-o", "--output", type=Path, help="output file (.csv); default stdout")
+    p.add_argument("--no-verify", action="store_true",
+                   help="export even if `fkev verify` finds the archive changed since its run (not advised)")
     p.set_defaults(func=run)
 
 
@@ -39,10 +41,16 @@ def run(args) -> int:
     from fkev_slepc.archive.paths import PathProblem, check_output
     from fkev_slepc.archive.reader import ArchiveError, load
 
+    from fkev_slepc.archive.verify import verify
+
     try:
         if args.output is not None:
             check_output(args.output, (".csv",), "-o")
-        res = load(args.archive)
+        if not args.no_verify:  # never export the numbers of a damaged archive
+            check = verify(args.archive)
+            if check.writer is not None or not check.ok:
+                raise ArchiveError(check.summary() + ("" if check.writer else "; export anyway with --no-verify"))
+        res = load(args.archive, verify=False)
     except (ArchiveError, PathProblem) as err:
         print(f"fkev export: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
