@@ -60,3 +60,13 @@ def test_bench_time_vs_error_writes_json_and_figure(tmp_path):
                      "--json", str(js), "--figure", str(fig))
     assert f"wrote {js} and {fig}" in out
     assert js.stat().st_size > 0 and fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bench_floquet_compares_the_monodromy_with_the_frozen_sweep():
+    out = run_script("bench_floquet.py", "--repeats", "1", "--angles", "36", "--large-elements", "0",
+                     "--tol", "1e-8")
+    assert "frozen sweep of 36 angles" in out
+    ratio = float(re.search(rf"ratio monodromy / frozen sweep: ({FLOAT})", out).group(1))
+    assert 0 < ratio < 1000
+    err = float(re.search(rf"multiplier error vs tol/1000 run: ({FLOAT})", out).group(1))
+    assert err < 1e-6

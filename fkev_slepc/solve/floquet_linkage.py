@@ -117,14 +117,18 @@ def _generator_samples(c: _Coefficients, omega: float, d: np.ndarray) -> np.ndar
     return A / abs(omega)
 
 
-def _dirichlet(x: np.ndarray, k: int) -> np.ndarray:
-    """Trigonometric interpolation weights for k (even) equispaced samples, at offsets x."""
-    half = 0.5 * x
-    s = np.sin(half)
-    small = np.abs(s) < 1e-12
+def _dirichlet(theta: np.ndarray, k: int) -> np.ndarray:
+    """Weights (len(θ), k) of the trigonometric interpolant on the k (even) nodes 2πj/k:
+    D(x) = sin(kx/2) cot(x/2)/k at x = θ - 2πj/k, by angle addition (sin(kθ_j/2) = 0,
+    cos(kθ_j/2) = (-1)^j), so only O(len(θ) + k) transcendental evaluations."""
+    half, node = 0.5 * theta[:, None], np.pi * np.arange(k)[None, :] / k
+    sx = np.sin(half) * np.cos(node) - np.cos(half) * np.sin(node)  # sin(x/2)
+    cx = np.cos(half) * np.cos(node) + np.sin(half) * np.sin(node)  # cos(x/2)
+    sk = np.sin(k * half) * np.where(np.arange(k) % 2, -1.0, 1.0)[None, :]  # sin(kx/2)
+    small = np.abs(sx) < 1e-12
     with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.sin(k * half) * np.cos(half) / (k * np.where(small, 1.0, s))
-    return np.where(small, 1.0, w)
+        w = sk * cx / (k * np.where(small, 1.0, sx))
+    return np.where(small, np.sign(cx) ** k, w)
 
 
 class TrigInterpolant:
@@ -137,8 +141,7 @@ class TrigInterpolant:
 
     def __call__(self, theta):
         theta = np.asarray(theta, dtype=float)
-        nodes = TWO_PI * np.arange(self.k) / self.k
-        W = _dirichlet(theta[:, None] - self.start - nodes[None, :], self.k)
+        W = _dirichlet(theta - self.start, self.k)
         n = self.S.shape[1]
         return (W @ self.S.reshape(self.k, -1)).reshape(theta.size, n, n)
 
