@@ -200,3 +200,40 @@ def test_a_new_product_is_one_table_solved_unit_by_unit_and_resumed(tmp_path, mo
     assert verify(out, isolate=False).ok  # in this process: the child would not see the registration
     monkeypatch.setattr(P, "PRODUCTS", P.PRODUCTS[:-1])
     assert any("/demo/value is not one of the format's" in p for p in verify(out, isolate=False).problems)
+
+
+# ------------------------------------------------------------- facts the figures read, archived
+def test_figures_read_the_archived_node_axes_units_and_damping(tmp_path):
+    """The slider's guide and DOF direction come from /mesh/node_axis (Mechanism.node_axis), not
+    from the scene text; rpm display from speed_unit; the damping label from damping_alpha/beta."""
+    from dataclasses import replace
+
+    from matplotlib.patches import Rectangle
+
+    from fkev_slepc.archive.reader import load
+    from fkev_slepc.model.mechanism import build_mechanism
+    from fkev_slepc.plots import maps, shapes
+    from fkev_slepc.scene import load_scene
+
+    scene = ROOT / "runs" / "slider-crank.toml"
+    out = tmp_path / "sc.h5"
+    r = fkev("run", scene, "--angles", "0,30", "--speeds", "0,100", "--cases", "structure,full", "--modes", "2",
+             "--mode-shapes", "--solver", "dense", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    res = load(out)
+    mech = build_mechanism(load_scene(scene))
+    assert np.array_equal(res.mesh.node_axis, mech.node_axis)
+    slider = np.flatnonzero((res.mesh.node_dofs[:, 0] >= 0) & (res.mesh.node_dofs[:, 1] < 0))
+    assert slider.size == 1 and np.linalg.norm(res.mesh.node_axis[slider[0]]) == pytest.approx(1.0)
+    blind = replace(res, scene_toml="")  # nothing to guess from: the archive alone draws the guide
+    fig = shapes.mode_shape(blind, angle=30, speed=100)
+    blocks = [p for p in fig.axes[0].patches if isinstance(p, Rectangle) and p.get_label() == "_slider"]
+    axis = res.mesh.node_axis[slider[0]]
+    assert len(blocks) == 1 and blocks[0].angle == pytest.approx(np.degrees(np.arctan2(axis[1], axis[0])))
+    assert res.speeds_in_rpm == (res.attrs["speed_unit"] == "rpm")  # the scene gives speeds_rpm
+    for unit in ("rpm", "rad/s"):  # the attribute decides, not the scene text or the command line
+        assert replace(res, attrs=dict(res.attrs, speed_unit=unit)).speeds_in_rpm == (unit == "rpm")
+    assert maps._damping_label(res) == ""
+    damped = replace(res, scene_toml="", attrs=dict(res.attrs, damping_alpha=40.0, damping_beta=1e-6))
+    assert maps._damping_label(damped) == ", Rayleigh damping α = 40 1/s, β = 1e-06 s"
+    assert res.title == str(res.attrs["title"])

@@ -154,16 +154,17 @@ class PointResult:
         """Mode shapes on the undeformed linkage (a matplotlib Figure; needs ``shapes=True``)."""
         if self.raw.shapes is None:
             raise ValueError("no mode shapes to plot: solve the point with shapes=True")
-        from fkev_slepc.plots.shapes import guides, shapes_figure
+        from fkev_slepc.plots.shapes import archived_guides, shapes_figure
 
         mech = self._model.mechanism
-        mesh = reader.Mesh(mech.node_link, mech.node_s, mech.node_dofs, mech.elem_nodes, tuple(mech.link_names))
+        mesh = reader.Mesh(mech.node_link, mech.node_s, mech.node_dofs, mech.elem_nodes, tuple(mech.link_names),
+                           np.asarray(mech.node_axis, float))
+        xy = self._model.node_positions(self._theta)
         picked = list(range(len(self.frequency_hz))) if modes is None else [int(m) - 1 for m in modes]
         heading = (f"{self.title}\nmode shapes at θ = {self.angle_deg:g}°, Ω = {self.speed_rad_s:g} rad/s, "
                    f"case {self.case}")
-        return shapes_figure(mesh, self._model.node_positions(self._theta),
-                             [(self.case, self.raw.shapes, self.frequency_hz)], picked, heading,
-                             guide_lines=guides(self._model.scene.source_text))
+        return shapes_figure(mesh, xy, [(self.case, self.raw.shapes, self.frequency_hz)], picked, heading,
+                             guide_lines=archived_guides(mesh, xy, mesh.node_axis), axes_dof=mesh.node_axis)
 
     def as_dict(self) -> dict:
         """JSON-ready summary (None for missing values), as ``fkev point --json`` prints it."""

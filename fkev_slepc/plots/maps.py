@@ -91,7 +91,11 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
 
 
 def _damping_label(res: SweepResults) -> str:
-    """``, Rayleigh damping α = 40 1/s, β = 1e-06 s`` when the archived scene declares any."""
+    """``, Rayleigh damping α = 40 1/s, β = 1e-06 s`` when the run had any (the archived
+    ``damping_alpha``/``damping_beta``; archives written before them: the archived scene text)."""
+    if "damping_alpha" in res.attrs:
+        a, b = float(res.attrs["damping_alpha"]), float(res.attrs.get("damping_beta", 0.0))
+        return f", Rayleigh damping α = {a:g} 1/s, β = {b:g} s" if a > 0 or b > 0 else ""
     if not res.scene_toml:
         return ""
     try:

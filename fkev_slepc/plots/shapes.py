@@ -7,7 +7,9 @@ for the transverse displacement v (which uses the nodal rotations Φ). Drawing s
 segments between displaced nodes would hide the bending that distinguishes the modes.
 
 Prismatic joints (docs/linkages.md) are drawn as their guide line with the slider block on it;
-the slider node's one translational DOF is along its guide (read from the archived scene).
+the slider node's one translational DOF is along its guide: the archived ``/mesh/node_axis``
+(``Mechanism.node_axis``). Archives written before it existed fall back to the guides of the
+archived scene text, the nearest guide to each slider node.
 """
 
 from __future__ import annotations
@@ -44,6 +46,13 @@ def guides(scene_toml: str) -> list[tuple[np.ndarray, np.ndarray]]:
         return []
     return [(np.asarray(j.ground, float), np.array([np.cos(j.guide_angle), np.sin(j.guide_angle)]))
             for j in scene.joints if j.prismatic]
+
+
+def archived_guides(mesh: Mesh, node_xy: np.ndarray, axes: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(point, unit direction) of the guide of every slider node (U free, V fixed): through the
+    node, along its archived axis (``/mesh/node_axis``)."""
+    slider = np.flatnonzero((mesh.node_dofs[:, 0] >= 0) & (mesh.node_dofs[:, 1] < 0))
+    return [(np.asarray(node_xy[n], float), np.asarray(axes[n], float)) for n in slider]
 
 
 def node_axes(mesh: Mesh, node_xy: np.ndarray, lines) -> np.ndarray:
@@ -193,20 +202,27 @@ def mode_shape(
     lines = [(res.cases[c], res.mode_shape(a, s, c), f[a, s, c]) for c in c_idx]
     where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s], res.speeds_in_rpm)}"
     heading = f"{scene_heading(res)}\nmode shapes at {where}"
-    return shapes_figure(res.mesh, np.asarray(res.node_xy[a], dtype=float), lines, mode_idx, heading,
-                         [int(m) for m in res.modes], guides(res.scene_toml))
+    xy = np.asarray(res.node_xy[a], dtype=float)
+    if res.mesh.node_axis is not None:  # the archived axes: exact
+        axes, lines_g = res.mesh.node_axis, archived_guides(res.mesh, xy, res.mesh.node_axis)
+    else:  # archives written before /mesh/node_axis
+        lines_g = guides(res.scene_toml)
+        axes = node_axes(res.mesh, xy, lines_g)
+    return shapes_figure(res.mesh, xy, lines, mode_idx, heading, [int(m) for m in res.modes], lines_g, axes)
 
 
 def shapes_figure(mesh: Mesh, xy: np.ndarray, lines, mode_idx: Sequence[int], heading: str,
-                  mode_numbers: Sequence[int] | None = None, guide_lines=()) -> Figure:
+                  mode_numbers: Sequence[int] | None = None, guide_lines=(), axes_dof=None) -> Figure:
     """Draw mode shapes: one axes per mode (column ``mode_idx`` of the shapes), one deformed
     line per entry of ``lines``, a list of ``(case name, shapes (n_free, n_mode) complex,
     frequencies (n_mode,) Hz)``, on the undeformed linkage ``xy`` (n_node, 2), with the
-    prismatic guides ``guide_lines`` (:func:`guides`)."""
+    prismatic guides ``guide_lines`` (:func:`archived_guides`); ``axes_dof`` (n_node, 2): the
+    direction of each node's first translational DOF (default: :func:`node_axes` of the guides)."""
     xi = np.linspace(0.0, 1.0, N_SUB)
     extent = float(np.max(np.ptp(xy, axis=0)))
     base = linkage_polyline(mesh, xy, None, xi)
-    axes_dof = node_axes(mesh, xy, guide_lines)
+    if axes_dof is None:
+        axes_dof = node_axes(mesh, xy, guide_lines)
     fig, axes = mode_grid(len(mode_idx), width=10.0, height=3.6)
     ground = np.all(mesh.node_dofs[:, :2] < 0, axis=1)
     for ax, m in zip(axes, mode_idx):
