@@ -115,3 +115,37 @@ def test_a_forced_problem_type_is_honoured_or_refused():
         make_engine("dense", 10, [("eps_gen_hermitian", "1")])
     with pytest.raises(SceneError, match=r"pep_problem_type: .*force only -fkev_pep_general"):
         make_engine("slepc", 100, [("pep_problem_type", "general")])
+
+
+def test_blas_is_pinned_to_one_thread_on_the_command_line_and_overridable():
+    import os
+    import subprocess
+    import sys
+
+    from fkev_slepc._threads import BLAS_THREAD_VARIABLES, blas_environment, is_cli
+
+    assert is_cli("/usr/bin/fkev") and is_cli("-m") and is_cli("/x/fkev_slepc/__main__.py") and not is_cli("pytest")
+    assert blas_environment({}) == {v: "1" for v in BLAS_THREAD_VARIABLES}
+    assert "OPENBLAS_NUM_THREADS" not in blas_environment({"OPENBLAS_NUM_THREADS": "4"})  # the user's is kept
+    assert set(blas_environment({"OPENBLAS_NUM_THREADS": "4", "FKEV_BLAS_THREADS": "2"}).values()) == {"2"}
+    assert blas_environment({"FKEV_BLAS_THREADS": "default"}) == {}
+    code = "import sys; sys.argv = ['fkev']; import fkev_slepc, os; print(os.environ.get('OPENBLAS_NUM_THREADS'))"
+    env = {k: v for k, v in os.environ.items() if k not in (*BLAS_THREAD_VARIABLES, "FKEV_BLAS_THREADS")}
+    for extra, want in (({}, "1"), ({"FKEV_BLAS_THREADS": "3"}, "3"), ({"OPENBLAS_NUM_THREADS": "2"}, "2")):
+        out = subprocess.run([sys.executable, "-c", code], env={**env, **extra}, capture_output=True, text=True)
+        assert out.stdout.strip() == want, out.stderr
+
+
+def test_completeness_of_the_lowest_frequencies():
+    """A mode far from 0 (|Re λ| >> Im λ) can hide below the reported frequencies: suspected when
+    converged real parts reach the radius searched; decided against the whole spectrum."""
+    from fkev_slepc.solve.completeness import far_modes_possible, missed_modes, uncertified
+
+    calm = np.array([-1e-3 + 10j, -1e-3 - 10j, 20j, -20j, 30j, -30j])
+    assert not far_modes_possible(calm, 2, 1e-9)
+    wild = np.array([300 + 40j, 300 - 40j, 100 + 50j, 100 - 50j, 320.0, -320.0])
+    assert far_modes_possible(wild, 2, 1e-9)
+    whole = np.concatenate([wild, [900 + 5j, 900 - 5j]])  # f = 5/2π, far outside |λ| <= 320
+    assert "has f1 = 0.795775 Hz, SLEPc 6.3662 Hz" in missed_modes(wild, whole, 2, 1e-9)
+    assert missed_modes(wild, wild, 2, 1e-9) == ""
+    assert "not certified" in uncertified(wild, 2, 1e-9, 5000, 1000)
