@@ -100,20 +100,16 @@ class Study:
         return f"Study({self.scene.title!r}: {n} link{'s' if n != 1 else ''}, {self._model('full').n_free} free DOFs)"
 
     def replace(self, key, value=None) -> Study:
-        """A new study with the value at a scene key path changed (``None`` removes it), or several
-        (``replace({"links[1].length_m": 0.35, "links[rod].area_m2": 2e-4})``), in SI, validated
-        exactly as a file (SceneError naming key and value); this study is unchanged. Key paths and
-        examples: :func:`fkev_slepc.scene.edit.replace_values`."""
+        """A new study with one scene key path set (``None`` removes it), or several (a dict), in SI,
+        validated like a file (SceneError naming key and value): :func:`fkev_slepc.scene.edit.replace_values`."""
         from fkev_slepc.scene.edit import replace_values
 
-        changes = dict(key) if isinstance(key, dict) else {key: value}
-        return Study(replace_values(self.scene, changes), self.path)
+        return Study(replace_values(self.scene, dict(key) if isinstance(key, dict) else {key: value}), self.path)
 
     def design(self, params: dict, speeds=None, cases=None, angles=None, output=None, **options):
-        """Design study: this study's sweep at every point of a grid of scene-key values (``params``:
-        key -> ``"0.25:0.40:0.05"``, ``"a,b,c"`` or numbers) into one archive, the code path of
-        ``fkev design``; returns the xarray Dataset with the keys as dimensions. Options and
-        errors: :func:`fkev_slepc.design.study.study_design`."""
+        """Design study (``fkev design``): this study's sweep at every point of a grid of scene-key values
+        (``params``: key -> ``"0.25:0.40:0.05"``, ``"a,b,c"`` or numbers) into one archive; returns the
+        xarray Dataset with the keys as dimensions. See :func:`fkev_slepc.design.study.study_design`."""
         from fkev_slepc.design.study import study_design
 
         return study_design(self, params, speeds, cases, angles, output, **options)
