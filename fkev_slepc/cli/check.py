@@ -5,6 +5,9 @@ checked for assembly at every requested crank angle (kinematics: the intervals o
 cannot be assembled, with the Grashof class) and meshed (to report the number of free DOFs,
 the Grashof class and the smallest transmission angle), and its ``[solver.petsc]`` options are
 given to the SLEPc objects (an option no object reads, e.g. a misspelt name, is an error).
+Its operators are assembled at the first crank angle and the largest speed: finite values whose
+operators overflow double precision (a speed of 1e155 rad/s, an area of 1e300 m²) are refused
+(:func:`fkev_slepc.solve.finite.overflow_problems`).
 Every problem of every file is printed; the exit code is 2 if any file
 has one.
 """
