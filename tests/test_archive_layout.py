@@ -237,3 +237,14 @@ def test_figures_read_the_archived_node_axes_units_and_damping(tmp_path):
     damped = replace(res, scene_toml="", attrs=dict(res.attrs, damping_alpha=40.0, damping_beta=1e-6))
     assert maps._damping_label(damped) == ", Rayleigh damping α = 40 1/s, β = 1e-06 s"
     assert res.title == str(res.attrs["title"])
+
+
+def test_the_speed_unit_archived_is_how_the_speeds_were_given():
+    from fkev_slepc.scene import load_scene
+    from fkev_slepc.sweep.grid import configure
+    from fkev_slepc.sweep.session import display_facts
+
+    bw, sc = load_scene(BW), load_scene(ROOT / "runs" / "slider-crank.toml")  # rad/s, rpm scenes
+    assert display_facts(bw)["speed_unit"] == "rad/s" and display_facts(sc)["speed_unit"] == "rpm"
+    assert display_facts(configure(bw, speeds_rpm="0,3000"))["speed_unit"] == "rpm"  # --speeds-rpm
+    assert display_facts(configure(sc, speeds="0,100"))["speed_unit"] == "rad/s"  # --speeds overrides

@@ -120,6 +120,7 @@ class Driver:
     link: str
     speeds: tuple[float, ...]  # rad/s
     acceleration: float = 0.0  # rad/s^2
+    speed_unit: str = "rad/s"  # how the speeds were given and are shown ("rpm": speeds_rpm); archived
 
 
 @dataclass(frozen=True)

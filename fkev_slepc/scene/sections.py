@@ -256,7 +256,7 @@ def read_driver(r: Reader, doc, link_names: list[str] | None, joints: list[Joint
     accel = r.number(table, "acceleration_rad_s2", "driver", default=0.0)
     if None in (link, speeds, accel):
         return None
-    return Driver(link=link, speeds=speeds, acceleration=accel)
+    return Driver(link=link, speeds=speeds, acceleration=accel, speed_unit="rpm" if "speeds_rpm" in table else "rad/s")
 
 
 def check_topology(r: Reader, links: list[Link], joints: list[Joint]) -> None:

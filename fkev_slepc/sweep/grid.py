@@ -200,7 +200,7 @@ def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=
             problems.append(Problem(names[key], str(err)))
             continue
         if field == "speeds":
-            drv = replace(drv, speeds=parsed)
+            drv = replace(drv, speeds=parsed, speed_unit="rpm" if key == "speeds_rpm" else "rad/s")
         else:
             an = replace(an, **{field: parsed})
     if modes is not None:

@@ -72,17 +72,13 @@ def mesh_arrays(mech) -> dict:
     return out
 
 
-def display_facts(scene: Scene, command_line: str = "") -> dict:
+def display_facts(scene: Scene) -> dict:
     """Root attributes figures and reports show instead of re-deriving them: the unit the speeds
-    were given in (``speed_unit``: ``rpm`` with the scene's ``speeds_rpm`` or ``--speeds-rpm``,
-    else ``rad/s``) and the Rayleigh damping coefficients (``damping_alpha`` 1/s, ``damping_beta`` s)."""
-    from fkev_slepc.scene.units import speeds_given_in_rpm
-
-    unit = getattr(scene.driver, "speed_unit", None)
-    if unit is None:
-        unit = "rpm" if speeds_given_in_rpm(scene.source_text, command_line) else "rad/s"
+    were given in (``speed_unit``: ``Driver.speed_unit``, ``rpm`` with the scene's ``speeds_rpm`` or
+    an rpm override such as ``--speeds-rpm``) and the Rayleigh damping coefficients
+    (``damping_alpha`` 1/s, ``damping_beta`` s)."""
     d = scene.damping
-    return {"speed_unit": unit, "damping_alpha": float(d.mass_proportional),
+    return {"speed_unit": scene.driver.speed_unit, "damping_alpha": float(d.mass_proportional),
             "damping_beta": float(d.stiffness_proportional)}
 
 
@@ -266,7 +262,7 @@ class SweepSession:
         attrs = dict(self._expect(), scene_source=str(scene.source), command_line=req.command_line,
                      n_ranks=self.comm.size, solver_settings=self._settings(),
                      imag_tol=scene.analysis.imag_tol, damping_tol=scene.analysis.damping_tol,
-                     title=scene.title, **display_facts(scene, req.command_line), **software_versions())
+                     title=scene.title, **display_facts(scene), **software_versions())
         if req.accuracy is not None:
             attrs["accuracy"] = req.accuracy
         from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, solve_kinematics
