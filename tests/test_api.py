@@ -6,7 +6,10 @@ from __future__ import annotations
 import doctest
 import importlib
 import json
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import h5py
@@ -15,6 +18,7 @@ import pytest
 
 import fkev_slepc as fk
 from fkev_slepc.cli import main
+from fkev_slepc.archive.reader import ArchiveError
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import STATUS_CODES, Status
 
@@ -270,7 +274,7 @@ def test_slider_node_moves_along_its_inclined_guide():
     text = (RUNS / "slider-crank.toml").read_text().replace("guide_angle_deg = 0.0", "guide_angle_deg = 30.0")
     study = fk.Study.from_text(text)
     r = study.point(40, 0, "structure", shapes=True, solver="dense")
-    dofs = r.mode_shape(1).displacement, study._model("structure").mechanism.node_dofs
+    dofs = r.mode_shape(1).displacement, r.mesh.node_dofs
     slider = np.flatnonzero((dofs[1][:, 0] >= 0) & (dofs[1][:, 1] < 0))
     assert slider.size == 1
     t = np.array([np.cos(np.radians(30)), np.sin(np.radians(30))])
@@ -280,3 +284,62 @@ def test_slider_node_moves_along_its_inclined_guide():
         assert abs(t[0] * d[1] - t[1] * d[0]) <= 1e-12 * max(abs(d).max(), 1e-300)
         moved = max(moved, abs(d).max())
     assert moved > 1e-3  # some mode moves the slider
+
+
+def test_point_result_is_plain_data_that_pickles():
+    """Issue 17 item 4: a PointResult holds arrays, numbers and the frozen scene, no live Model or
+    solver: it pickles, and the copy answers as the original (mode shapes on the exact node axes)."""
+    import pickle
+
+    r = fk.load(RUNS / "slider-crank.toml").point(40, 100, "full", shapes=True, solver="dense")
+    assert not any(name.startswith("_") for name in vars(r))
+    back = pickle.loads(pickle.dumps(r))
+    np.testing.assert_array_equal(back.frequency_hz, r.frequency_hz)
+    np.testing.assert_array_equal(back.mode_shape(2).displacement, r.mode_shape(2).displacement)
+    assert back.as_dict() == r.as_dict() and repr(back) == repr(r)
+    np.testing.assert_array_equal(back.mesh.node_axis, r.mesh.node_axis)
+
+
+def test_study_reuses_models_by_terms_and_one_engine_per_model():
+    """Issue 17 item 4: models are kept by the motion terms they assemble (a no_coriolis point
+    reuses the full model; the same frequencies as a model of its own, to 1e-12), and one engine
+    serves every call on a model."""
+    from fkev_slepc.model.operators import Model
+
+    study = fk.load(BW)
+    full = study.point(10, 500, "full")
+    models = dict(study.pool._models)
+    part = study.point(10, 500, "no_coriolis")
+    assert study.pool._models == models and len(study.pool._engines) == 1  # nothing new built
+    alone = fk.Study(study.scene).pool  # a fresh study: a model built for no_coriolis alone
+    assert alone.model("no_coriolis").terms != study.pool.model("no_coriolis").terms
+    own = fk.Study(study.scene).point(10, 500, "no_coriolis")
+    np.testing.assert_allclose(part.frequency_hz, own.frequency_hz, rtol=1e-12)
+    assert full.frequency_hz[0] != part.frequency_hz[0]
+    assert isinstance(study.pool.model("structure"), Model)
+    study.close()
+
+
+def test_sweep_results_to_csv_is_the_export_table(tmp_path):
+    res = fk.load(BW).sweep([0, 90], [0], ["structure"], tmp_path / "a.h5", modes=2)
+    text = res.to_csv()
+    r = subprocess.run([sys.executable, "-m", "fkev_slepc", "export", str(tmp_path / "a.h5")], capture_output=True,
+                       text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}, check=True)
+    assert text == r.stdout and text.count("\n") == 1 + 2 * 2
+    res.to_csv(tmp_path / "a.csv")
+    assert (tmp_path / "a.csv").read_text() == text
+
+
+def test_api_errors_name_api_arguments_not_flags(tmp_path):
+    """Issue 20: the library spoke CLI (`--angle`, `--elements`); the flags are the CLI's alone."""
+    res = fk.load(BW).sweep([0, 90], [0, 100], ["structure"], tmp_path / "a.h5", modes=2)
+    with pytest.raises(ArchiveError, match="^angle: 20 deg is not on") as e1:
+        res.angle_index(20.0)
+    with pytest.raises(ArchiveError, match="^angles: this kind takes one value") as e2:
+        res.plot("campbell", angles=[0, 90])
+    with pytest.raises(SceneError, match="elements: needs 1 or 3 values") as e3:
+        fk.load(BW, elements=(1, 2))
+    for e in (e1, e2, e3):
+        assert "--" not in str(e.value)
+    with pytest.warns(UserWarning, match="from 2 crank speed"):
+        assert res.plot("campbell", angles=90, orders=1) is not None  # one angle: drawn

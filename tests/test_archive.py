@@ -194,9 +194,9 @@ def test_resume_refuses_changed_scene_and_grid(tmp_path):
     with pytest.raises(A.ArchiveMismatch, match="elements: archive has 1,1, this run 2,1"):
         A.open_for_resume(out, GRID, dict(expect, elements=np.array([2, 1])))
     other = A.Grid(GRID.angles_deg[:4], GRID.speeds, GRID.cases, 3)
-    with pytest.raises(A.ArchiveMismatch, match="--angles: archive has 0,90,180,270,360, this run 0,90,180,270"):
+    with pytest.raises(A.ArchiveMismatch, match="angles_deg: archive has 0,90,180,270,360, this run 0,90,180,270"):
         A.open_for_resume(out, other, expect)
-    with pytest.raises(A.ArchiveMismatch, match="--cases: archive has structure,full, this run full"):
+    with pytest.raises(A.ArchiveMismatch, match="cases: archive has structure,full, this run full"):
         A.open_for_resume(out, A.Grid(GRID.angles_deg, GRID.speeds, ("full",), 3), expect)
     with pytest.raises(FileNotFoundError, match="nothing to resume"):
         A.open_for_resume(tmp_path / "b.h5", GRID, expect)

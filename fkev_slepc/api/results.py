@@ -39,27 +39,33 @@ class ModeShape:
 class PointResult:
     """The outcome of :meth:`~fkev_slepc.api.study.Study.point` at one (crank angle, speed, case).
 
-    Arrays have one entry per mode (NaN where fewer modes were found): ``eigenvalues`` λ
-    (1/s, the Im λ > 0 member of each pair), ``frequency_hz`` = Im λ / 2π, ``pair_error`` the
-    relative residual of each eigenpair (docs/theory.md §10). ``max_real`` is the largest
-    Re λ over every computed eigenvalue (stability indicator), ``divergent`` the positive real
-    eigenvalues (divergence, never frequencies).
+    Plain data (it pickles): arrays, numbers, strings and the frozen scene tree solved, no live
+    model or solver. Arrays have one entry per mode (NaN where fewer modes were found):
+    ``eigenvalues`` λ (1/s, the Im λ > 0 member of each pair), ``frequency_hz`` = Im λ / 2π,
+    ``pair_error`` the relative residual of each eigenpair (docs/theory.md §10). ``max_real``
+    is the largest Re λ over every computed eigenvalue (stability indicator), ``divergent`` the
+    positive real eigenvalues (divergence, never frequencies).
     """
 
     angle_deg: float
     speed_rad_s: float
     case: str
-    raw: _modes.PointResult
+    raw: _modes.PointModes  # the reported modes as the solve stage returns them (arrays)
     title: str
     n_free: int
     kind: str  # the QEP's structure (see model/operators.classify)
     transmission_angle_deg: float  # smallest transmission angle of the dyads (90 ideal, 0 toggle; NaN: none)
-    _model: object = None  # the Model solved (mesh, node positions)
-    _theta: float = 0.0
+    mesh: reader.Mesh  # nodes and DOFs of the model solved, with each node's exact U direction (node_axis)
+    node_xy: np.ndarray  # (n_node, 2) undeformed node positions at this crank angle, m
+    scene: object  # the Scene solved (frozen data; re-meshed when rel_error planned the mesh)
     cross_check: float | None = None  # largest relative frequency difference vs the other engine
     accuracy: dict | None = None  # with rel_error: the planned element and mesh, and its estimate
     max_pair_error: float = float("nan")  # the engine's acceptance threshold on each reported pair's error
     damping_tol: float = float("nan")  # a mode with damping ratio < -damping_tol is unstable (analysis.damping_tol)
+
+    @property
+    def theta_rad(self) -> float:
+        return float(np.radians(self.angle_deg))
 
     eigenvalues = property(lambda self: self.raw.eigenvalue)
     frequency_hz = property(lambda self: self.raw.frequency_hz)
@@ -118,9 +124,12 @@ class PointResult:
         """
         from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
 
+        from fkev_slepc.model.operators import Model
+
         engine = next((m for m in ("dense", "slepc") if self.solver.startswith(m)), "auto")
-        solve = point_solver(self._theta, self.speed_rad_s, self.case, len(self.eigenvalues), engine)
-        return point_sensitivity(self._model, self._theta, self.speed_rad_s, self.case, self.eigenvalues, key, solve)
+        solve = point_solver(self.theta_rad, self.speed_rad_s, self.case, len(self.eigenvalues), engine)
+        model = Model(self.scene, cases=(self.case,))
+        return point_sensitivity(model, self.theta_rad, self.speed_rad_s, self.case, self.eigenvalues, key, solve)
 
     def mode_shape(self, k: int) -> ModeShape:
         """Mode ``k`` (1-based) at every node; needs ``shapes=True`` in :meth:`~fkev_slepc.api.study.Study.point`.
@@ -143,12 +152,11 @@ class PointResult:
             raise ValueError(f"mode: must be 1..{n} (got {k})")
         from fkev_slepc.plots.shapes import align_phase, node_displacement
 
-        mech, xy = self._model.mechanism, self._model.node_positions(self._theta)
         q = align_phase(self.raw.shapes[:, k - 1], None)
-        # a slider node's translational DOF runs along its guide (mech.node_axis) -> x, y
-        disp = node_displacement(mech, q, mech.node_axis)
-        return ModeShape(k, float(self.frequency_hz[k - 1]), complex(self.eigenvalues[k - 1]), xy, disp,
-                         np.asarray(mech.node_link), tuple(mech.link_names))
+        # a slider node's translational DOF runs along its guide (mesh.node_axis) -> x, y
+        disp = node_displacement(self.mesh, q, self.mesh.node_axis)
+        return ModeShape(k, float(self.frequency_hz[k - 1]), complex(self.eigenvalues[k - 1]), self.node_xy, disp,
+                         self.mesh.node_link, self.mesh.link_names)
 
     def plot(self, modes=None):
         """Mode shapes on the undeformed linkage (a matplotlib Figure; needs ``shapes=True``)."""
@@ -156,10 +164,7 @@ class PointResult:
             raise ValueError("no mode shapes to plot: solve the point with shapes=True")
         from fkev_slepc.plots.shapes import archived_guides, shapes_figure
 
-        mech = self._model.mechanism
-        mesh = reader.Mesh(mech.node_link, mech.node_s, mech.node_dofs, mech.elem_nodes, tuple(mech.link_names),
-                           np.asarray(mech.node_axis, float))
-        xy = self._model.node_positions(self._theta)
+        mesh, xy = self.mesh, self.node_xy  # the exact node axes, as mode_shape() uses them
         picked = list(range(len(self.frequency_hz))) if modes is None else [int(m) - 1 for m in modes]
         heading = (f"{self.title}\nmode shapes at θ = {self.angle_deg:g}°, Ω = {self.speed_rad_s:g} rad/s, "
                    f"case {self.case}")
@@ -186,8 +191,8 @@ class PointResult:
                "pairs_accepted": self.converged, "max_pair_error": num(self.max_pair_error),
                "unstable_modes": self.unstable_modes,
                "transmission_angle_deg": num(self.transmission_angle_deg),
-               "element": self._model.scene.analysis.element,
-               "elements": [lk.elements for lk in self._model.scene.links]}
+               "element": self.scene.analysis.element,
+               "elements": [lk.elements for lk in self.scene.links]}
         if self.accuracy is not None:
             out["rel_error_estimate"] = self.accuracy["predicted_rel_error"]
             out["accuracy"] = self.accuracy

@@ -19,6 +19,7 @@ array([ 362.71,  652.08, 1078.94, 2898.89])
 
 from __future__ import annotations
 
+import builtins
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,8 +29,6 @@ import numpy as np
 from fkev_slepc.api.results import PointResult
 from fkev_slepc.archive import reader
 from fkev_slepc.scene import Problem, Scene, SceneError, load_scene, parse_scene, with_elements
-from fkev_slepc.scene.cases import case_name
-from fkev_slepc.solve import modes as _modes
 
 __all__ = ["load", "open", "Study", "SweepResults"]
 log = logging.getLogger(__name__)
@@ -81,8 +80,25 @@ class Study:
     """
 
     def __init__(self, scene: Scene, path: Path | None = None):
+        from fkev_slepc.api.pool import ModelPool
+
         self.scene, self.path = scene, path
-        self._models: dict[str, object] = {}
+        self.pool = ModelPool(scene)  # models by motion terms, engines per (method, model): reused by every call
+
+    def close(self) -> None:
+        """Free the engines the study keeps between calls (also on leaving ``with study:``)."""
+        self.pool.close()
+
+    def __enter__(self) -> Study:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def n_free(self) -> int:
+        """Free DOFs of the scene's model."""
+        return self.pool.n_free()
 
     @classmethod
     def from_text(cls, toml_text: str, elements=None, source: str = "<text>") -> Study:
@@ -97,7 +113,7 @@ class Study:
 
     def __repr__(self) -> str:
         n = len(self.scene.links)
-        return f"Study({self.scene.title!r}: {n} link{'s' if n != 1 else ''}, {self._model('full').n_free} free DOFs)"
+        return f"Study({self.scene.title!r}: {n} link{'s' if n != 1 else ''}, {self.n_free} free DOFs)"
 
     def replace(self, key, value=None) -> Study:
         """A new study with one scene key path set (``None`` removes it), or several (a dict), in SI,
@@ -113,13 +129,6 @@ class Study:
         from fkev_slepc.design.study import study_design
 
         return study_design(self, params, speeds, cases, angles, output, **options)
-
-    def _model(self, case: str):
-        if case not in self._models:
-            from fkev_slepc.model.operators import Model
-
-            self._models[case] = Model(self.scene, cases=(case,))
-        return self._models[case]
 
     def point(self, angle_deg: float, speed_rad_s: float, case="full", modes: int | None = None,
               solver: str | None = None, shapes: bool = False, *, cross_check: bool = False,
@@ -163,70 +172,9 @@ class Study:
         >>> r.status, np.abs(r.damping_ratio).max() < 1e-9  # undamped, no gyroscopic term
         (<Status.OK: 'ok'>, True)
         """
-        from fkev_slepc.solve.engines import cross_check as _cross_check
-        from fkev_slepc.solve.engines import make_engine
-        from fkev_slepc.solve.thresholds import SolveSettings
-        from fkev_slepc.sweep.grid import check_modes, modes_problem
-        from fkev_slepc.sweep.runner import recoverable_errors
+        from fkev_slepc.api.point import solve_point
 
-        sc, an = self.scene, self.scene.analysis
-        explicit_modes, modes = modes is not None, an.modes if modes is None else modes
-        bad = []
-        try:
-            case = case_name(case)
-        except ValueError as err:
-            bad.append(Problem("case", str(err)))
-        bad += check_modes(modes, "modes")
-        for name, v in (("angle_deg", angle_deg), ("speed_rad_s", speed_rad_s)):
-            if not np.isfinite(v):
-                bad.append(Problem(name, f"must be finite (got {v})"))
-        if bad:
-            raise SceneError(sc.source, bad)
-        model = self._model(case)
-        too_many = modes_problem(int(modes), model.n_free, "modes" if explicit_modes else None)
-        if too_many:
-            raise SceneError(sc.source, [too_many])
-        theta = float(np.radians(angle_deg))
-        try:  # the rigid-body kinematics (the mesh does not change them) decide assembly
-            kin = model.kinematics(theta)
-        except ValueError as err:
-            raise SceneError(sc.source, [Problem("angle_deg", f"{err} (got {angle_deg:g})")]) from None
-        planned, plan = self._plan(angle_deg, speed_rad_s, case, int(modes), rel_error, solver)
-        if plan is not None:  # this point on the element and mesh planned for rel_error
-            from fkev_slepc.model.operators import Model
-
-            model = Model(planned, cases=(case,))
-        qep = model.qep(model.pieces(theta), float(speed_rad_s), case)
-        mu = kin.transmission
-        mu_deg = float(np.degrees(mu[0])) if mu is not None else float("nan")
-        settings = SolveSettings.from_scene(sc)
-        engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc, settings=settings)
-        try:
-            sol = engine.solve(qep, int(modes), want_vectors=shapes)
-            res = _modes.postprocess(sol, int(modes), an.imag_tol, an.damping_tol, want_shapes=shapes)
-        except recoverable_errors() as exc:
-            res = _modes.failed(int(modes), f"{type(exc).__name__}: {exc}", engine.name)
-        finally:
-            engine.close()
-        diff = _cross_check(qep, int(modes), sc.solver.petsc, settings) if cross_check else None
-        return PointResult(float(angle_deg), float(speed_rad_s), case, res, sc.title, model.n_free, qep.kind,
-                           mu_deg, model, theta, diff, plan, engine.max_pair_error, an.damping_tol)
-
-    def _plan(self, angle_deg, speed_rad_s, case, modes, rel_error, solver) -> tuple[Scene, dict | None]:
-        """The scene re-meshed for ``rel_error`` at this point and the plan (solve/accuracy.py);
-        the scene itself and None without ``rel_error``."""
-        sc = self.scene
-        rel_error = sc.analysis.rel_error if rel_error is None else rel_error
-        if rel_error is None:
-            return sc, None
-        from fkev_slepc.solve.accuracy import planned_scene
-
-        try:
-            planned, plan = planned_scene(sc, [(float(angle_deg), float(speed_rad_s), case)], modes, rel_error,
-                                          solver or sc.solver.method)
-        except ValueError as err:
-            raise SceneError(sc.source, [Problem("rel_error", str(err))]) from None
-        return planned, plan.summary()
+        return solve_point(self.pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error)
 
     def critical(self, case="full", angle_deg: float | None = None, max_speed_rad_s: float | None = None,
                  modes: int | None = None, solver: str | None = None):
@@ -263,41 +211,9 @@ class Study:
         >>> round(speed, 4), angle
         (66.6916, 10.0)
         """
-        from fkev_slepc.model.operators import AssemblyError
-        from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
-        from fkev_slepc.solve.engines import make_engine
-        from fkev_slepc.solve.thresholds import SolveSettings
-        from fkev_slepc.sweep.grid import check_modes, modes_problem
+        from fkev_slepc.api.point import critical_scan
 
-        sc, an = self.scene, self.scene.analysis
-        bad = []
-        try:
-            case = case_name(case)
-        except ValueError as err:
-            bad.append(Problem("case", str(err)))
-        if modes is not None:
-            bad += check_modes(modes, "modes")
-        if angle_deg is not None and not np.isfinite(angle_deg):
-            bad.append(Problem("angle_deg", f"must be finite (got {angle_deg})"))
-        if max_speed_rad_s is not None and not (np.isfinite(max_speed_rad_s) and max_speed_rad_s > 0):
-            bad.append(Problem("max_speed_rad_s", f"must be a finite speed > 0 rad/s (got {max_speed_rad_s})"))
-        if bad:
-            raise SceneError(sc.source, bad)
-        model = self._model(case)
-        n_modes = an.modes if modes is None else int(modes)
-        too_many = modes_problem(n_modes, model.n_free, "modes" if modes is not None else None)
-        if too_many:
-            raise SceneError(sc.source, [too_many])
-        angles = an.crank_angles_deg if angle_deg is None else (float(angle_deg),)
-        engine = make_engine(solver or sc.solver.method, model.n_free, sc.solver.petsc,
-                             settings=SolveSettings.from_scene(sc))
-        try:
-            return scan(engine, model, angles, case, n_modes, an.damping_tol, max_speed_rad_s,
-                        DEFAULT_MAX_FACTOR * max(abs(s) for s in sc.driver.speeds))
-        except AssemblyError as err:
-            raise SceneError(sc.source, [Problem("angle_deg", f"{err} (got {angle_deg:g})")]) from None
-        finally:
-            engine.close()
+        return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver)
 
     def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
         """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
@@ -391,9 +307,36 @@ class SweepResults(reader.SweepResults):
         """Draw a figure of this archive (a matplotlib Figure).
 
         ``kind``: one of :data:`fkev_slepc.plots.draw.KINDS`; ``options`` as
-        :func:`fkev_slepc.plots.draw.draw` takes them (``cases``, ``speeds``, ``angles``,
-        ``modes``: lists; ``order``).
+        :func:`fkev_slepc.plots.draw.draw` takes them: ``cases``, ``speeds``, ``angles``, ``modes``
+        (a value or a list), ``order``, ``orders``. A kind drawn at one crank angle (``campbell``,
+        ``param-speed``, ``mode-shape``) takes one angle, ``angles=90``; a list of several is an
+        ArchiveError naming ``angles`` (draw one figure per angle).
         """
         from fkev_slepc.plots.draw import draw
 
         return draw(self, kind, **options)
+
+    def to_csv(self, path=None) -> str | None:
+        """The archive as the long table of ``fkev export`` (one row per angle, speed, case and
+        mode; columns :data:`fkev_slepc.api.table.COLUMNS`): written to ``path`` (returns None),
+        or returned as text without one.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> out = Path(tempfile.mkdtemp()) / "bw.h5"
+        >>> res = load(RUNS / "bahgat-willmert-1976.toml").sweep([0, 90], [0], ["structure"], out, modes=2)
+        >>> print(res.to_csv().splitlines()[1])
+        0.0,0.0,structure,1,228.6885738113997,0.0,ok
+        """
+        import io
+
+        from fkev_slepc.api.table import table, write_csv
+
+        if path is None:
+            buf = io.StringIO()
+            write_csv(table(self), buf)
+            return buf.getvalue()
+        with builtins.open(path, "w", newline="", encoding="utf-8") as fh:
+            write_csv(table(self), fh)
+        return None

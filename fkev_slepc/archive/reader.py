@@ -100,7 +100,7 @@ class SweepResults:
         i = int(np.argmin(d))
         if d[i] > tol:
             raise ArchiveError(
-                f"--angle: {angle_deg:g} deg is not on the archive's crank-angle grid "
+                f"angle: {angle_deg:g} deg is not on the archive's crank-angle grid "
                 f"({_describe_grid(self.crank_angle_deg)} deg)"
             )
         return i
@@ -111,7 +111,7 @@ class SweepResults:
         i = int(np.argmin(d))
         if d[i] > tol * max(1.0, abs(speed_rad_s)):
             raise ArchiveError(
-                f"--speed: {speed_rad_s:g} rad/s is not on the archive's speed grid "
+                f"speed: {speed_rad_s:g} rad/s is not on the archive's speed grid "
                 f"({_describe_grid(self.speed_rad_s)} rad/s)"
             )
         return i
@@ -121,10 +121,10 @@ class SweepResults:
         try:
             name = case_name(case)
         except ValueError as exc:
-            raise ArchiveError(f"--case: {exc}") from None
+            raise ArchiveError(f"case: {exc}") from None
         if name not in self.cases:
             raise ArchiveError(
-                f"--case: case {name!r} is not in this archive (it has: {', '.join(self.cases)})"
+                f"case: case {name!r} is not in this archive (it has: {', '.join(self.cases)})"
             )
         return self.cases.index(name)
 
@@ -133,7 +133,7 @@ class SweepResults:
         hit = np.flatnonzero(self.modes == int(mode))
         if hit.size == 0:
             raise ArchiveError(
-                f"--modes: mode {mode} is not in this archive (it has modes "
+                f"mode: mode {mode} is not in this archive (it has modes "
                 f"{int(self.modes.min())}..{int(self.modes.max())})"
             )
         return int(hit[0])
@@ -175,7 +175,7 @@ class SweepResults:
         ``"tracked"``: modes followed along crank angle by eigenvector correlation.
         """
         if order not in ORDERS:
-            raise ArchiveError(f"--order: must be one of {', '.join(ORDERS)} (got {order!r})")
+            raise ArchiveError(f"order: must be one of {', '.join(ORDERS)} (got {order!r})")
         f = self.frequency_hz if order == "sorted" else self.tracked_frequency_hz
         f = np.where(self.converged[..., None], f, np.nan)
         if speed_rad_s is not None:

@@ -205,13 +205,13 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
             elif have is None or not np.array_equal(np.asarray(have), np.asarray(value)):
                 problems.append(f"{key}: archive has {_show(have)}, this run {_show(value)}")
         want = grid.scale_values()
-        for flag, name in (("--angles", P.ANGLE), ("--speeds", P.SPEED), ("--modes", P.MODE)):
+        for flag, name in (("angles_deg", P.ANGLE), ("speeds_rad_s", P.SPEED), ("modes", P.MODE)):  # API names
             have = f[name][()]
             if have.shape != want[name].shape or not np.array_equal(have, want[name]):
                 problems.append(f"{flag}: archive has {_show(have)}, this run {_show(want[name])}")
         cases = tuple(_text(c) for c in f[P.CASE][()])
         if cases != tuple(grid.cases):
-            problems.append(f"--cases: archive has {','.join(cases)}, this run {','.join(grid.cases)}")
+            problems.append(f"cases: archive has {','.join(cases)}, this run {','.join(grid.cases)}")
     if problems:
         raise ArchiveMismatch(f"{src}: cannot resume: " + "; ".join(problems))
     return src

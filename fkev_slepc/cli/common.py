@@ -55,42 +55,68 @@ def add_model_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default: the scene's)")
 
 
+API_FLAGS = {"angle_deg": "--angle", "speed_rad_s": "--speed", "case": "--case", "modes": "--modes",
+             "max_speed_rad_s": "--max-speed", "rel_error": "--rel-error", "elements": "--elements"}
+"""The API's argument names (in its errors) -> the flags that set them: the CLI alone speaks flags."""
+
+
+def as_flags(err: SceneError, flags: dict | None = None) -> SceneError:
+    """``err`` with each problem's API name (``angle_deg``, ``elements[1]``) as its flag (``--angle``,
+    ``--elements[1]``); ``flags`` adds or overrides names for one command."""
+    names = {**API_FLAGS, **(flags or {})}
+
+    def flag(path: str) -> str:
+        head, sep, rest = path.partition("[")
+        return names[head] + sep + rest if head in names else path
+
+    return SceneError(err.source, [Problem(flag(p.path), p.message) for p in err.problems])
+
+
+ARCHIVE_FLAGS = {"angle": "--angle", "angles": "--angle", "speed": "--speed", "speeds": "--speed", "case": "--case",
+                 "cases": "--case", "mode": "--modes", "modes": "--modes", "order": "--order", "kind": "--kind"}
+"""Names in the errors of archive readers and plots -> the flags of ``fkev plot/info/margins``."""
+SWEEP_FLAGS = {"angles_deg": "--angles", "speeds_rad_s": "--speeds", "modes": "--modes", "cases": "--cases"}
+"""Names in a refused ``resume`` (the sweep's arguments) -> the flags of ``fkev run``."""
+
+
+def flag_words(text: str, names: dict) -> str:
+    """``text`` with each ``name:`` of ``names`` (at the start, or after ``: `` / ``; ``) as its flag.
+
+    Examples
+    --------
+    >>> flag_words("angle: 20 deg is not on the grid", ARCHIVE_FLAGS)
+    '--angle: 20 deg is not on the grid'
+    >>> flag_words("x.h5: cannot resume: angles_deg: archive has 0,90; cases: archive has full", SWEEP_FLAGS)
+    'x.h5: cannot resume: --angles: archive has 0,90; --cases: archive has full'
+    """
+    import re
+
+    pattern = r"(^|: |; )(" + "|".join(map(re.escape, sorted(names, key=len, reverse=True))) + r"):"
+    return re.sub(pattern, lambda m: f"{m.group(1)}{names[m.group(2)]}:", str(text))
+
+
 def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
     """Load a scene, apply ``--elements``, and check that it assembles at its crank angles
     (not with ``check_angles=False``: ``fkev point`` needs only its own angle).
 
-    Raises SceneError listing every problem."""
+    Raises SceneError listing every problem (named by flag)."""
     from fkev_slepc.model.kinematics import assembly_problems
     from fkev_slepc.scene import load_scene
 
     scene = load_scene(path)
     if elements is not None:
-        scene = with_elements(scene, elements)
+        try:
+            scene = with_elements(scene, elements)
+        except SceneError as err:
+            raise as_flags(err) from None
     problems: list[Problem] = assembly_problems(scene) if check_angles else []
     if problems:
         raise SceneError(scene.source, problems)
     return scene
 
 
-def scene_case_modes(args, check_angles: bool = True) -> tuple[Scene, str, int]:
-    """``args.scene`` loaded and checked (with ``--elements``; ``check_angles`` as in
-    :func:`load_checked`), ``--case`` resolved and ``--modes`` checked (defaults: the scene's
-    first case, its modes); SceneError names the bad file or flag."""
-    from fkev_slepc.scene.cases import case_name
-
-    scene = load_checked(args.scene, args.elements, check_angles)
-    try:
-        case = case_name(args.case) if args.case is not None else scene.analysis.cases[0]
-    except ValueError as err:
-        raise SceneError(args.scene, [Problem("--case", str(err))]) from None
-    n_modes = scene.analysis.modes if args.modes is None else args.modes
-    if n_modes < 1:
-        raise SceneError(args.scene, [Problem("--modes", f"must be >= 1 (got {n_modes})")])
-    return scene, case, n_modes
-
-
 def report_scene_error(err: SceneError) -> int:
-    print(str(err), file=sys.stderr)
+    print(str(as_flags(err)), file=sys.stderr)
     return 2
 
 

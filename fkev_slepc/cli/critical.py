@@ -13,9 +13,9 @@ import sys
 
 import numpy as np
 
-from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
-from .common import add_model_arguments, report_scene_error, scene_case_modes
+from .common import add_model_arguments, load_checked, report_scene_error
 
 
 def add_parser(sub) -> None:
@@ -39,28 +39,18 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _check_flags(args) -> None:
-    bad = []
-    if args.angle is not None and not np.isfinite(args.angle):
-        bad.append(Problem("--angle", f"must be finite (got {args.angle})"))
-    if args.max_speed is not None and not (np.isfinite(args.max_speed) and args.max_speed > 0):
-        bad.append(Problem("--max-speed", f"must be a finite speed > 0 rad/s (got {args.max_speed})"))
-    if bad:
-        raise SceneError(args.scene, bad)
-
-
 def run(args) -> int:
     from fkev_slepc.api import Study
     from fkev_slepc.solve.stability import FROZEN_TIME
 
     try:
-        _check_flags(args)
-        scene, case, n_modes = scene_case_modes(args, check_angles=args.angle is None)
-        study = Study(scene, None)
-        found = study.critical(case, args.angle, args.max_speed, args.modes, args.solver)
-    except SceneError as err:
-        return report_scene_error(_as_flags(err))
-    n_free = study._model(case).n_free
+        scene = load_checked(args.scene, args.elements, check_angles=args.angle is None)
+        with Study(scene, None) as study:
+            found = study.critical(scene.analysis.cases[0] if args.case is None else args.case, args.angle,
+                                   args.max_speed, args.modes, args.solver)
+            n_free = study.n_free
+    except SceneError as err:  # API argument names -> this command's flags
+        return report_scene_error(err)
     out = {"scene": scene.title, "n_free": n_free, **found.as_dict(), "max_speed_rad_s": args.max_speed,
            "stability_scope": {"time": FROZEN_TIME}}
     if args.json:
@@ -109,11 +99,3 @@ def _print(o: dict, quiet: bool = False) -> None:
 
 def _flag_words(note: str) -> str:
     return note.replace("no maximum speed given", "no --max-speed given")
-
-
-_FLAGS = {"angle_deg": "--angle", "max_speed_rad_s": "--max-speed", "modes": "--modes", "case": "--case"}
-
-
-def _as_flags(err: SceneError) -> SceneError:
-    """The API's argument names (``angle_deg``) as this command's flags (``--angle``)."""
-    return SceneError(err.source, [Problem(_FLAGS.get(p.path, p.path), p.message) for p in err.problems])

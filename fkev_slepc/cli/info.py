@@ -58,7 +58,9 @@ def run(args) -> int:
         try:
             lines += crossing_lines(res, args.angle, args.orders)
         except ArchiveError as err:
-            print(f"fkev info: {err}", file=sys.stderr)
+            from fkev_slepc.cli.common import ARCHIVE_FLAGS, flag_words
+
+            print(f"fkev info: {flag_words(err, ARCHIVE_FLAGS)}", file=sys.stderr)
             return 2
     print("\n".join(lines))
     return 0

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from fkev_slepc.scene.units import RAD_S_PER_RPM
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
+from .common import ARCHIVE_FLAGS, flag_words
 
 
 def add_parser(sub) -> None:
@@ -50,7 +51,7 @@ def run(args) -> int:
 
             fig = band_campbell(res, table.case, args.modes, args.orders, table.order, table.speed_rad_s)
     except (ArchiveError, PathProblem) as err:
-        print(f"fkev margins: {err}", file=sys.stderr)
+        print(f"fkev margins: {flag_words(err, ARCHIVE_FLAGS)}", file=sys.stderr)  # API names -> flags
         return EXIT_BAD_INPUT
     out = table.as_dict()
     if args.json:

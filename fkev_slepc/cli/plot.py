@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from fkev_slepc.status import EXIT_BAD_INPUT
@@ -97,18 +98,24 @@ def run(args) -> int:
         return EXIT_BAD_INPUT
     try:
         runs = [load(a) for a in args.archive]
-        fig = draw(
-            runs if len(runs) > 1 else runs[0],
-            args.kind,
-            cases=_flatten(args.cases),
-            speeds=_flatten(args.speeds),
-            angles=_flatten(args.angles),
-            modes=_flatten(args.modes),
-            order=args.order,
-            orders=args.orders,
-        )
+        with warnings.catch_warnings(record=True) as caught:  # said in one line each, not as Python warnings
+            warnings.simplefilter("always")
+            fig = draw(
+                runs if len(runs) > 1 else runs[0],
+                args.kind,
+                cases=_flatten(args.cases),
+                speeds=_flatten(args.speeds),
+                angles=_flatten(args.angles),
+                modes=_flatten(args.modes),
+                order=args.order,
+                orders=args.orders,
+            )
+        for w in caught:
+            print(f"fkev plot: warning: {w.message}", file=sys.stderr)
     except ArchiveError as exc:
-        print(f"fkev plot: {exc}", file=sys.stderr)
+        from fkev_slepc.cli.common import ARCHIVE_FLAGS, flag_words
+
+        print(f"fkev plot: {flag_words(exc, ARCHIVE_FLAGS)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     fig.savefig(out, dpi=args.dpi)
     print(out)

@@ -13,12 +13,10 @@ from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from fkev_slepc.scene.units import RAD_S_PER_RPM, speeds_given_in_rpm, with_rpm
 from .sensitivity_table import add_sensitivity_argument, print_sensitivities, sensitivities
 from .common import (
-    add_accuracy_arguments, add_elements_argument, apply_element, load_checked, report_scene_error,
+    add_accuracy_arguments, add_elements_argument, apply_element, as_flags, load_checked, report_scene_error,
     transmission_warning,
 )
 
-FLAGS = {"angle_deg": "--angle", "speed_rad_s": "--speed", "case": "--case", "modes": "--modes",
-         "rel_error": "--rel-error"}
 
 
 def add_parser(sub) -> None:
@@ -44,7 +42,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from fkev_slepc.api import Study
 
-    flags = dict(FLAGS, speed_rad_s="--speed-rpm" if args.speed_rpm is not None else "--speed")
+    flags = {"speed_rad_s": "--speed-rpm"} if args.speed_rpm is not None else {}
     try:
         scene = load_checked(args.scene, args.elements, check_angles=False)  # only --angle matters
         an = scene.analysis
@@ -56,8 +54,7 @@ def run(args) -> int:
             an.cases[0] if args.case is None else args.case,
             modes=args.modes, solver=args.solver, cross_check=args.cross_check, rel_error=args.rel_error)
     except SceneError as err:  # argument names -> the flags that set them
-        return report_scene_error(SceneError(err.source, [Problem(flags.get(p.path, p.path), p.message)
-                                                          for p in err.problems]))
+        return report_scene_error(as_flags(err, flags))
     transmission_warning(res.transmission_angle_deg, res.angle_deg)
     try:
         sens = sensitivities(res, args.sensitivity)

@@ -18,7 +18,7 @@ from pathlib import Path
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT
 from fkev_slepc.sweep.session import default_output
-from .common import add_accuracy_arguments, add_elements_argument, load_checked
+from .common import SWEEP_FLAGS, add_accuracy_arguments, add_elements_argument, flag_words, load_checked
 from .launch import NP_VARIABLE
 
 
@@ -87,7 +87,7 @@ def run(args) -> int:
         return EXIT_BAD_INPUT
     except RunRefused as err:
         if rank0:
-            _note(str(err))
+            _note(flag_words(err, SWEEP_FLAGS))
         return err.exit_code
     if rank0 and not args.quiet and not outcome.already_complete:
         summary = ", ".join(f"{k} {v}" for k, v in outcome.counts.items() if v)

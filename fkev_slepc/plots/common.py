@@ -64,7 +64,7 @@ def pick_cases(res: SweepResults, cases: Sequence[str | int] | None, default: Se
     idx = [res.cases.index(c) for c in default if c in res.cases]
     if not idx:
         raise ArchiveError(
-            f"--case: none of {', '.join(default)} is in this archive (it has: {', '.join(res.cases)})"
+            f"cases: none of {', '.join(default)} is in this archive (it has: {', '.join(res.cases)})"
         )
     return idx
 
@@ -75,7 +75,7 @@ def pick_modes(res: SweepResults, modes: Sequence[int] | None) -> list[int]:
 
 
 def only_one(values, option: str):
-    """A single value from a CLI list option (``--angle 10``), or a clear error."""
+    """A single value from a list option (``angles=[10]``; ``--angle 10``), or a clear error naming ``option``."""
     if values is None or np.isscalar(values):
         return values
     values = list(values)

@@ -241,24 +241,24 @@ def draw(results: SweepResults | Sequence[SweepResults], kind: str, *, cases=Non
     runs = [results] if isinstance(results, SweepResults) else list(results)
     if kind != "freq-angle" and len(runs) > 1:
         raise ArchiveError(
-            f"--kind {kind}: takes one archive (got {len(runs)}); only freq-angle overlays several"
+            f"kind {kind}: takes one archive (got {len(runs)}); only freq-angle overlays several"
         )
     res = runs[0]
     if kind == "freq-angle":
         return freq_angle(runs if len(runs) > 1 else res, cases, speeds, modes, order or "tracked")
     if kind == "param-speed":
-        return param_speed(res, only_one(angles, "--angle"), cases, modes, order or "sorted")
+        return param_speed(res, only_one(angles, "angles"), cases, modes, order or "sorted")
     if kind == "error-angle":
-        return error_angle(res, only_one(speeds, "--speed"), cases, modes, order or "matched")
+        return error_angle(res, only_one(speeds, "speeds"), cases, modes, order or "matched")
     if kind == "stability":
-        return stability(res, only_one(cases, "--case"))
+        return stability(res, only_one(cases, "cases"))
     if kind == "campbell":
-        return campbell(res, only_one(angles, "--angle"), cases, modes, orders, order or "tracked")
+        return campbell(res, only_one(angles, "angles"), cases, modes, orders, order or "tracked")
     if kind == "bands":  # plots/bands.py (fkev margins --plot)
         from fkev_slepc.plots.bands import band_campbell
 
         along = order if order in ("tracked", "sorted") else None
-        return band_campbell(res, only_one(cases, "--case"), modes, orders, along, only_one(speeds, "--speed"))
+        return band_campbell(res, only_one(cases, "cases"), modes, orders, along, only_one(speeds, "speeds"))
     if kind == "mode-shape":
-        return mode_shape(res, only_one(angles, "--angle"), only_one(speeds, "--speed"), cases, modes)
-    raise ArchiveError(f"--kind: unknown kind {kind!r} (known: {', '.join(KINDS)})")
+        return mode_shape(res, only_one(angles, "angles"), only_one(speeds, "speeds"), cases, modes)
+    raise ArchiveError(f"kind: unknown kind {kind!r} (known: {', '.join(KINDS)})")

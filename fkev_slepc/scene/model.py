@@ -194,9 +194,9 @@ def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
     if len(elements) != len(scene.links):
         raise SceneError(
             scene.source,
-            [Problem("--elements", f"needs 1 or {len(scene.links)} values (got {len(elements)})")],
+            [Problem("elements", f"needs 1 or {len(scene.links)} values (got {len(elements)})")],
         )
-    bad = [Problem(f"--elements[{i}]", f"must be >= 1 (got {n})") for i, n in enumerate(elements) if n < 1]
+    bad = [Problem(f"elements[{i}]", f"must be >= 1 (got {n})") for i, n in enumerate(elements) if n < 1]
     if bad:
         raise SceneError(scene.source, bad)
     links = tuple(_remesh(lk, int(n)) for lk, n in zip(scene.links, elements))

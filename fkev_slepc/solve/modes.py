@@ -19,7 +19,7 @@ from fkev_slepc.status import Status
 
 
 @dataclass(frozen=True)
-class PointResult:
+class PointModes:
     eigenvalue: np.ndarray  # complex (n_modes,), NaN where fewer modes were found
     frequency_hz: np.ndarray  # (n_modes,)
     residual: np.ndarray  # (n_modes,) acceptance.pair_error of each mode
@@ -44,9 +44,9 @@ _TINY = np.finfo(float).tiny
 CNAN = complex(np.nan, np.nan)  # a missing eigenvalue: NaN in both parts (NaN + 0j has Im = 0)
 
 
-def failed(n_modes: int, message: str, solver: str = "") -> PointResult:
+def failed(n_modes: int, message: str, solver: str = "") -> PointModes:
     nan = np.full(n_modes, np.nan)
-    return PointResult(np.full(n_modes, CNAN), nan, nan, np.nan, np.zeros(0), Status.FAILED, message, None, solver,
+    return PointModes(np.full(n_modes, CNAN), nan, nan, np.nan, np.zeros(0), Status.FAILED, message, None, solver,
                        nan.copy())
 
 
@@ -56,7 +56,7 @@ def postprocess(
     imag_tol: float | None = None,
     damping_tol: float = DAMPING_TOL,
     want_shapes: bool = False,
-) -> PointResult:
+) -> PointModes:
     """Select, sort and classify the eigenpairs of one point (docs/theory.md §10.4).
 
     Status: convergence first; then ``divergent`` from the whole-spectrum verdict
@@ -106,7 +106,7 @@ def postprocess(
         status, msg = Status.UNSTABLE, sol.message
     else:
         status, msg = Status.OK, sol.message
-    return PointResult(eig, freq, res, max_real, real_pos, status, msg, shapes, sol.solver, zeta, check)
+    return PointModes(eig, freq, res, max_real, real_pos, status, msg, shapes, sol.solver, zeta, check)
 
 
 def reported(lam: np.ndarray, n_modes: int, imag_tol: float = IMAG_TOL) -> tuple[np.ndarray, np.ndarray]:

@@ -42,7 +42,7 @@ from fkev_slepc.archive.products import Grid
 from fkev_slepc.archive.store import modulus
 from fkev_slepc.archive.writer import Block, Writer
 from fkev_slepc.model.operators import AssemblyError
-from fkev_slepc.solve.modes import CNAN, PointResult, failed, postprocess
+from fkev_slepc.solve.modes import CNAN, PointModes, failed, postprocess
 from fkev_slepc.scene import DAMPING_TOL, IMAG_TOL
 from fkev_slepc.status import CONVERGED, RETRYABLE
 from fkev_slepc.sweep.tracking_angles import Samples
@@ -122,11 +122,11 @@ class Sweep:
                        None if sig is None else sig[None], b.data[P.EIGENVALUE.path][None])
 
     def _solve_at(self, theta: float, todo: np.ndarray, lam1: np.ndarray) -> dict:
-        """Results {(speed, case): PointResult} of the points of ``todo`` at crank angle
+        """Results {(speed, case): PointModes} of the points of ``todo`` at crank angle
         ``theta`` (rad); ``lam1`` (speed, case) holds and receives the |λ1| hints."""
         grid, model = self.grid, self.model
         pieces = model.pieces(theta)
-        results: dict[tuple[int, int], PointResult] = {}
+        results: dict[tuple[int, int], PointModes] = {}
         cases = list(grid.cases)
         struct_lam1 = np.nan
         still = None  # the motionless problem (Ω = 0, no crank acceleration): every case is the structure
@@ -161,7 +161,7 @@ class Sweep:
                 self._keep(results, lam1, (js, jc), still)
         return results
 
-    def _solve_many(self, batch: list, theta: float, js: int) -> list[PointResult]:
+    def _solve_many(self, batch: list, theta: float, js: int) -> list[PointModes]:
         """Results of the (case index, QEP, hint) of one speed: in one call of an engine that
         batches problems (the dense engine's ``solve_many``), else point by point; a batch
         that raises is solved again point by point, so that a failure marks only its own point."""
@@ -175,11 +175,11 @@ class Sweep:
                 pass
         return [self._solve(q, hint, (theta, js, jc)) for jc, q, hint in batch]
 
-    def _postprocess(self, sol) -> PointResult:
+    def _postprocess(self, sol) -> PointModes:
         o = self.opts
         return postprocess(sol, o.n_modes, o.imag_tol, o.damping_tol, want_shapes=o.want_vectors)
 
-    def _solve(self, qep, hint, where) -> PointResult:
+    def _solve(self, qep, hint, where) -> PointModes:
         o = self.opts
         try:
             return self._postprocess(self.engine.solve(qep, o.n_modes, want_vectors=o.want_vectors, hint=hint))
@@ -190,7 +190,7 @@ class Sweep:
             return failed(o.n_modes, f"{type(exc).__name__}: {exc}", self.engine.name)
 
     @staticmethod
-    def _keep(results, lam1, index, res: PointResult) -> None:
+    def _keep(results, lam1, index, res: PointModes) -> None:
         results[index] = res
         lam = float(modulus(res.eigenvalue[:1])[0]) if res.eigenvalue.size else np.nan
         lam1[index] = lam if res.status in CONVERGED else np.nan
@@ -198,7 +198,7 @@ class Sweep:
     def _block(self, ia, todo, results, node_xy) -> Block:
         """Stack one angle's results into (speed, case, ...) arrays (fill values where not solved),
         one per per-point dataset of the sweep product that this run has (the table's ``source``
-        names the :class:`PointResult` field, ``rows`` the tracked DOFs of an eigenvector)."""
+        names the :class:`PointModes` field, ``rows`` the tracked DOFs of an eigenvector)."""
         o, (ns, nc) = self.opts, todo.shape
         sizes = {P.MODE: o.n_modes, P.FREE_DOF: self.model.n_free,
                  P.DOFS: 0 if o.tracking_dofs is None else len(o.tracking_dofs)}
