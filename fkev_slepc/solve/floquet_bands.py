@@ -98,8 +98,7 @@ class Band:
         return {"lower_rad_s": num(self.lower), "upper_rad_s": num(self.upper), "resonance": self.resonance or None,
                 "lower_open": self.lower_open, "upper_open": self.upper_open,
                 "predicted_rad_s": num(self.predicted_speed), "peak_rad_s": num(self.peak_speed),
-                "peak_max_abs_multiplier": num(self.peak_max_abs),
-                "mean_frequencies_rad_s": [float(w) for w in self.mean_frequencies]}
+                "peak_max_abs_multiplier": num(self.peak_max_abs)}
 
 
 def scan(speeds: Sequence[float], evaluate: Callable[[float], SpeedPoint]) -> list[SpeedPoint]:
