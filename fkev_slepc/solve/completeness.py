@@ -10,7 +10,8 @@ A missed frequency f_m < f_k (k-th reported) needs |Re λ| > A = sqrt(R² - (2π
 converged eigenvalues themselves have real parts of that size (:func:`far_modes_possible`), the
 point is checked against the whole spectrum (the dense kernel, up to ``stability.DENSE_LIMIT``
 DOFs; :func:`missed_modes`) and solved again by the dense engine if it missed one; above that size
-it is flagged: the lowest frequencies cannot be certified there.
+the SLEPc engine solves it again for 3x, then 9x the frequencies (a wider disc) and flags it
+(:func:`uncertified`) if the suspicion remains.
 """
 
 from __future__ import annotations

@@ -107,24 +107,16 @@ class SlepcEngine:
         return self._solvers[kind]
 
     # -- the protocol ------------------------------------------------------------------------
-    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint: float | None = None) -> EigenSolution:
+    def solve(self, qep: QEP, n_modes: int, want_vectors: bool = False, hint: float | None = None, *,
+              _report: int | None = None, _widened: int = 0) -> EigenSolution:
         """Eigenpairs of ``qep`` nearest 0, enough for the ``n_modes`` lowest frequencies.
 
-        Parameters
-        ----------
-        qep : QEP
-        n_modes : int
-            Number of frequencies wanted (each is a conjugate pair of eigenvalues).
-        want_vectors : bool
-            Return eigenvectors (``EigenSolution.vectors``, one column per eigenvalue).
-        hint : float, optional
-            Estimate of |λ| of the lowest wanted mode (the scale factor of the PEP).
-
-        Returns
-        -------
-        EigenSolution
-            ``converged`` is False (with a message) when fewer pairs converged than asked or
-            PETSc/SLEPc raised an error; the engine stays usable for the next point.
+        ``n_modes`` frequencies (each a conjugate pair); ``want_vectors``: return eigenvectors
+        (one column per eigenvalue); ``hint``: |λ| of the lowest wanted mode (the PEP's scale).
+        ``converged`` is False (with a message) when fewer pairs converged than asked or
+        PETSc/SLEPc raised an error; the engine stays usable for the next point. Above 1000 DOFs
+        a point whose lowest frequencies could lie outside the disc searched (completeness.py)
+        is solved again for 3x, then 9x the frequencies (``_report``: those asked, ``_widened``).
         """
         if n_modes < 1:
             raise ValueError(f"n_modes must be >= 1 (got {n_modes})")
@@ -168,11 +160,15 @@ class SlepcEngine:
         spectrum = lambda q: whole[0] if whole else whole.append(all_eigenvalues(q)) or whole[0]  # noqa: E731
 
         # Divergence is decided on the whole spectrum, not on the pairs nearest 0 (stability.py).
-        verdict = check_divergence(qep, computed=lam, dense_spectrum=spectrum, imag_tol=st.imag_tol)
-        if ok and (whole or far_modes_possible(lam, n_modes, st.imag_tol)):  # completeness.py
-            if qep.n > DENSE_LIMIT:
-                ok, msg = False, uncertified(lam, n_modes, st.imag_tol, qep.n, DENSE_LIMIT)
-            elif missed_modes(lam, spectrum(qep), n_modes, st.imag_tol):  # the dense engine solves it
+        verdict = check_divergence(qep, computed=lam, dense_spectrum=spectrum, imag_tol=st.imag_tol,
+                                   dense_limit=DENSE_LIMIT)
+        report = n_modes if _report is None else _report  # the frequencies the caller asked for
+        if ok and (whole or far_modes_possible(lam, report, st.imag_tol)):  # completeness.py
+            if not whole and qep.n > DENSE_LIMIT:
+                if _widened < 2 and not {"pep_nev", "eps_nev"} & self._user:  # a wider disc
+                    return self.solve(qep, 3 * n_modes, want_vectors, hint, _report=report, _widened=_widened + 1)
+                ok, msg = False, uncertified(lam, report, st.imag_tol, qep.n, DENSE_LIMIT)
+            elif missed_modes(lam, spectrum(qep), report, st.imag_tol):  # the dense engine solves it
                 sol = DenseEngine(st).solve(qep, n_modes, want_vectors, hint)
                 return dataclasses.replace(sol, solver=f"{sol.solver} (SLEPc missed the lowest modes)")
         return EigenSolution(lam, err, X if want_vectors else None, ok, self._last["method"], msg, verdict,
