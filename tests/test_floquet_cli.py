@@ -149,6 +149,10 @@ def test_floquet_run_archives_bands_resumes_and_opens_with_xarray(tmp_path, monk
         assert ds.max_abs_multiplier.dims == ("speed_rad_s", "case") and ds.status.attrs["units"] == "1"
     with xr.open_dataset(out, group="floquet/bands", engine="h5netcdf") as ds:
         assert ds.sizes["band"] == 2 and ds.lower_rad_s.attrs["units"] == "rad/s"
+    from fkev_slepc.plots.floquet import speed_map
+
+    ax = speed_map(res).axes[0]  # the bands shaded, labelled with their resonance
+    assert len(ax.patches) == 2 and {t.get_text() for t in ax.texts} == {"2ω̄1/1", "2ω̄1/2"}
     from clitools import fkev
 
     info = fkev("info", out).stdout
