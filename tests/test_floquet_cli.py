@@ -108,12 +108,11 @@ def mathieu_edges(n, eps=0.2):
 
 
 def _request(tmp_path, speeds="8:26:0.4", **kw):
-    from fkev_slepc.api.floquet import speed_list
     from fkev_slepc.scene import load_scene, with_elements
     from fkev_slepc.sweep.floquet_run import FloquetRequest
     from fkev_slepc.sweep.grid import configure
 
-    scene = configure(with_elements(load_scene(CANTILEVER), 2), angles=[0, 180], speeds=speed_list(speeds), cases=["full"])
+    scene = configure(with_elements(load_scene(CANTILEVER), 2), angles=[0, 180], speeds=speeds, cases=["full"])
     return FloquetRequest(scene, tmp_path / "fq.h5", **kw)
 
 

@@ -42,8 +42,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
                            f"(got {sc.driver.acceleration:g} rad/s²)"))
     if bad:
         raise SceneError(sc.source, bad)
-    scene = configure(sc, angles=angles_deg, speeds=speed_list(speeds_rad_s, sc.source, names["speeds"]), cases=[case],
-                      names=names)
+    scene = configure(sc, angles=angles_deg, speeds=speeds_rad_s, cases=[case], names=names)
     speeds = np.asarray(scene.driver.speeds, dtype=float)
     if not np.all(speeds > 0):
         raise SceneError(sc.source, [Problem(names["speeds"], "Floquet speeds must be > 0 rad/s (at rest the frozen "
@@ -61,23 +60,6 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
     if critical and comm.rank == 0:
         res = replace(res, extras={"frozen_time_critical": _frozen_critical(study, scene, case, speeds, solver)})
     return res
-
-
-def speed_list(spec, source: str = "", name: str = "speeds_rad_s"):
-    """``"START:STOP:STEP"`` (STOP included) as a list of speeds; anything else unchanged (the sweep's
-    speed parsing: ``"a,b,c"`` or numbers)."""
-    if not (isinstance(spec, str) and ":" in spec):
-        return spec
-    try:
-        a, b, h = (float(x) for x in spec.split(":"))
-    except ValueError:
-        raise SceneError(source, [Problem(name, f"START:STOP:STEP needs three numbers (got {spec!r})")]) from None
-    if not (np.isfinite([a, b, h]).all() and h > 0 and b >= a):
-        raise SceneError(source, [Problem(name, f"START:STOP:STEP needs STEP > 0 and STOP >= START (got {spec!r})")])
-    n = int(np.floor((b - a) / h + 1e-9)) + 1
-    if n > 100000:
-        raise SceneError(source, [Problem(name, f"{n} speeds is too many (got {spec!r})")])
-    return [float(a + h * k) for k in range(n)]
 
 
 def _frozen_critical(study, scene, case, speeds, solver) -> dict:
