@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from fkev_slepc.api.results import PointResult
+from fkev_slepc.api.running import RunningSpeed
 from fkev_slepc.archive import reader
 from fkev_slepc.scene import Problem, Scene, SceneError, load_scene, parse_scene, with_elements
 
@@ -73,7 +74,7 @@ def _remesh(scene: Scene, elements) -> Scene:
     return with_elements(scene, elements if isinstance(elements, int) else tuple(int(n) for n in elements))
 
 
-class Study:
+class Study(RunningSpeed):
     """A validated scene: solve operating points and run sweeps of it.
 
     Build with :func:`load` or :meth:`from_text`; ``scene`` is the frozen scene tree.
@@ -214,17 +215,6 @@ class Study:
         from fkev_slepc.api.point import critical_scan
 
         return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver)
-
-    def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
-        """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
-        from fkev_slepc.api.loads import study_loads
-        return study_loads(self.scene, speed_rad_s, angles_deg, accel_rad_s2, gravity_m_s2)
-
-    def floquet(self, speeds_rad_s=None, case="full", output=None, **options):
-        """Floquet multipliers over a speed range, unstable bands labelled (``fkev floquet``):
-        :func:`fkev_slepc.api.floquet.study_floquet` (options: angles_deg, resume, force, tol, rtol, ...)."""
-        from fkev_slepc.api.floquet import study_floquet
-        return study_floquet(self, speeds_rad_s, case, output, **options)
 
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,

@@ -1,0 +1,31 @@
+"""The running-speed methods of :class:`~fkev_slepc.api.study.Study` (docs/response.md):
+kinetostatic loads and the steady periodic response. A mixin, so that study.py stays one
+module of the operating-point and sweep methods; the bodies are in api/loads.py and
+api/response.py."""
+
+from __future__ import annotations
+
+
+class RunningSpeed:
+    """``Study.loads`` and ``Study.response`` (``self.scene`` is the study's scene)."""
+
+    def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
+        """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
+        from fkev_slepc.api.loads import study_loads
+
+        return study_loads(self.scene, speed_rad_s, angles_deg, accel_rad_s2, gravity_m_s2)
+
+    def response(self, speed_rad_s: float, case="full", angles_deg=None, **options):
+        """The steady periodic elastic response (``fkev response``):
+        :func:`fkev_slepc.api.response.study_response` (options ``gravity_m_s2``, ``harmonics``,
+        ``tol``, ``shoot``, ``stations``)."""
+        from fkev_slepc.api.response import study_response
+
+        return study_response(self.scene, speed_rad_s, case, angles_deg, **options)
+
+    def response_vs_speed(self, speeds_rad_s, case="full", **options):
+        """Peak response of every station over a speed range (``fkev response --speeds``):
+        :func:`fkev_slepc.api.response_speeds.response_vs_speed`."""
+        from fkev_slepc.api.response_speeds import response_vs_speed
+
+        return response_vs_speed(self.scene, speeds_rad_s, case, **options)
