@@ -36,13 +36,37 @@ class ResponseResult:
     multiplier_error: float
     methods_difference: float  # max |q_HB - q_shooting| / max |q|
     closure: float  # ‖x(2π) − x(0)‖ / ‖x(0)‖ of the shooting trajectory
+    elem_nodes: np.ndarray  # (n_el, 2) for drawing
+
+    def plot(self, kind: str = "deflected", **options):
+        """``deflected`` (the linkage at several angles, magnified, scale stated) or ``stations``
+        (stress, or bending moment without fibre distances, vs crank angle per station)."""
+        from fkev_slepc.plots import response as plots
+
+        return {"deflected": plots.draw_deflected, "stations": plots.draw_stations}[kind](self, **options)
+
+    def animate(self, path, scale=None, fps: int = 12):
+        """A GIF of the deflected linkage over the output angles (matplotlib PillowWriter)."""
+        from fkev_slepc.plots.response import animate
+
+        return animate(self, path, scale, fps)
+
+    @property
+    def verdict(self) -> str | None:
+        """``attracts`` (every |μ| < 1 beyond its error), ``neutral`` (max |μ| = 1 within its
+        error: undamped), ``does not attract`` (some |μ| > 1); None without shooting."""
+        if not np.isfinite(self.max_abs_multiplier):
+            return None
+        tol = max(1e-8, 10 * self.multiplier_error)
+        if self.max_abs_multiplier > 1.0 + tol:
+            return "does not attract"
+        return "neutral" if self.max_abs_multiplier >= 1.0 - tol else "attracts"
 
     @property
     def attracting(self) -> bool | None:
         """False where some |μ| > 1 beyond its error: the periodic response does not attract."""
-        if not np.isfinite(self.max_abs_multiplier):
-            return None
-        return bool(self.max_abs_multiplier <= 1.0 + max(1e-8, 10 * self.multiplier_error))
+        v = self.verdict
+        return None if v is None else v != "does not attract"
 
     def peak_stress(self) -> dict | None:
         s = self.stations.stress
@@ -74,6 +98,7 @@ class ResponseResult:
             "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": _list(self.gravity),
             "crank_angle_deg": _list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
             "max_abs_multiplier": _none(self.max_abs_multiplier), "attracting": self.attracting,
+            "floquet_verdict": self.verdict,
             "multiplier_error": _none(self.multiplier_error), "harmonics": self.harmonics,
             "harmonic_balance_error": _none(self.hb_error), "methods_difference": _none(self.methods_difference),
             "periodicity_closure": _none(self.closure),
@@ -198,7 +223,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
-        float("nan") if sh is None else sh.closure)
+        float("nan") if sh is None else sh.closure, mech.elem_nodes)
 
 
 def _node_displacement(mech, q) -> np.ndarray:

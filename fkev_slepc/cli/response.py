@@ -11,7 +11,7 @@ import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_OK
-from .common import add_elements_argument, load_checked, report_scene_error
+from .common import add_elements_argument, apply_element, load_checked, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
          "harmonics": "--harmonics", "stations": "--station"}
@@ -25,6 +25,8 @@ def add_parser(sub) -> None:
         "checked by shooting on the monodromy, whose Floquet multipliers say whether the response attracts.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
+    p.add_argument("--speeds", metavar="SPEC", help="response vs speed instead: peak of every station at these "
+                   "speeds (START:STOP:STEP or a,b,c, rad/s), forced resonances n·Ω = ω̄ₖ marked")
     p.add_argument("--case", help="case name or Table 3.1 number (default: full)")
     p.add_argument("--gravity", metavar="GX,GY", help="gravity in the ground frame, m/s² (default: the scene's "
                    "analysis.gravity_m_s2, else none)")
@@ -36,7 +38,13 @@ def add_parser(sub) -> None:
     p.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (default 1e-8)")
     p.add_argument("--no-shooting", action="store_true", help="skip the monodromy (no multipliers, no cross-check)")
     add_elements_argument(p)
+    p.add_argument("--element", choices=("thesis", "cubic"), help="element type (default: the scene's)")
     p.add_argument("--output", "-o", metavar="PATH.h5", help="archive the response (HDF5, xarray-readable)")
+    p.add_argument("--plot", metavar="PATH.png", help="the deflected linkage at 4 angles (with --speeds: peak "
+                   "response vs speed)")
+    p.add_argument("--plot-stations", metavar="PATH.png", help="stress (or moment) vs crank angle per station")
+    p.add_argument("--gif", metavar="PATH.gif", help="animation of the deflected linkage over one revolution")
+    p.add_argument("--scale", type=float, help="magnification of the deflections in figures (default: automatic)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
 
@@ -63,6 +71,11 @@ def _parse(args):
                 stations.setdefault(link, []).extend(float(v) for v in values.split(","))
             except ValueError:
                 bad.append(Problem("--station", f"expected LINK:S1,S2,... in m (got {text!r})"))
+    if args.speeds is not None:
+        try:
+            args.speed_list = parse_angles(args.speeds)
+        except ValueError as err:
+            bad.append(Problem("--speeds", str(err)))
     if not (np.isfinite(args.tol) and 0 < args.tol < 1):
         bad.append(Problem("--tol", f"must be in (0, 1) (got {args.tol})"))
     if bad:
@@ -75,7 +88,9 @@ def run(args) -> int:
 
     try:
         angles, gravity, stations = _parse(args)
-        scene = load_checked(args.scene, args.elements, check_angles=False)
+        scene = apply_element(load_checked(args.scene, args.elements, check_angles=False), args.element)
+        if args.speeds is not None:
+            return _vs_speed(args, scene, angles, gravity, stations)
         speed = max(scene.driver.speeds, key=abs) if args.speed is None else args.speed
         res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
                              harmonics=args.harmonics, tol=args.tol, shoot=not args.no_shooting, stations=stations,
@@ -84,6 +99,12 @@ def run(args) -> int:
         return report_scene_error(err)
     if args.output:
         res.save(args.output, {"command_line": " ".join(sys.argv)})
+    if args.plot:
+        res.plot("deflected", scale=args.scale).savefig(args.plot, dpi=120)
+    if args.plot_stations:
+        res.plot("stations").savefig(args.plot_stations, dpi=120)
+    if args.gif:
+        res.animate(args.gif, args.scale)
     d = res.as_dict()
     if args.json:
         json.dump(d, sys.stdout)
@@ -100,7 +121,10 @@ def _print(d: dict) -> None:
     print(f"  harmonic balance: {d['harmonics']} harmonics, estimated error {err:.1e}" if err is not None else
           f"  harmonic balance: {d['harmonics']} harmonics")
     if d["max_abs_multiplier"] is not None:
-        verdict = "attracts" if d["attracting"] else "does NOT attract (some |μ| > 1: the machine would not settle on it)"
+        verdict = {"attracts": "attracts (every |μ| < 1)",
+                   "neutral": "is neutrally stable (max |μ| = 1 within its error: undamped)",
+                   "does not attract": "does NOT attract (some |μ| > 1: the machine would not settle on it)"}[
+            d["floquet_verdict"]]
         print(f"  Floquet: max |μ| = {d['max_abs_multiplier']:.10g} (±{d['multiplier_error']:.1e}): the response "
               f"{verdict}; shooting vs harmonic balance {d['methods_difference']:.1e}")
     print(f"  {'station':>16} {'transverse (mm)':>22} {'from chord (mm)':>22} {'moment (N m)':>20} "
@@ -110,8 +134,8 @@ def _print(d: dict) -> None:
         stress = [v for v in s["stress_pa"] if v is not None]
         smax = f"{max(stress) / 1e6:14.4g}" if stress else f"{'(no c)':>14}"
         print(f"  {s['link'] + ' @ ' + format(s['s_m'], 'g') + ' m':>16} "
-              f"{env['transverse_m'][0] * 1e3:10.4g} {env['transverse_m'][1] * 1e3:10.4g}   "
-              f"{env['transverse_chord_m'][0] * 1e3:10.4g} {env['transverse_chord_m'][1] * 1e3:10.4g}   "
+              f"{env['transverse_m'][0] * 1e3:10.6g} {env['transverse_m'][1] * 1e3:10.6g}   "
+              f"{env['transverse_chord_m'][0] * 1e3:10.6g} {env['transverse_chord_m'][1] * 1e3:10.6g}   "
               f"{env['moment_n_m'][0]:9.4g} {env['moment_n_m'][1]:9.4g}  "
               f"{env['axial_force_n'][0]:9.4g} {env['axial_force_n'][1]:9.4g} {smax}")
     p = d["peak_stress"]
@@ -121,3 +145,35 @@ def _print(d: dict) -> None:
     else:
         print("  stresses need each section's fibre distance: give section = {shape = ...} or fibre_distance_m")
     print(f"  largest node deflection {d['max_deflection_m'] * 1e3:.4g} mm (envelopes are min and max over the cycle)")
+
+
+def _vs_speed(args, scene, angles, gravity, stations) -> int:
+    from fkev_slepc.api.response_speeds import response_vs_speed
+
+    try:
+        sp = response_vs_speed(scene, args.speed_list, args.case or "full", angles_deg=angles, gravity_m_s2=gravity,
+                               harmonics=args.harmonics, tol=args.tol, shoot=not args.no_shooting,
+                               stations=stations, names={**FLAGS, "speeds_rad_s": "--speeds"})
+    except SceneError as err:
+        return report_scene_error(err)
+    if args.plot:
+        sp.plot().savefig(args.plot, dpi=120)
+    d = sp.as_dict()
+    if args.json:
+        json.dump(d, sys.stdout)
+        print()
+        return EXIT_OK
+    print(f"{d['scene']}: peak response over the cycle vs speed, case {d['case']}")
+    print(f"  {'Ω (rad/s)':>10} {'max |μ|':>10} " + " ".join(f"{s['station']:>20}" for s in d["stations"]))
+    for i, w in enumerate(d["speed_rad_s"]):
+        mu = d["max_abs_multiplier"][i]
+        cells = [s["peak_stress_pa"][i] for s in d["stations"]]
+        unit, scale = ("MPa", 1e-6) if cells[0] is not None else ("mm", 1e3)
+        if unit == "mm":
+            cells = [s["peak_transverse_chord_m"][i] for s in d["stations"]]
+        print(f"  {w:10.4g} {'' if mu is None else format(mu, '.6f'):>10} "
+              + " ".join(f"{c * scale:17.4g} {unit}" for c in cells))
+    for r in d["forced_resonances"]:
+        print(f"  forced resonance {r['order']}·Ω = ω̄{r['mode']} ({r['frequency_rad_s']:.5g} rad/s) at "
+              f"Ω ≈ {r['speed_rad_s']:.5g} rad/s")
+    return EXIT_OK

@@ -74,8 +74,9 @@ def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = No
     cache = _Cached(coefficients, load, omega)
     gen = floquet.second_order(lambda th: cache(th)[:3])
     forcing = floquet.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
-    mono = floquet.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
-                             max_steps=max_steps)
+    with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
+        mono = floquet.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
+                                 max_steps=max_steps)
     n2 = mono.phi.shape[0]
     I_phi = np.eye(n2) - mono.phi
     sv = la.svdvals(I_phi)

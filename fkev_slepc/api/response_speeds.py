@@ -1,0 +1,102 @@
+"""Response vs speed (``fkev response --speeds``, ``Study.response_vs_speed``; docs/response.md §5):
+the peak deflection, moment and stress of every station over a speed range, with the forced-
+resonance speeds where n·Ω meets a cycle-mean frozen frequency ω̄ₖ(Ω) marked, and the Floquet
+multipliers (|μ| > 1: the response does not attract) when shooting is asked for."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fkev_slepc.scene import Problem, Scene, SceneError
+
+
+@dataclass(frozen=True)
+class SpeedResponse:
+    title: str
+    case: str
+    speeds: np.ndarray  # (n_s,) rad/s
+    station_labels: tuple[str, ...]
+    peak_transverse: np.ndarray  # (n_s, n_st) max |v| over the cycle, m
+    peak_chord: np.ndarray  # max |v - chord|, m
+    peak_moment: np.ndarray  # max |M|, N m
+    peak_stress: np.ndarray  # max |σ|, Pa (NaN without c)
+    max_abs_multiplier: np.ndarray  # (n_s,) NaN without shooting
+    mean_frequencies: np.ndarray  # (n_s, n_modes) cycle-mean frozen frequencies ω̄ₖ, rad/s
+    resonances: tuple[dict, ...]  # {"speed_rad_s", "order", "mode", "frequency_rad_s"}
+
+    def as_dict(self) -> dict:
+        from fkev_slepc.model.joint_loads import _list
+
+        return {"scene": self.title, "case": self.case, "speed_rad_s": _list(self.speeds),
+                "stations": [{"station": lab, "peak_transverse_m": _list(self.peak_transverse[:, k]),
+                              "peak_transverse_chord_m": _list(self.peak_chord[:, k]),
+                              "peak_moment_n_m": _list(self.peak_moment[:, k]),
+                              "peak_stress_pa": _list(self.peak_stress[:, k])}
+                             for k, lab in enumerate(self.station_labels)],
+                "max_abs_multiplier": _list(self.max_abs_multiplier),
+                "mean_frequencies_rad_s": [_list(r) for r in self.mean_frequencies],
+                "forced_resonances": list(self.resonances)}
+
+    def plot(self, bands=()):
+        from fkev_slepc.plots.response import draw_speed_response
+
+        return draw_speed_response(self, bands)
+
+
+def mean_frequencies(system, n_modes: int, n_angles: int = 24) -> np.ndarray:
+    """Cycle-mean of the lowest ``n_modes`` frozen frequencies sqrt(eig(K(θ), M(θ))) of the
+    periodic coefficients (C left out), rad/s."""
+    import scipy.linalg as la
+
+    th = 2.0 * np.pi * np.arange(n_angles) / n_angles
+    M, _, K = system.coefficients(th)
+    w = np.stack([np.sort(np.sqrt(np.abs(la.eigvals(K[j], M[j]).real)))[:n_modes] for j in range(n_angles)])
+    return w.mean(axis=0)
+
+
+def forced_resonances(speeds, mean_w, orders: int = 6) -> list[dict]:
+    """Speeds where n·Ω = ω̄ₖ(Ω) between two computed speeds (linear interpolation)."""
+    out = []
+    for k in range(mean_w.shape[1]):
+        for n in range(1, orders + 1):
+            g = n * speeds - mean_w[:, k]
+            for i in np.flatnonzero(np.sign(g[:-1]) * np.sign(g[1:]) < 0):
+                t = g[i] / (g[i] - g[i + 1])
+                s = float(speeds[i] + t * (speeds[i + 1] - speeds[i]))
+                out.append({"speed_rad_s": s, "order": n, "mode": k + 1,
+                            "frequency_rad_s": float(mean_w[i, k] + t * (mean_w[i + 1, k] - mean_w[i, k]))})
+    return sorted(out, key=lambda r: r["speed_rad_s"])
+
+
+def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: int = 4, orders: int = 6,
+                      names=None, **options) -> SpeedResponse:
+    """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; the
+    default tolerance here 1e-6), the station peaks, and the forced-resonance speeds."""
+    from fkev_slepc.api.response import study_response
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.solve.response import LinkageSystem
+
+    names = names or {}
+    speeds = np.atleast_1d(np.asarray(speeds_rad_s, dtype=float))
+    if speeds.size < 1 or not np.isfinite(speeds).all() or np.any(speeds <= 0) or np.any(np.diff(speeds) <= 0):
+        raise SceneError(scene.source, [Problem(names.get("speeds_rad_s", "speeds_rad_s"),
+                                                f"must be increasing finite speeds > 0 rad/s (got {list(speeds)})")])
+    options.setdefault("tol", 1e-6)
+    options.setdefault("shoot", False)
+    rows, mu, wbar = [], [], []
+    model = None
+    for w in speeds:
+        r = study_response(scene, float(w), case, names=names, **options)
+        sr = r.stations
+        rows.append([np.nanmax(np.abs(x), axis=0) for x in (sr.transverse, sr.transverse_chord, sr.moment)]
+                    + [np.max(sr.stress, axis=0)])
+        mu.append(r.max_abs_multiplier)
+        model = model or Model(scene, cases=(r.case,))
+        wbar.append(mean_frequencies(LinkageSystem(model, r.case, float(w)), min(modes, model.n_free)))
+    labels = tuple(f"{r.link_names[st.link]} @ {st.s:g} m" for st in r.stations.stations)
+    peaks = [np.array([row[i] for row in rows]) for i in range(4)]
+    wbar = np.array(wbar)
+    return SpeedResponse(scene.title, r.case, speeds, labels, *peaks, np.array(mu, dtype=float), wbar,
+                         tuple(forced_resonances(speeds, wbar, orders)))
