@@ -52,11 +52,15 @@ def test_forced_resonance_speeds():
     assert [(r["order"], round(r["speed_rad_s"], 9)) for r in found] == [(4, 112.5), (3, 150.0), (2, 225.0)]
 
 
-def test_response_vs_speed_and_bad_speeds():
+def test_response_vs_speed_and_bad_speeds(tmp_path):
     st = Study(with_elements(load_scene(BENCH), (1, 2)))
     sp = st.response_vs_speed([50.0, 150.0], harmonics=12, angles_deg=np.arange(0, 360, 45.0))
     assert sp.peak_chord.shape == (2, 6) and sp.peak_chord[1, 4] > 5 * sp.peak_chord[0, 4]  # ~ Ω²
     assert sp.mean_frequencies.shape == (2, 4)
     assert sp.plot().axes
+    import xarray as xr
+
+    ds = xr.open_dataset(sp.save(tmp_path / "s.h5"), engine="h5netcdf")
+    np.testing.assert_array_equal(ds["peak_transverse_chord_m"].values, sp.peak_chord)
     with pytest.raises(SceneError, match="speeds_rad_s"):
         st.response_vs_speed([150.0, 50.0])

@@ -39,6 +39,26 @@ class SpeedResponse:
                 "mean_frequencies_rad_s": [_list(r) for r in self.mean_frequencies],
                 "forced_resonances": list(self.resonances)}
 
+    def save(self, path, attrs: dict | None = None):
+        """HDF5 with dimension scales (``xarray.open_dataset(path, engine="h5netcdf")``)."""
+        from fkev_slepc.archive.labelled import write_labelled
+
+        coords = {"speed_rad_s": (self.speeds, "rad/s", "crank speed"),
+                  "station": (list(self.station_labels), "1", "link @ distance from its root"),
+                  "mode": (np.arange(1, self.mean_frequencies.shape[1] + 1), "1", "frozen mode, by frequency")}
+        dims = ("speed_rad_s", "station")
+        variables = {
+            "peak_transverse_m": (dims, self.peak_transverse, "m", "max |transverse displacement| over the cycle"),
+            "peak_transverse_chord_m": (dims, self.peak_chord, "m", "max |deflection from the chord| over the cycle"),
+            "peak_moment_n_m": (dims, self.peak_moment, "N m", "max |bending moment| over the cycle"),
+            "peak_stress_pa": (dims, self.peak_stress, "Pa", "max extreme-fibre stress over the cycle"),
+            "max_abs_multiplier": (("speed_rad_s",), self.max_abs_multiplier, "1", "max |Floquet multiplier|"),
+            "mean_frequency_rad_s": (("speed_rad_s", "mode"), self.mean_frequencies, "rad/s",
+                                     "cycle-mean frozen frequency"),
+        }
+        meta = {"title": self.title, "case": self.case, "forced_resonances": list(self.resonances), **(attrs or {})}
+        return write_labelled(path, "fkev-response-speeds", coords, variables, meta)
+
     def plot(self, bands=()):
         from fkev_slepc.plots.response import draw_speed_response
 

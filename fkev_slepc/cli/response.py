@@ -158,6 +158,8 @@ def _vs_speed(args, scene, angles, gravity, stations) -> int:
         return report_scene_error(err)
     if args.plot:
         sp.plot().savefig(args.plot, dpi=120)
+    if args.output:
+        sp.save(args.output, {"command_line": " ".join(sys.argv)})
     d = sp.as_dict()
     if args.json:
         json.dump(d, sys.stdout)
