@@ -11,12 +11,12 @@ README.md and docs/engine.md.
 
 import sys
 
-sys.path.insert(0, "tests")  # the helpers of tests/test_linkages.py and tests/balance.py
+sys.path.insert(0, "tests")  # the support modules of the tests: linkage_cases, eigen_cases, balance, builders
 
 import numpy as np  # noqa: E402
 from balance import newton_euler_residual, power_residual  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
-from test_linkages import (  # noqa: E402
+from linkage_cases import (  # noqa: E402
     SCENES, THETA, _section, central_mass_equation, dead_centre_rod, link_eigen, pinned_beam,
     tip_inertia_cantilever, tip_inertia_equation,
 )
@@ -28,13 +28,13 @@ from fkev_slepc.scene import load_scene  # noqa: E402
 
 def acceptance_worst() -> None:
     """The largest ``rel(got.frequency_hz, ref.frequency_hz)`` of test_acceptance_slepc_matches_dense."""
-    from test_eigen import SCENES as THESIS, rel, scene_qeps, test_acceptance_slepc_matches_dense as test
+    from eigen_cases import ACCEPTANCE_SOLVERS, SCENES as THESIS, rel, scene_qeps
 
     from fkev_slepc.solve.dense import DenseEngine
     from fkev_slepc.solve.modes import postprocess
     from fkev_slepc.solve.slepc import SlepcEngine
 
-    pairs = next(m.args[1] for m in test.pytestmark if m.args[0] == "pep_type,lu")  # the test's own list
+    pairs = ACCEPTANCE_SOLVERS  # the list test_eigen.py's acceptance test runs
     dense, worst, at, n = DenseEngine(), -1.0, None, 0
     for path in THESIS:
         for pep_type, lu in pairs:
@@ -98,7 +98,7 @@ for name, path in SCENES.items():
 
 # the four-bars through the general path against the binary-link model's recorded operators
 from builders import frequencies  # noqa: E402
-from test_linkages import DATA, PIECES, RUNS, _pieces  # noqa: E402
+from linkage_cases import DATA, PIECES, RUNS, _pieces  # noqa: E402
 
 from fkev_slepc.scene.cases import CASE_NAMES  # noqa: E402
 

@@ -32,7 +32,8 @@ def test_np_more_ranks_than_cpus_equals_one_rank(tmp_path, no_launcher_env):
     with h5py.File(one) as f, h5py.File(many) as g:
         assert g.attrs["n_ranks"] == n and f.attrs["n_ranks"] == 1
         assert np.array_equal(f["status"][()], g["status"][()])
-        np.testing.assert_array_equal(f["frequency_hz"][()], g["frequency_hz"][()])
+        # the suite's rule across rank counts (tests/test_mpi.py): 1e-12 relative, NaN where NaN
+        np.testing.assert_allclose(g["frequency_hz"][()], f["frequency_hz"][()], rtol=1e-12, atol=0)
 
 
 @pytest.mark.skipif(os.geteuid() != 0, reason="Open MPI's root check applies to root only")

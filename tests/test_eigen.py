@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from eigen_cases import ACCEPTANCE_SOLVERS, SCENES, rel, scene_qeps
 from fkev_slepc.solve.petsc_backend import PREFIX, PETSc, PetscOperators
 from fkev_slepc.scene.cases import CASE_NAMES
 from fkev_slepc.solve.dense import DenseEngine
@@ -77,10 +78,6 @@ def as_general(q: QEP) -> QEP:
 
 def freqs(sol, n):
     return postprocess(sol, n)
-
-
-def rel(a, b):
-    return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1)))
 
 
 @pytest.fixture
@@ -267,22 +264,7 @@ def test_bad_requests_are_rejected(engine):
 
 
 # ----------------------------------------------------------------------- thesis scenes
-SCENES = ["runs/bahgat-willmert-1976.toml", "runs/turcic-midha-1984.toml"]
-ANGLES, SPEEDS = (0, 10, 90, 180, 270), (0.0, 500.0, 1000.0)
-
-
-def scene_qeps(path, elements=None):
-    scene = load_scene(path)
-    model = Model(with_elements(scene, elements) if elements else scene, cases=CASE_NAMES)
-    for th in ANGLES:
-        pieces = model.pieces(np.radians(th))
-        for om in SPEEDS:
-            for case in CASE_NAMES:
-                yield (th, om, case), model.qep(pieces, om, case)
-
-
-@pytest.mark.parametrize("pep_type,lu", [("toar", "umfpack"), ("linear", "umfpack"), ("toar", "mumps"),
-                                         ("toar", "superlu"), ("toar", "klu"), ("toar", "petsc")])  # fmt: skip
+@pytest.mark.parametrize("pep_type,lu", ACCEPTANCE_SOLVERS)
 @pytest.mark.parametrize("path", SCENES)
 def test_acceptance_slepc_matches_dense(path, pep_type, lu):
     """Issue 3: the first 10 frequencies agree to 1e-9 and the stability flags agree, at every

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 from balance import newton_euler_residual, power_residual
 from builders import bahgat_willmert, six_bar, turcic_midha
+from linkage_cases import linkage_mechanisms
 
-from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.model.kinematics import point_local, solve_kinematics
 from fkev_slepc.model.kinetostatics import solve_loads
 from fkev_slepc.model.mechanism import build_mechanism
 
@@ -13,30 +14,32 @@ THETA = np.radians(np.arange(0.0, 360.0, 7.5))
 
 
 BUILDERS = {"bahgat_willmert": bahgat_willmert, "turcic_midha": turcic_midha, "six_bar": six_bar}
+# the four-bars and six-bar of tests/builders.py, and the slider-cranks and Stephenson six-bar of
+# runs/ (tests/linkage_cases.py): every kinematics and balance test runs on all of them
+MECHANISMS = {**{name: (lambda b=b: build_mechanism(b())) for name, b in BUILDERS.items()}, **linkage_mechanisms()}
 
 
-@pytest.fixture(params=list(BUILDERS))
+@pytest.fixture(params=list(MECHANISMS))
 def mech(request):
-    return build_mechanism(BUILDERS[request.param]())
-
-
-def _tips(kin, mech):
-    e = np.stack([np.cos(kin.phi), np.sin(kin.phi)], axis=-1)
-    return kin.root + mech.length[None, :, None] * e
+    return MECHANISMS[request.param]()
 
 
 def test_loop_closure(mech):
-    """Every link end sits on its joint (and ground joints on their pivots)."""
+    """Every link point sits on its joint, a ground pivot where it is, a slider on its guide;
+    to 1e-12 of the longest link."""
     kin = solve_kinematics(mech, THETA)
     assert kin.ok.all()
-    ends = np.stack([kin.root, _tips(kin, mech)], axis=2)  # (n, link, root/tip, 2)
     worst = 0.0
-    for jj, joint in enumerate(mech.scene.joints):
-        for e in joint.ends:
-            p = ends[:, mech.link_names.index(e.link), 1 if e.end == "tip" else 0]
+    for jj, here in enumerate(mech.attach):
+        for lk, k in here:
+            p = point_local(kin, [lk], mech.link_points[lk, k][None])[0][:, 0]
             worst = max(worst, np.abs(p - kin.pos[:, jj]).max())
-            if joint.ground is not None:
-                worst = max(worst, np.abs(p - np.array(joint.ground)).max())
+        joint = mech.scene.joints[jj]
+        if not np.isnan(mech.joint_guide[jj, 0]):  # a slider: on its guide line
+            n = np.array([-mech.joint_guide[jj, 1], mech.joint_guide[jj, 0]])
+            worst = max(worst, np.abs((kin.pos[:, jj] - mech.joint_guide_point[jj]) @ n).max())
+        elif joint.ground is not None:  # a ground pivot: where the scene puts it
+            worst = max(worst, np.abs(kin.pos[:, jj] - np.array(joint.ground)).max())
     assert worst < 1e-12 * mech.length.max()
 
 
@@ -53,8 +56,10 @@ def test_derivatives_equal_finite_differences(mech):
     unwrap = lambda a: np.angle(np.exp(1j * a))  # noqa: E731
     np.testing.assert_allclose(unwrap(kp.phi - km.phi) / (2 * h), k0.dphi, atol=1e-7)
     np.testing.assert_allclose(unwrap(kp.phi - 2 * k0.phi + km.phi) / h**2, k0.ddphi, atol=2e-4 * np.abs(k0.ddphi).max())
-    np.testing.assert_allclose((kp.pos - km.pos) / (2 * h), k0.dpos, atol=1e-9)
-    np.testing.assert_allclose((kp.pos - 2 * k0.pos + km.pos) / h**2, k0.ddpos, atol=1e-5)
+    for x, dx, ddx, xp, xm in ((k0.pos, k0.dpos, k0.ddpos, kp.pos, km.pos),
+                               (k0.root, k0.droot, k0.ddroot, kp.root, km.root)):
+        np.testing.assert_allclose((xp - xm) / (2 * h), dx, atol=1e-9)
+        np.testing.assert_allclose((xp - 2 * x + xm) / h**2, ddx, atol=1e-5 * max(1.0, np.abs(ddx).max()))
 
 
 def test_impossible_angles_are_flagged():

@@ -4,27 +4,18 @@ balances and the four-bar special case."""
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 from builders import frequencies
+from linkage_cases import (
+    DATA, PIECES, ROOT, RUNS, SCENES, STEEL_TOML, _pieces, _section, central_mass_equation, dead_centre_rod, driven, joint, link,
+    link_eigen, linkage_mechanisms, pinned_beam, slider_crank, tip_inertia_cantilever, tip_inertia_equation,
+)
 
 from fkev_slepc.model.operators import Model
 from fkev_slepc.scene import load_scene, parse_scene
 from fkev_slepc.scene.cases import CASE_NAMES
-
-ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT / "tests" / "data"
-RUNS = ROOT / "runs"
-PIECES = ("mass", "structural", "coriolis", "tangential", "normal", "pseudo")
-
-
-def _pieces(model, theta_deg):
-    p = model.pieces(np.radians(theta_deg))
-    return dict(mass=p.mass, structural=p.structural, coriolis=p.coriolis, tangential=np.stack(p.tangential),
-                normal=p.normal, pseudo=np.stack(p.pseudo_normal))
-
 
 @pytest.mark.parametrize("name", ["bahgat-willmert-1976", "turcic-midha-1984"])
 def test_four_bars_reproduce_the_binary_link_model(name):
@@ -48,84 +39,6 @@ def test_four_bars_reproduce_the_binary_link_model(name):
 
 # --------------------------------------------------------------------------------------------
 # Scenes written as TOML (the parser is part of what is tested)
-STEEL_TOML = """
-[link_defaults]
-youngs_modulus_pa = 2.07e11
-density_kg_m3 = 7850.0
-area_m2 = 1.8e-4
-second_moment_m4 = 4.86e-9
-"""
-
-
-def link(name, length, elements, extra="") -> str:
-    return f'[[links]]\nname = "{name}"\nlength_m = {length!r}\nelements = {elements}\n{extra}\n'
-
-
-def joint(name, connects, xy=None, extra="") -> str:
-    where = "" if xy is None else f"position_m = [{xy[0]!r}, {xy[1]!r}]\n"
-    return f'[[joints]]\nname = "{name}"\nconnects = {connects!r}\n{where}{extra}\n'.replace("'", '"')
-
-
-def driven(name) -> str:
-    return f'[driver]\nlink = "{name}"\nspeeds_rad_s = [0.0]\n'
-
-
-def slider_crank(stiff=1.0, slider_mass=0.45, rod_elements=8, extra="", guide="") -> str:
-    """runs/slider-crank.toml's linkage: crank E scaled by ``stiff``, no big-end mass; ``guide``
-    adds keys to the prismatic joint (its guide point is the origin unless given)."""
-    crank = f"youngs_modulus_pa = {2.07e11 * stiff!r}\narea_m2 = 4.2e-4\nsecond_moment_m4 = 3.15e-8"
-    point = None if "position_m" in guide else (0.0, 0.0)
-    return (STEEL_TOML + link("crank", 0.045, 2, crank) + link("rod", 0.15, rod_elements)
-            + joint("O", ["ground", "crank.root"], (0.0, 0.0)) + joint("A", ["crank.tip", "rod.root"])
-            + joint("P", ["ground", "rod.tip"], point, f'type = "prismatic"\nslider_mass_kg = {slider_mass!r}\n{guide}')
-            + extra + "\n" + driven("crank"))
-
-
-def pinned_beam(n=32, mass="", length=1.0) -> str:
-    """A beam pinned to ground at its root, its tip on a slider guided along its axis (transverse
-    displacement held, axial free): a pinned-pinned beam. A lone crank is the driver."""
-    return (STEEL_TOML + link("crank", 0.1, 1) + link("beam", length, n)
-            + joint("O1", ["ground", "crank.root"], (0.0, -1.0)) + joint("O2", ["ground", "beam.root"], (0.0, 0.0))
-            + joint("S", ["ground", "beam.tip"], (0.0, 0.0), 'type = "prismatic"') + mass + "\n" + driven("crank"))
-
-
-def tip_inertia_cantilever(j, n=32, length=0.5) -> str:
-    """A driven cantilever (clamped at its hub) with rotary inertia j·ρAL³ at its free end."""
-    inertia = j * 7850.0 * 1.8e-4 * length**3
-    mass = f'[[masses]]\nlink = "blade"\nposition_m = {length!r}\nmass_kg = 0.0\ninertia_kg_m2 = {inertia!r}\n'
-    return STEEL_TOML + link("blade", length, n) + joint("hub", ["ground", "blade.root"], (0.0, 0.0)) + mass + driven("blade")
-
-
-def tip_inertia_equation(x, j):
-    """Clamped-free beam, tip rotary inertia j = J/ρAL³, at λ = βL (zero at a natural frequency)."""
-    S, C, s, c = np.sinh(x), np.cosh(x), np.sin(x), np.cos(x)
-    return (S - s) * ((S + s) - j * x**3 * (C - c)) - (C + c) * ((C + c) - j * x**3 * (S + s))
-
-
-def central_mass_equation(a, r):
-    """Pinned-pinned beam, central mass r·ρAL, a = βL/2: symmetric modes (zero at a frequency)."""
-    return 2 * np.cos(a) - r * a * (np.sin(a) - np.cos(a) * np.tanh(a))
-
-
-def link_eigen(model, link, theta=0.0):
-    """Ω = 0 natural frequencies (rad/s) of the DOFs of one link (decoupled from the rest)."""
-    import scipy.linalg as la
-
-    mech = model.mechanism
-    p = model.pieces(theta)
-    dofs = np.unique(mech.node_dofs[mech.node_link == mech.link_names.index(link)])
-    dofs = dofs[dofs >= 0]
-    K = model.pattern.matrix(p.structural).toarray()[np.ix_(dofs, dofs)]
-    M = model.pattern.matrix(p.mass).toarray()[np.ix_(dofs, dofs)]
-    return np.sqrt(la.eigh(K, M, eigvals_only=True))
-
-
-def _section(text):
-    sc = parse_scene(text, "t.toml")
-    lk = sc.links[-1]
-    return sc, lk, lk.youngs_modulus * lk.second_moment, lk.density * lk.area
-
-
 # --------------------------------------------------------------------------------------------
 # Masses anywhere, rotary inertia
 def test_mid_span_mass_on_a_pinned_pinned_link():
@@ -255,17 +168,6 @@ def test_slider_crank_at_dead_centre_has_a_pinned_pinned_rod(element):
     assert np.abs(got / exact - 1).max() < 1e-4
 
 
-def dead_centre_rod(n_modes=3, element="thesis"):
-    """(FE, closed-form) rod transverse frequencies (rad/s) of the stiff-crank slider-crank at θ = 0."""
-    text = slider_crank(stiff=1e4, slider_mass=0.0, rod_elements=16) + f'[analysis]\nelement = "{element}"\n'
-    sc = parse_scene(text, "t.toml")
-    rod = sc.links[1]
-    scale = np.sqrt(rod.youngs_modulus * rod.second_moment / (rod.density * rod.area * rod.length**4))
-    exact = (np.arange(1, n_modes + 1) * np.pi) ** 2 * scale
-    w = 2 * np.pi * frequencies(Model(sc, cases=("structure",)), 0.0, 0.0, "structure", n=6).frequency_hz
-    return np.array([w[np.argmin(np.abs(w / x - 1))] for x in exact]), exact
-
-
 def test_slider_crank_guide_frame():
     """The slider node keeps one translation, along the guide; the normal one is a fixed DOF."""
     sc = parse_scene(slider_crank(guide="guide_angle_deg = 30.0\nposition_m = [0.0, 0.02]"), "t.toml")
@@ -275,65 +177,9 @@ def test_slider_crank_guide_frame():
     np.testing.assert_allclose(mech.node_axis[node], [np.cos(np.pi / 6), np.sin(np.pi / 6)])
 
 
-SCENES = {"slider-crank": RUNS / "slider-crank.toml", "stephenson-six-bar": RUNS / "stephenson-six-bar.toml"}
-THETA = np.radians(np.arange(0.0, 360.0, 7.5))
-
-
-@pytest.fixture(params=list(SCENES) + ["inclined-offset-slider"])
+@pytest.fixture(params=list(linkage_mechanisms()))
 def mech(request):
-    from fkev_slepc.model.mechanism import build_mechanism
-
-    if request.param == "inclined-offset-slider":
-        text = slider_crank(extra='[[masses]]\nlink = "rod"\nposition_m = 0.05\nmass_kg = 0.1\ninertia_kg_m2 = 3e-5',
-                            guide="position_m = [0.0, 0.012]\nguide_angle_deg = 25.0")
-        return build_mechanism(parse_scene(text, "inclined.toml"))
-    return build_mechanism(load_scene(SCENES[request.param]))
-
-
-def test_closure(mech):
-    """Every link point sits on its joint; a slider on its guide; to 1e-12 of the longest link."""
-    from fkev_slepc.model.kinematics import point_local, solve_kinematics
-
-    kin = solve_kinematics(mech, THETA)
-    assert kin.ok.all()
-    worst = 0.0
-    for jj, here in enumerate(mech.attach):
-        for lk, k in here:
-            p = point_local(kin, [lk], mech.link_points[lk, k][None])[0][:, 0]
-            worst = max(worst, np.abs(p - kin.pos[:, jj]).max())
-        if not np.isnan(mech.joint_guide[jj, 0]):
-            n = np.array([-mech.joint_guide[jj, 1], mech.joint_guide[jj, 0]])
-            worst = max(worst, np.abs((kin.pos[:, jj] - mech.joint_guide_point[jj]) @ n).max())
-    assert worst < 1e-12 * mech.length.max()
-
-
-def test_derivatives_equal_finite_differences(mech):
-    from fkev_slepc.model.kinematics import solve_kinematics
-
-    h = 1e-5
-    k0, kp, km = (solve_kinematics(mech, THETA + d) for d in (0.0, h, -h))
-    unwrap = lambda a: np.angle(np.exp(1j * a))  # noqa: E731
-    np.testing.assert_allclose(unwrap(kp.phi - km.phi) / (2 * h), k0.dphi, atol=1e-7)
-    np.testing.assert_allclose(unwrap(kp.phi - 2 * k0.phi + km.phi) / h**2, k0.ddphi,
-                               atol=2e-4 * np.abs(k0.ddphi).max())
-    for x, dx, ddx in ((k0.pos, k0.dpos, k0.ddpos), (k0.root, k0.droot, k0.ddroot)):
-        xp, xm = (kp.pos, km.pos) if x is k0.pos else (kp.root, km.root)
-        np.testing.assert_allclose((xp - xm) / (2 * h), dx, atol=1e-9)
-        np.testing.assert_allclose((xp - 2 * x + xm) / h**2, ddx, atol=1e-5 * max(1.0, np.abs(ddx).max()))
-
-
-@pytest.mark.parametrize("omega,alpha", [(500.0, 0.0), (300.0, 4e4), (0.0, -2e5)])
-def test_newton_euler_of_every_link(mech, omega, alpha):
-    from balance import newton_euler_residual
-
-    assert newton_euler_residual(mech, THETA, omega, alpha) <= 1e-9
-
-
-def test_driving_power_equals_rate_of_kinetic_energy(mech):
-    from balance import power_residual
-
-    power, dE = power_residual(mech, THETA)
-    np.testing.assert_allclose(power, dE, rtol=1e-6, atol=1e-6 * np.abs(power).max())
+    return linkage_mechanisms()[request.param]()
 
 
 def test_guide_reaction_balances_the_slider(mech):
@@ -341,7 +187,7 @@ def test_guide_reaction_balances_the_slider(mech):
     from fkev_slepc.model.kinematics import solve_kinematics
     from fkev_slepc.model.kinetostatics import solve_loads
 
-    loads = solve_loads(mech, solve_kinematics(mech, THETA))
+    loads = solve_loads(mech, solve_kinematics(mech, np.radians(np.arange(0.0, 360.0, 7.5))))
     for jj in np.flatnonzero(~np.isnan(mech.joint_guide[:, 0])):
         lk, k = mech.attach[jj][0]
         f = loads.end_force[0][:, lk, k]
