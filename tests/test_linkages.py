@@ -276,13 +276,13 @@ def test_two_rank_run_and_mode_shape_plot(name, tmp_path):
 def test_mode_shape_moves_the_slider_along_its_guide():
     """The plot reads the slider's guide from the scene text: a slider node's one translational
     DOF is drawn along the guide, and the branch of a ternary link is its own polyline."""
-    from fkev_slepc.archive.reader import Mesh
+    from fkev_slepc.archive.reader import NodeDofMap
     from fkev_slepc.plots.shapes import element_displacement, guides, linkage_polyline, node_axes
 
     text = slider_crank(guide="position_m = [0.0, 0.01]\nguide_angle_deg = 20.0")
     model = Model(parse_scene(text, "t.toml"), cases=("full",))
     mech = model.mechanism
-    mesh = Mesh(mech.node_link, mech.node_s, mech.node_dofs, mech.elem_nodes, mech.link_names)
+    mesh = NodeDofMap(mech.node_link, mech.node_s, mech.node_dofs, mech.elem_nodes, mech.link_names)
     xy = model.node_positions(np.radians(40.0))
     lines = guides(text)
     axes = node_axes(mesh, xy, lines)
@@ -295,7 +295,7 @@ def test_mode_shape_moves_the_slider_along_its_guide():
     np.testing.assert_allclose(d, 1e-3 * t, atol=1e-15)
     model6 = Model(load_scene(SCENES["stephenson-six-bar"]), cases=("full",))
     m6 = model6.mechanism
-    mesh6 = Mesh(m6.node_link, m6.node_s, m6.node_dofs, m6.elem_nodes, m6.link_names)
+    mesh6 = NodeDofMap(m6.node_link, m6.node_s, m6.node_dofs, m6.elem_nodes, m6.link_names)
     line = linkage_polyline(mesh6, model6.node_positions(0.3), None, np.array([0.0, 1.0]))
     assert np.isnan(line[:, 0]).sum() == m6.beam_link.size - 1  # one polyline per beam
 

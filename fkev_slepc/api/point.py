@@ -9,15 +9,15 @@ import numpy as np
 
 from fkev_slepc.api.checks import modes_fit, point_arguments
 from fkev_slepc.api.results import PointResult
-from fkev_slepc.archive.reader import Mesh
+from fkev_slepc.archive.reader import NodeDofMap
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.solve import modes as _modes
 
 
-def mesh_of(model) -> Mesh:
+def mesh_of(model) -> NodeDofMap:
     """The node and DOF map of ``model`` with the exact direction of every node's U DOF."""
     m = model.mechanism
-    return Mesh(np.asarray(m.node_link), np.asarray(m.node_s), np.asarray(m.node_dofs), np.asarray(m.elem_nodes),
+    return NodeDofMap(np.asarray(m.node_link), np.asarray(m.node_s), np.asarray(m.node_dofs), np.asarray(m.elem_nodes),
                 tuple(m.link_names), np.asarray(m.node_axis, float))
 
 

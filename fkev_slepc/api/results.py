@@ -55,7 +55,7 @@ class PointResult:
     n_free: int
     kind: str  # the QEP's structure (see model/operators.classify)
     transmission_angle_deg: float  # smallest transmission angle of the dyads (90 ideal, 0 toggle; NaN: none)
-    mesh: reader.Mesh  # nodes and DOFs of the model solved, with each node's exact U direction (node_axis)
+    mesh: reader.NodeDofMap  # nodes and DOFs of the model solved, with each node's exact U direction (node_axis)
     node_xy: np.ndarray  # (n_node, 2) undeformed node positions at this crank angle, m
     scene: object  # the Scene solved (frozen data; re-meshed when rel_error planned the mesh)
     cross_check: float | None = None  # largest relative frequency difference vs the other engine

@@ -273,7 +273,7 @@ class Study(RunningSpeed):
         ('thesis', 7, (7, 7, 7), True)
         """
         from fkev_slepc.sweep.grid import configure
-        from fkev_slepc.sweep.mesh_plan import plan_accuracy
+        from fkev_slepc.sweep.accuracy_mesh import mesh_for_accuracy
         from fkev_slepc.sweep.session import SweepRequest, default_output, run_sweep
 
         scene = configure(self.scene, angles=angles_deg, speeds=speeds_rad_s, cases=cases, modes=modes,
@@ -282,7 +282,7 @@ class Study(RunningSpeed):
             if self.path is None:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
             output = default_output(self.path)
-        scene, plan = plan_accuracy(scene, solver, comm, log.info)
+        scene, plan = mesh_for_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
                                cross_check=cross_check, force=force, accuracy=plan)
         outcome = run_sweep(request, comm, notify=log.info, progress=progress)

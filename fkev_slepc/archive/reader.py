@@ -44,7 +44,7 @@ class DamagedArchiveWarning(UserWarning):
 
 
 @dataclass(frozen=True)
-class Mesh:
+class NodeDofMap:
     """Node and DOF map of the model (archive group ``/mesh``).
 
     Every node belongs to one link (pin joints are two nodes sharing translation DOFs),
@@ -87,7 +87,7 @@ class SweepResults:
     max_real: np.ndarray  # (n_angle, n_speed, n_case) 1/s
     title: str
     scene_toml: str
-    mesh: Mesh | None
+    mesh: NodeDofMap | None
     has_mode_shapes: bool
     node_xy: np.ndarray | None  # (n_angle, n_node, 2) undeformed node positions, m
     attrs: dict = field(default_factory=dict)  # every root attribute, decoded
@@ -371,11 +371,11 @@ def _flags(attrs) -> dict[int, str]:
     return {int(v): n for v, n in zip(np.atleast_1d(attrs["flag_values"]), names)}
 
 
-def _read_mesh(h5) -> Mesh:
+def _read_mesh(h5) -> NodeDofMap:
     def arr(v, dtype):
         return np.asarray(h5[v.path][()], dtype=dtype) if v.path in h5 else None
 
-    return Mesh(
+    return NodeDofMap(
         node_link=arr(P.NODE_LINK, int), node_s=arr(P.NODE_S, float), node_dofs=arr(P.NODE_DOFS, int),
         elem_nodes=arr(P.ELEM_NODES, int),
         link_names=tuple(_strings(h5[P.LINKS.path])) if P.LINKS.path in h5 else (),

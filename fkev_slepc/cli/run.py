@@ -62,7 +62,7 @@ def run(args) -> int:
     """Parse, run the sweep (:mod:`fkev_slepc.sweep.session`, as ``Study.sweep``), print, exit code."""
     from fkev_slepc.sweep.grid import CLI_NAMES, configure
     from fkev_slepc.sweep.parallel import install_abort_hook, world
-    from fkev_slepc.sweep.mesh_plan import plan_accuracy
+    from fkev_slepc.sweep.accuracy_mesh import mesh_for_accuracy
     from fkev_slepc.sweep.session import RunRefused, SweepInterrupted, SweepRequest, run_sweep
 
     comm = world()
@@ -73,7 +73,7 @@ def run(args) -> int:
         scene = configure(scene, angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm,
                           cases=args.cases, modes=args.modes, mode_shapes=args.mode_shapes, element=args.element,
                           rel_error=args.rel_error, names=CLI_NAMES)
-        scene, plan = plan_accuracy(scene, args.solver, comm, None if args.quiet else _note, CLI_NAMES["rel_error"])
+        scene, plan = mesh_for_accuracy(scene, args.solver, comm, None if args.quiet else _note, CLI_NAMES["rel_error"])
         request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene),
                                resume=args.resume, retry_failed=args.retry_failed, solver=args.solver,
                                cross_check=args.cross_check, accuracy=plan, force=args.force,

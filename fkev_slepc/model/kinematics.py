@@ -5,7 +5,7 @@ Everything is returned per unit crank speed: with crank angle θ, speed Ω = θ�
 p̈ = p''Ω² + p'α, where ' is d/dθ. That split is what lets the operators be assembled once per
 angle and combined per speed.
 
-Joints are located in the order planned by :mod:`fkev_slepc.model.plan`: the driver (clamped
+Joints are located in the order planned by :mod:`fkev_slepc.model.joint_order`: the driver (clamped
 at its ground pivot, direction θ), then RRR dyads and RRP (slider) dyads in closed form; each
 placed link is a rigid body whose other joint points follow from its pose. For the four-bar's
 dyad at B this is the RBK routine of the thesis (γ ≥ 0 is the ``left`` branch).

@@ -11,7 +11,7 @@ displacement normal to the guide: the translations of its node are taken in the 
 (``node_axis``: direction of the node's first translational DOF; its second, the normal one,
 is fixed), which the element transformation includes (``element_frames``). The slider's mass
 rides on the along-guide DOF. The kinematic solution order is planned by
-:mod:`fkev_slepc.model.plan`.
+:mod:`fkev_slepc.model.joint_order`.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 
 from fkev_slepc.model.element_types import element_type
 from fkev_slepc.model.mesh import build_mesh, rigid_body
-from fkev_slepc.model.plan import Step, plan_steps
+from fkev_slepc.model.joint_order import Step, order_steps
 from fkev_slepc.scene import THIRD, Problem, Scene, SceneError
 
 POINT_INDEX = {"root": 0, "tip": 1, THIRD: 2}
@@ -151,7 +151,7 @@ def build_mechanism(scene: Scene) -> Mechanism:
 
     ground_known = ~np.isnan(joint_ground[:, 0])
     prismatic = np.array([j.prismatic for j in scene.joints], dtype=bool)
-    steps = plan_steps(scene, names, attach, mesh.link_points, ground_known, prismatic, driver, problems)
+    steps = order_steps(scene, names, attach, mesh.link_points, ground_known, prismatic, driver, problems)
     for lk in range(len(names)):
         if lk != driver and (root_joint[lk] < 0 or tip_joint[lk] < 0):
             problems.append(Problem(f"links[{lk}]", f"link {names[lk]!r} has a free end; only the driver may"))

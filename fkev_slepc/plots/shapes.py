@@ -31,7 +31,7 @@ from fkev_slepc.plots.common import (
     scene_heading,
     speed_label,
 )
-from fkev_slepc.archive.reader import ArchiveError, Mesh, SweepResults
+from fkev_slepc.archive.reader import ArchiveError, NodeDofMap, SweepResults
 from fkev_slepc.scene import SceneError, parse_scene
 
 N_SUB = 17  # samples per element: enough for a smooth cubic at figure resolution
@@ -48,14 +48,14 @@ def guides(scene_toml: str) -> list[tuple[np.ndarray, np.ndarray]]:
             for j in scene.joints if j.prismatic]
 
 
-def archived_guides(mesh: Mesh, node_xy: np.ndarray, axes: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+def archived_guides(mesh: NodeDofMap, node_xy: np.ndarray, axes: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """(point, unit direction) of the guide of every slider node (U free, V fixed): through the
     node, along its archived axis (``/mesh/node_axis``)."""
     slider = np.flatnonzero((mesh.node_dofs[:, 0] >= 0) & (mesh.node_dofs[:, 1] < 0))
     return [(np.asarray(node_xy[n], float), np.asarray(axes[n], float)) for n in slider]
 
 
-def node_axes(mesh: Mesh, node_xy: np.ndarray, lines) -> np.ndarray:
+def node_axes(mesh: NodeDofMap, node_xy: np.ndarray, lines) -> np.ndarray:
     """Direction (n_node, 2) of each node's first translational DOF: x, except at a slider node
     (U free, V fixed), whose DOF runs along the guide it lies on (``lines`` from :func:`guides`)."""
     axes = np.tile([1.0, 0.0], (node_xy.shape[0], 1))
@@ -67,7 +67,7 @@ def node_axes(mesh: Mesh, node_xy: np.ndarray, lines) -> np.ndarray:
     return axes
 
 
-def node_displacement(mesh: Mesh, q: np.ndarray, axes: np.ndarray | None = None) -> np.ndarray:
+def node_displacement(mesh: NodeDofMap, q: np.ndarray, axes: np.ndarray | None = None) -> np.ndarray:
     """Global (x, y, rotation) displacement (n_node, 3) of every node from the free-DOF values
     ``q`` (real or complex); a constrained DOF is 0; ``axes`` as in :func:`element_displacement`."""
     q = np.asarray(q)
@@ -79,13 +79,13 @@ def node_displacement(mesh: Mesh, q: np.ndarray, axes: np.ndarray | None = None)
     return vals
 
 
-def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.ndarray,
+def element_displacement(mesh: NodeDofMap, node_xy: np.ndarray, q: np.ndarray, xi: np.ndarray,
                          axes: np.ndarray | None = None) -> np.ndarray:
     """Global displacement (n_el, n_xi, 2) of every element at stations ``xi`` ∈ [0, 1].
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : NodeDofMap
         Node/DOF map (``node_dofs`` -1 marks a constrained, i.e. zero, DOF).
     node_xy : (n_node, 2) array
         Undeformed node positions (m); they define each element's frame and length.
@@ -118,7 +118,7 @@ def element_displacement(mesh: Mesh, node_xy: np.ndarray, q: np.ndarray, xi: np.
     return u[..., None] * e[:, None, :] + v[..., None] * en[:, None, :]
 
 
-def linkage_polyline(mesh: Mesh, node_xy: np.ndarray, disp: np.ndarray | None, xi: np.ndarray) -> np.ndarray:
+def linkage_polyline(mesh: NodeDofMap, node_xy: np.ndarray, disp: np.ndarray | None, xi: np.ndarray) -> np.ndarray:
     """(N, 2) polyline through every element, beam by beam (the elements of a beam are stored
     in order, each starting at the previous one's right node), beams separated by a NaN row;
     ``disp`` (n_el, n_xi, 2) is added if given."""
@@ -137,7 +137,7 @@ def linkage_polyline(mesh: Mesh, node_xy: np.ndarray, disp: np.ndarray | None, x
     return np.concatenate(pieces[:-1])
 
 
-def draw_guides(ax, node_xy: np.ndarray, mesh: Mesh, lines, extent: float) -> None:
+def draw_guides(ax, node_xy: np.ndarray, mesh: NodeDofMap, lines, extent: float) -> None:
     """Each guide as a hatched line through its slider's travel, the slider as a block on it."""
     slider = np.flatnonzero((mesh.node_dofs[:, 0] >= 0) & (mesh.node_dofs[:, 1] < 0))
     for p, t in lines:
@@ -211,7 +211,7 @@ def mode_shape(
     return shapes_figure(res.mesh, xy, lines, mode_idx, heading, [int(m) for m in res.modes], lines_g, axes)
 
 
-def shapes_figure(mesh: Mesh, xy: np.ndarray, lines, mode_idx: Sequence[int], heading: str,
+def shapes_figure(mesh: NodeDofMap, xy: np.ndarray, lines, mode_idx: Sequence[int], heading: str,
                   mode_numbers: Sequence[int] | None = None, guide_lines=(), axes_dof=None) -> Figure:
     """Draw mode shapes: one axes per mode (column ``mode_idx`` of the shapes), one deformed
     line per entry of ``lines``, a list of ``(case name, shapes (n_free, n_mode) complex,

@@ -164,7 +164,7 @@ def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=
         Element type, one of ``ELEMENT_NAMES`` (``analysis.element``); None keeps the scene's.
     rel_error : float, optional
         Requested relative frequency error in (0, 1) (``analysis.rel_error``: the sweep is then
-        re-meshed by :func:`fkev_slepc.sweep.session.plan_accuracy`); None keeps the scene's.
+        re-meshed by :func:`fkev_slepc.sweep.session.mesh_for_accuracy`); None keeps the scene's.
     names : dict
         How messages name each override (:data:`API_NAMES` or :data:`CLI_NAMES`).
 

@@ -100,14 +100,14 @@ class SweepRequest:
     solver: str | None = None  # None: the scene's [solver] method
     cross_check: bool = False  # also solve every point with the other engine
     command_line: str = field(default_factory=lambda: " ".join(sys.argv))  # archived
-    accuracy: dict | None = None  # the mesh plan of plan_accuracy (archived, not a resume condition)
+    accuracy: dict | None = None  # the mesh plan of mesh_for_accuracy (archived, not a resume condition)
     force: bool = False  # replace an existing archive (or unfinished run) instead of refusing
     make_dirs: bool = True  # create a missing output directory (fkev run: only for its default <scene dir>/out/)
     resume_command: str | None = None  # how the user continues after an interruption (printed)
 
 
 @dataclass(frozen=True)
-class OutputPlan:
+class OutputState:
     """Result of :meth:`SweepSession.open_output`, the same on every rank."""
 
     part: Path  # the file written during the run
@@ -178,11 +178,11 @@ class SweepSession:
         self._cross: dict | None = None
 
     # ------------------------------------------------------------------------- 1. output
-    def open_output(self) -> OutputPlan:
+    def open_output(self) -> OutputState:
         """Collective. Check (resume) or create the output before anything is solved.
 
         Raises :class:`RunRefused` on every rank when the run cannot go on."""
-        plan: OutputPlan | RunRefused | None = None
+        plan: OutputState | RunRefused | None = None
         if self.rank0:
             try:
                 plan = self._open_locked()
@@ -204,7 +204,7 @@ class SweepSession:
         return {"scene_toml": scene.source_text, "elements": elements, "n_free": self.model.n_free,
                 "mode_shapes": int(scene.analysis.mode_shapes), "element": scene.analysis.element}
 
-    def _open_locked(self) -> OutputPlan:
+    def _open_locked(self) -> OutputState:
         """Rank 0: take the output's lock (archive/lock.py; held until :meth:`finalise`, so a
         second writer is refused), then open the output."""
         from fkev_slepc.archive.lock import ArchiveLocked, hold, release
@@ -225,7 +225,7 @@ class SweepSession:
             release(self.output)
         return plan
 
-    def _open_on_rank0(self) -> OutputPlan:
+    def _open_on_rank0(self) -> OutputState:
         from fkev_slepc.archive import store
 
         from fkev_slepc.archive.paths import PathProblem, check_archive_output
@@ -250,10 +250,10 @@ class SweepSession:
                 todo = state.todo(req.retry_failed)
                 if src == out and not todo.any():
                     self._notify(f"{out} is complete; nothing to do")
-                    return OutputPlan(out, state.status, state.lam1, todo, complete=True)
+                    return OutputState(out, state.status, state.lam1, todo, complete=True)
                 if src == out:
                     store.reopen_finished(out)
-                return OutputPlan(store.partial_path(out), state.status, state.lam1, todo)
+                return OutputState(store.partial_path(out), state.status, state.lam1, todo)
         part = store.partial_path(out)
         mech, scene = self.model.mechanism, req.scene
         mesh = mesh_arrays(mech)
@@ -274,13 +274,13 @@ class SweepSession:
         store.create(part, grid, attrs, mesh, self.model.n_free, scene.analysis.mode_shapes, self.track_dofs,
                      transmission_deg=mu)
         shape = grid.shape
-        return OutputPlan(part, np.zeros(shape, np.uint8), np.full(shape, np.nan), np.ones(shape, bool))
+        return OutputState(part, np.zeros(shape, np.uint8), np.full(shape, np.nan), np.ones(shape, bool))
 
     def _settings(self) -> dict:
         return dict(self.engine.settings())
 
     # -------------------------------------------------------------------------- 2. solve
-    def solve(self, plan: OutputPlan, progress: bool = False) -> int:
+    def solve(self, plan: OutputState, progress: bool = False) -> int:
         """Collective. Solve the points of ``plan.todo`` into ``plan.part``; the number solved.
 
         ``progress``: show points done, rate and ETA on rank 0 (:class:`progress.Progress`)."""
@@ -338,14 +338,14 @@ class SweepSession:
                 "points": int(counts[0]), "skipped": int(counts[1])}
 
     # ----------------------------------------------------------------------- 3. finalise
-    def finalise(self, plan: OutputPlan, n_solved: int) -> SweepOutcome:
+    def finalise(self, plan: OutputState, n_solved: int) -> SweepOutcome:
         """Collective. Rank 0 writes the run attributes and renames ``plan.part`` to the output
         (modes were tracked at the end of :meth:`solve`); every rank returns the outcome."""
         self.comm.Barrier()
         result = self._finalise_on_rank0(plan, n_solved) if self.rank0 else None
         return self.comm.bcast(result, root=0)
 
-    def _finalise_on_rank0(self, plan: OutputPlan, n_solved: int) -> SweepOutcome:
+    def _finalise_on_rank0(self, plan: OutputState, n_solved: int) -> SweepOutcome:
         from fkev_slepc.archive import store
 
         status = store.read_state(plan.part).status

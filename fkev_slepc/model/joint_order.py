@@ -41,7 +41,7 @@ class Step:
     sign: float  # RRR: +1 = J left of the ray P->Q; RRP: +1 = J ahead of P's foot along the guide
 
 
-def plan_steps(scene, names, attach, points, ground_known, prismatic, driver, problems) -> list[Step]:
+def order_steps(scene, names, attach, points, ground_known, prismatic, driver, problems) -> list[Step]:
     """Steps after the driver; ``attach[j]`` lists (link, point index) at joint j, ``points``
     (n_link, 3, 2) the link-frame points. Unlocatable links are reported in ``problems``."""
     n_link = len(names)

@@ -1,7 +1,7 @@
 """The element and mesh a sweep is run on when it asks for an accuracy (``analysis.rel_error``).
 
 ``fkev run --rel-error TOL`` and ``Study.sweep(rel_error=TOL)`` set ``analysis.rel_error``
-(:func:`fkev_slepc.sweep.grid.configure`) and both call :func:`plan_accuracy` before the
+(:func:`fkev_slepc.sweep.grid.configure`) and both call :func:`mesh_for_accuracy` before the
 sweep: rank 0 measures the convergence at a few sample points (solve/accuracy.py,
 docs/accuracy.md §3) and every rank gets the re-meshed scene.
 """
@@ -15,8 +15,8 @@ from fkev_slepc.solve.accuracy import planned_scene, sample_points, with_element
 from fkev_slepc.sweep.parallel import local
 
 
-def plan_accuracy(scene: Scene, solver: str | None, comm=None,
-                  notify: Callable[[str], None] | None = None, name: str = "rel_error") -> tuple[Scene, dict | None]:
+def mesh_for_accuracy(scene: Scene, solver: str | None, comm=None,
+                      notify: Callable[[str], None] | None = None, name: str = "rel_error") -> tuple[Scene, dict | None]:
     """Collective (``comm`` None: this process alone). With ``scene.analysis.rel_error``
     (``fkev run --rel-error``, ``Study.sweep(rel_error=...)``, both set through
     :func:`fkev_slepc.sweep.grid.configure`): rank 0 plans the element and mesh at a few sample
