@@ -130,3 +130,22 @@ def test_python_block_prints_what_its_comments_say(outputs, monkeypatch):
     expected = [m.group(1) for m in re.finditer(r"print\(.*\)\s+# (\[.*?\])", code)]
     assert len(expected) == 2
     assert [normal(ln) for ln in buf.getvalue().splitlines()] == [normal(e) for e in expected]
+
+
+def test_api_refusal_names_api_arguments(tmp_path):
+    """A user re-running a Python snippet (Study.sweep or Study.design into an existing archive)
+    was told to pass `--resume` or `--force`, flags of the command line: the API names its own
+    arguments, the command line its flags."""
+    import fkev_slepc as fk
+    from fkev_slepc.sweep.session import OutputError
+
+    study, out = fk.load(ROOT / "runs/bahgat-willmert-1976.toml"), tmp_path / "bw.h5"
+    grid = dict(angles_deg=[0, 10], speeds_rad_s=[0], cases=["structure"], output=out)
+    study.sweep(**grid)
+    with pytest.raises(OutputError, match=r"continue it with resume=True .* replace it with force=True$"):
+        study.sweep(**grid)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run([sys.executable, "-m", "fkev_slepc", "run", str(ROOT / "runs/bahgat-willmert-1976.toml"),
+                        "--angles", "0,10", "--speeds", "0", "--cases", "structure", "-o", str(out)],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 2 and "continue it with --resume" in r.stderr and "with --force" in r.stderr

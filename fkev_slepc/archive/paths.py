@@ -88,12 +88,15 @@ def check_archive_output(out: str | Path, *, resume: bool, force: bool, flag: st
         if part.is_dir():
             raise PathProblem(f"{flag} {p}: {part} is a directory")
         return p
+    # the command line's flags, or the API's arguments when the caller is Study.sweep (flag "output")
+    resume_, retry_, force_ = (("--resume", "--retry-failed", "--force") if flag.startswith("-")
+                               else ("resume=True", "retry_failed=True", "force=True"))
     if p.exists():
-        raise PathProblem(f"{flag} {p}: an archive already exists ({_points(p)}); continue it with --resume "
-                          "(with --retry-failed to solve its failed points again) or replace it with --force")
+        raise PathProblem(f"{flag} {p}: an archive already exists ({_points(p)}); continue it with {resume_} "
+                          f"(with {retry_} to solve its failed points again) or replace it with {force_}")
     if part.exists():
         raise PathProblem(f"{flag} {p}: an unfinished run exists ({part.name}, {_points(part)}); continue it with "
-                          "--resume or start over with --force")
+                          f"{resume_} or start over with {force_}")
     return p
 
 
