@@ -99,10 +99,8 @@ class SweepResults:
         d = np.abs((self.crank_angle_deg - angle_deg + 180.0) % 360.0 - 180.0)
         i = int(np.argmin(d))
         if d[i] > tol:
-            raise ArchiveError(
-                f"angle: {angle_deg:g} deg is not on the archive's crank-angle grid "
-                f"({_describe_grid(self.crank_angle_deg)} deg)"
-            )
+            raise ArchiveError(f"angle: {angle_deg:g} deg is not on the archive's crank-angle grid "
+                               f"({_describe_grid(self.crank_angle_deg)} deg)")
         return i
 
     def speed_index(self, speed_rad_s: float, tol: float = 1e-9) -> int:
@@ -110,10 +108,8 @@ class SweepResults:
         d = np.abs(self.speed_rad_s - speed_rad_s)
         i = int(np.argmin(d))
         if d[i] > tol * max(1.0, abs(speed_rad_s)):
-            raise ArchiveError(
-                f"speed: {speed_rad_s:g} rad/s is not on the archive's speed grid "
-                f"({_describe_grid(self.speed_rad_s)} rad/s)"
-            )
+            raise ArchiveError(f"speed: {speed_rad_s:g} rad/s is not on the archive's speed grid "
+                               f"({_describe_grid(self.speed_rad_s)} rad/s)")
         return i
 
     def case_index(self, case: str | int) -> int:
@@ -123,19 +119,15 @@ class SweepResults:
         except ValueError as exc:
             raise ArchiveError(f"case: {exc}") from None
         if name not in self.cases:
-            raise ArchiveError(
-                f"case: case {name!r} is not in this archive (it has: {', '.join(self.cases)})"
-            )
+            raise ArchiveError(f"case: case {name!r} is not in this archive (it has: {', '.join(self.cases)})")
         return self.cases.index(name)
 
     def mode_index(self, mode: int) -> int:
         """Index of 1-based mode number ``mode``."""
         hit = np.flatnonzero(self.modes == int(mode))
         if hit.size == 0:
-            raise ArchiveError(
-                f"mode: mode {mode} is not in this archive (it has modes "
-                f"{int(self.modes.min())}..{int(self.modes.max())})"
-            )
+            raise ArchiveError(f"mode: mode {mode} is not in this archive (it has modes "
+                               f"{int(self.modes.min())}..{int(self.modes.max())})")
         return int(hit[0])
 
     # ------------------------------------------------------------------- derived arrays
@@ -246,10 +238,8 @@ class SweepResults:
     def mode_shape(self, angle_index: int, speed_index: int, case_index: int) -> np.ndarray:
         """Complex mode shapes (n_free, n_mode) at one grid point, read from the archive."""
         if not self.has_mode_shapes:
-            raise ArchiveError(
-                f"{self.path}: this archive has no mode shapes; produce one with "
-                "`fkev run SCENE --mode-shapes` (or `mode_shapes = true` in the scene's [analysis])"
-            )
+            raise ArchiveError(f"{self.path}: this archive has no mode shapes; produce one with "
+                               "`fkev run SCENE --mode-shapes` (or `mode_shapes = true` in the scene's [analysis])")
         import h5py
 
         with h5py.File(self.path, "r") as h5:
