@@ -26,7 +26,8 @@ def add_parser(sub) -> None:
                    help="a design key and its values (STOP included when on the grid); repeatable (a grid)")
     p.add_argument("-o", "--output", type=Path, help="archive path (default <scene dir>/out/<stem>-design.h5)")
     p.add_argument("--angles", metavar="START:STOP:STEP|a,b,c", help="crank angles, deg; default the scene's")
-    p.add_argument("--speeds", metavar="a,b,c", help="crank speeds, rad/s; default the scene's")
+    p.add_argument("--speeds", metavar="START:STOP:STEP|a,b,c",
+                   help="crank speeds, rad/s; default the scene's (the printed cycle minima are at the top one)")
     p.add_argument("--cases", metavar="c1,c2,...", help="case names or Table 3.1 numbers, or 'all'")
     p.add_argument("--modes", type=int, metavar="N", help="modes per point (default the scene's)")
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
