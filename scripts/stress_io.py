@@ -251,6 +251,8 @@ def cmd_metadata(args) -> Tally:
                     t.notes.append(f"{name} byte {int(at) - addr}: exits {[c for c, _, _ in runs.values()]}")
                 elif any("Traceback" in e for _, _, e in runs.values()):
                     t.add("tracebacks")
+                    t.notes.append(f"{name} byte {int(at) - addr}: " + "; ".join(
+                        f"{cmd}: {e.strip().splitlines()[-1]}" for cmd, (_, _, e) in runs.items() if "Traceback" in e))
                 elif all(c == 2 and e.strip().count("\n") == 0 for c, _, e in runs.values()):
                     t.add("refused by verify, info and export (exit 2, one line)")
                 elif all(c == 0 for c, _, _ in runs.values()) and _fingerprint(bad) == want:

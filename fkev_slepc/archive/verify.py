@@ -98,11 +98,28 @@ def root_digest(f) -> str:
     return h.hexdigest()
 
 
+def group_digest(g) -> str:
+    """SHA-256 of a group's attributes and of the names of its members (a damaged link name
+    renames a member)."""
+    h = hashlib.sha256()
+    _attrs_digest(h, g.attrs)
+    h.update(b"\0".join(k.encode("utf-8", "replace") if isinstance(k, str) else bytes(k) for k in sorted(g.keys())))
+    return h.hexdigest()
+
+
 def _datasets(f) -> list:
     import h5py
 
     found = []
     f.visititems(lambda name, obj: found.append(obj) if isinstance(obj, h5py.Dataset) else None)
+    return found
+
+
+def _groups(f) -> list:
+    import h5py
+
+    found = []
+    f.visititems(lambda name, obj: found.append(obj) if isinstance(obj, h5py.Group) else None)
     return found
 
 
@@ -113,6 +130,8 @@ def stamp(f) -> None:
         digests = {ds.name: dataset_digest(ds, fh) for ds in _datasets(f)}
     for name, digest in digests.items():
         f[name].attrs[DIGEST_ATTR] = digest
+    for g in _groups(f):  # their attributes and member names (archives stamped before: none)
+        g.attrs[DIGEST_ATTR] = group_digest(g)
     f.attrs[ROOT_DIGEST_ATTR] = root_digest(f)
 
 
@@ -261,10 +280,10 @@ def structure_problems(f) -> list[str]:
         sizes = [len(f[d]) if d in f and d != v.path else None for d in v.dims]
         if ds.ndim != len(v.dims) or any(n is not None and n != m for n, m in zip(sizes, ds.shape)):
             bad.append(f"dataset {ds.name} has shape {ds.shape}, its scales say {tuple(sizes)}")
-        if not v.scale and "DIMENSION_LIST" in ds.attrs:
+        if not v.scale:  # every axis whose scale is in the file is attached to it
             for i, d in enumerate(v.dims[: ds.ndim]):
-                names = [sc.name for sc in ds.dims[i].values()]
-                if names != ["/" + d]:
+                names = [sc.name for sc in ds.dims[i].values()] if "DIMENSION_LIST" in ds.attrs else []
+                if names != ["/" + d] and (names or d in f):
                     bad.append(f"dataset {ds.name}: axis {i} is attached to {names or 'no scale'} (expected /{d})")
     return bad
 
@@ -335,6 +354,16 @@ def check(path: Path, locking: bool = True) -> dict:
                     problems.append(f"dataset {ds.name} has no checksum")
                 elif stamped and have != _text(want):
                     problems.append(f"dataset {ds.name} changed since the run finished (checksum mismatch)")
+            for g in _groups(f):  # groups stamped by this version: attributes and member names
+                want = g.attrs.get(DIGEST_ATTR) if stamped else None
+                if want is not None and group_digest(g) != _text(want):
+                    problems.append(f"group {g.name} changed since the run finished (checksum mismatch)")
+            for obj in [f] + _groups(f) + _datasets(f):  # every attribute decodes, HDF5's own included
+                try:
+                    for key in obj.attrs:
+                        obj.attrs[key]
+                except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+                    problems.append(f"the attributes of {obj.name} cannot be decoded ({exc})")
             problems.extend(structure_problems(f))
             out["counts"] = _counts(f)
         except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:  # damaged object headers
