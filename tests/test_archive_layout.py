@@ -29,18 +29,17 @@ from fkev_slepc.sweep.units import assign, pending, run_units
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "fkev_slepc"
 TABLES = {PKG / "archive" / name for name in ("products.py", "product_types.py", "products_floquet.py")}
-# where datasets are read and written (the archive and plots stages, the sweep modules that use
+# where datasets are read and written (the archive stage, the sweep and plots modules that use
 # the archive, the commands that read archives, any module importing h5py): every root dataset
 # or group name used as a key there must come from the tables. Elsewhere "case" or "modes" are
 # ordinary words (the JSON of `fkev point`, argument names).
-ARCHIVE_STAGES = ("archive", "plots")
 ARCHIVE_COMMANDS = ("info.py", "export.py", "verify.py", "plot.py")
 
 
 def _touches_archive(path: Path) -> bool:
     rel, text = path.relative_to(PKG).parts, path.read_text()
-    return (rel[0] in ARCHIVE_STAGES or (rel[0] == "cli" and rel[-1] in ARCHIVE_COMMANDS)
-            or (rel[0] == "sweep" and "fkev_slepc.archive" in text) or "import h5py" in text)
+    return (rel[0] == "archive" or (rel[0] == "cli" and rel[-1] in ARCHIVE_COMMANDS)
+            or (rel[0] in ("sweep", "plots") and "fkev_slepc.archive" in text) or "import h5py" in text)
 
 
 def _docstrings(tree) -> set[int]:
