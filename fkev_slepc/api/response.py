@@ -170,7 +170,6 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.solve.response import LinkageSystem, periodic_response
     from fkev_slepc.solve.response_shooting import ResonanceError
-    from fkev_slepc.solve.response_stations import stations_at
 
     names = names or {}
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
@@ -194,16 +193,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
                        names.get("angles_deg", "angles_deg"))
     full_turn = checked_angles(scene, mech, np.arange(0.0, 360.0, 1.0), names.get("angles_deg", "angles_deg"))
     del full_turn  # the periodic response needs a crank that turns fully (refused above otherwise)
-    chosen = None
-    if stations is not None:
-        chosen = []
-        for link, s_list in stations.items():
-            if link not in mech.link_names:
-                raise SceneError(scene.source, [Problem(names.get("stations", "stations"), f"unknown link {link!r}")])
-            try:
-                chosen += stations_at(mech, mech.link_names.index(link), s_list)
-            except ValueError as err:
-                raise SceneError(scene.source, [Problem(names.get("stations", "stations"), str(err))]) from None
+    chosen = chosen_stations(scene, mech, stations, names)
     system = LinkageSystem(model, case, float(speed_rad_s), gravity)
     try:
         r = periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot)
@@ -224,6 +214,25 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
         float("nan") if sh is None else sh.closure, mech.elem_nodes)
+
+
+def chosen_stations(scene: Scene, mech, stations, names=None):
+    """The :class:`~fkev_slepc.solve.response_stations.Station` s of ``stations`` ({link name: [s_m, ...]}),
+    None for the default ones; SceneError naming ``stations`` for an unknown link or a distance off it."""
+    from fkev_slepc.solve.response_stations import stations_at
+
+    if stations is None:
+        return None
+    name = (names or {}).get("stations", "stations")
+    chosen = []
+    for link, s_list in stations.items():
+        if link not in mech.link_names:
+            raise SceneError(scene.source, [Problem(name, f"unknown link {link!r}")])
+        try:
+            chosen += stations_at(mech, mech.link_names.index(link), s_list)
+        except ValueError as err:
+            raise SceneError(scene.source, [Problem(name, str(err))]) from None
+    return chosen
 
 
 def _node_displacement(mech, q) -> np.ndarray:

@@ -90,33 +90,59 @@ def forced_resonances(speeds, mean_w, orders: int = 6) -> list[dict]:
     return sorted(out, key=lambda r: r["speed_rad_s"])
 
 
-def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: int = 4, orders: int = 6,
-                      names=None, **options) -> SpeedResponse:
-    """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; the
-    default tolerance here 1e-6), the station peaks, and the forced-resonance speeds."""
+SCAN_DEFAULTS = {"tol": 1e-6, "shoot": False}  # options of study_response the speed scan sets otherwise
+PEAK_FIELDS = ("peak_transverse_m", "peak_transverse_chord_m", "peak_moment_n_m", "peak_stress_pa")
+
+
+def checked_speeds(scene: Scene, speeds_rad_s, names=None) -> np.ndarray:
+    """The speeds as an array, or SceneError naming ``speeds_rad_s``: increasing, finite, > 0."""
+    speeds = np.atleast_1d(np.asarray(speeds_rad_s, dtype=float))
+    if speeds.size < 1 or not np.isfinite(speeds).all() or np.any(speeds <= 0) or np.any(np.diff(speeds) <= 0):
+        raise SceneError(scene.source, [Problem((names or {}).get("speeds_rad_s", "speeds_rad_s"),
+                                                f"must be increasing finite speeds > 0 rad/s (got {list(speeds)})")])
+    return speeds
+
+
+def speed_peaks(scene: Scene, speed: float, case: str, modes: int, names=None, **options) -> tuple[dict, object]:
+    """The response at one speed reduced to what the speed scan keeps: ``(values, result)``,
+    values by field (the four station peaks over the cycle (n_station,), ``max_abs_multiplier``,
+    ``harmonics``, ``harmonic_balance_error``, ``mean_frequency_rad_s`` (min(modes, n_free),)),
+    result the :class:`~fkev_slepc.api.response.ResponseResult` (options as there)."""
     from fkev_slepc.api.response import study_response
     from fkev_slepc.model.operators import Model
     from fkev_slepc.solve.response import LinkageSystem
 
+    r = study_response(scene, float(speed), case, names=names, **options)
+    sr = r.stations
+    peaks = [np.nanmax(np.abs(x), axis=0) for x in (sr.transverse, sr.transverse_chord, sr.moment)]
+    peaks.append(np.max(sr.stress, axis=0))
+    model = Model(scene, cases=(r.case,))
+    wbar = mean_frequencies(LinkageSystem(model, r.case, float(speed)), min(modes, model.n_free))
+    values = dict(zip(PEAK_FIELDS, peaks))
+    values.update(max_abs_multiplier=r.max_abs_multiplier, harmonics=r.harmonics,
+                  harmonic_balance_error=r.hb_error, mean_frequency_rad_s=wbar)
+    return values, r
+
+
+def station_labels(link_names, stations) -> tuple[str, ...]:
+    return tuple(f"{link_names[st.link]} @ {st.s:g} m" for st in stations)
+
+
+def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: int = 4, orders: int = 6,
+                      names=None, **options) -> SpeedResponse:
+    """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; the
+    default tolerance here 1e-6), the station peaks, and the forced-resonance speeds; in this
+    process (the archived run over MPI ranks: :func:`fkev_slepc.api.response_archive.run_response`)."""
     names = names or {}
-    speeds = np.atleast_1d(np.asarray(speeds_rad_s, dtype=float))
-    if speeds.size < 1 or not np.isfinite(speeds).all() or np.any(speeds <= 0) or np.any(np.diff(speeds) <= 0):
-        raise SceneError(scene.source, [Problem(names.get("speeds_rad_s", "speeds_rad_s"),
-                                                f"must be increasing finite speeds > 0 rad/s (got {list(speeds)})")])
-    options.setdefault("tol", 1e-6)
-    options.setdefault("shoot", False)
-    rows, mu, wbar = [], [], []
-    model = None
+    speeds = checked_speeds(scene, speeds_rad_s, names)
+    options = {**SCAN_DEFAULTS, **options}
+    rows = []
     for w in speeds:
-        r = study_response(scene, float(w), case, names=names, **options)
-        sr = r.stations
-        rows.append([np.nanmax(np.abs(x), axis=0) for x in (sr.transverse, sr.transverse_chord, sr.moment)]
-                    + [np.max(sr.stress, axis=0)])
-        mu.append(r.max_abs_multiplier)
-        model = model or Model(scene, cases=(r.case,))
-        wbar.append(mean_frequencies(LinkageSystem(model, r.case, float(w)), min(modes, model.n_free)))
-    labels = tuple(f"{r.link_names[st.link]} @ {st.s:g} m" for st in r.stations.stations)
-    peaks = [np.array([row[i] for row in rows]) for i in range(4)]
-    wbar = np.array(wbar)
-    return SpeedResponse(scene.title, r.case, speeds, labels, *peaks, np.array(mu, dtype=float), wbar,
-                         tuple(forced_resonances(speeds, wbar, orders)))
+        values, r = speed_peaks(scene, float(w), case, modes, names, **options)
+        rows.append(values)
+    peaks = [np.array([row[k] for row in rows]) for k in PEAK_FIELDS]
+    wbar = np.array([row["mean_frequency_rad_s"] for row in rows])
+    mu = np.array([row["max_abs_multiplier"] for row in rows], dtype=float)
+    return SpeedResponse(scene.title, r.case, speeds, station_labels(r.link_names, r.stations.stations), *peaks, mu,
+                         wbar, tuple(forced_resonances(speeds, wbar, orders)))
+

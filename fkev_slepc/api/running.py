@@ -23,9 +23,14 @@ class RunningSpeed:
 
         return study_response(self.scene, speed_rad_s, case, angles_deg, **options)
 
-    def response_vs_speed(self, speeds_rad_s, case="full", **options):
+    def response_vs_speed(self, speeds_rad_s, case="full", output=None, **options):
         """Peak response of every station over a speed range (``fkev response --speeds``):
-        :func:`fkev_slepc.api.response_speeds.response_vs_speed`."""
+        :func:`fkev_slepc.api.response_speeds.response_vs_speed`; with ``output`` archived there
+        over the MPI ranks of ``comm`` and resumable (``resume``, ``force``):
+        :func:`fkev_slepc.api.response_archive.archived_response_vs_speed`."""
         from fkev_slepc.api.response_speeds import response_vs_speed
+        from fkev_slepc.api.response_archive import archived_response_vs_speed
 
-        return response_vs_speed(self.scene, speeds_rad_s, case, **options)
+        if output is None:
+            return response_vs_speed(self.scene, speeds_rad_s, case, **options)
+        return archived_response_vs_speed(self.scene, speeds_rad_s, case, output, **options)

@@ -188,7 +188,12 @@ from fkev_slepc.archive.products_floquet import (  # noqa: E402 (the /floquet pr
     BAND_ROWS, F_BAND, F_INDEX, F_STATUS, FLOQUET, FLOQUET_ERRORS, MAX_ABS_MULTIPLIER, MULTIPLIER, MULTIPLIER_ERROR,
 )
 
-PRODUCTS = (SWEEP, DESIGN, FLOQUET)  # every product of the format; docs/archive.md lists their datasets
+from fkev_slepc.archive.products_response import (  # noqa: E402 (the /response product's table)
+    PEAK_CHORD, PEAK_MOMENT, PEAK_STRESS, PEAK_TRANSVERSE, R_ERRORS, R_HARMONICS, R_HB_ERROR, R_MAX_ABS,
+    R_MEAN_FREQUENCY, R_MODE, R_STATION, R_STATUS, RESPONSE, STATION_LINK, STATION_S,
+)
+
+PRODUCTS = (SWEEP, DESIGN, FLOQUET, RESPONSE)  # every product of the format; docs/archive.md lists their datasets
 
 
 # -------------------------------------------------------------------- root attributes

@@ -169,7 +169,8 @@ def _main(full_argv: list[str], environ: dict, flags: dict, ours: list[str]) -> 
     level = logging.ERROR if args.quiet else logging.WARNING - 10 * min(args.verbose, 2)
     from fkev_slepc.sweep.parallel import configure_logging, world
 
-    if args.command not in COLLECTIVE and world().rank > 0:
+    archived_scan = args.command == "response" and args.speeds is not None and args.output  # fkev response --speeds -o
+    if args.command not in COLLECTIVE and not archived_scan and world().rank > 0:
         return EXIT_OK  # under mpiexec: one process computes and prints (rank 0), once
     configure_logging(level)
     try:

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
-from fkev_slepc.status import EXIT_OK
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
 from .common import add_elements_argument, apply_element, load_checked, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
@@ -39,7 +39,12 @@ def add_parser(sub) -> None:
     p.add_argument("--no-shooting", action="store_true", help="skip the monodromy (no multipliers, no cross-check)")
     add_elements_argument(p)
     p.add_argument("--element", choices=("thesis", "cubic"), help="element type (default: the scene's)")
-    p.add_argument("--output", "-o", metavar="PATH.h5", help="archive the response (HDF5, xarray-readable)")
+    p.add_argument("--output", "-o", metavar="PATH.h5", help="archive the response (HDF5, xarray-readable); with "
+                   "--speeds an fkev archive (the frozen sweep of the speeds and /response), one speed per unit of "
+                   "work over the MPI ranks (mpirun -n N), resumable")
+    p.add_argument("--resume", action="store_true", help="with --speeds -o: continue an interrupted run (only the "
+                   "pending speeds are solved)")
+    p.add_argument("--force", action="store_true", help="with --speeds -o: replace an existing archive")
     p.add_argument("--plot", metavar="PATH.png", help="the deflected linkage at 4 angles (with --speeds: peak "
                    "response vs speed)")
     p.add_argument("--plot-stations", metavar="PATH.png", help="stress (or moment) vs crank angle per station")
@@ -114,6 +119,10 @@ def run(args) -> int:
     return EXIT_OK
 
 
+def _note(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
 def _print(d: dict) -> None:
     print(f"{d['scene']}: steady periodic response at Ω = {d['speed_rad_s']:g} rad/s, case {d['case']}, "
           f"{len(d['crank_angle_deg'])} output angles")
@@ -149,22 +158,39 @@ def _print(d: dict) -> None:
 
 def _vs_speed(args, scene, angles, gravity, stations) -> int:
     from fkev_slepc.api.response_speeds import response_vs_speed
+    from fkev_slepc.api.response_archive import archived_response_vs_speed
+    from fkev_slepc.sweep.interrupt import SweepInterrupted
+    from fkev_slepc.sweep.parallel import install_abort_hook, world
+    from fkev_slepc.sweep.session import RunRefused
 
+    options = dict(angles_deg=angles, gravity_m_s2=gravity, harmonics=args.harmonics, tol=args.tol,
+                   shoot=not args.no_shooting, stations=stations, names={**FLAGS, "speeds_rad_s": "--speeds"})
+    comm = world() if args.output else None
+    rank0 = comm is None or comm.rank == 0
     try:
-        sp = response_vs_speed(scene, args.speed_list, args.case or "full", angles_deg=angles, gravity_m_s2=gravity,
-                               harmonics=args.harmonics, tol=args.tol, shoot=not args.no_shooting,
-                               stations=stations, names={**FLAGS, "speeds_rad_s": "--speeds"})
+        if args.output:
+            install_abort_hook()
+            sp = archived_response_vs_speed(scene, args.speed_list, args.case or "full", args.output,
+                                            resume=args.resume, force=args.force, comm=comm,
+                                            command_line="fkev " + " ".join(sys.argv[1:]),
+                                            notify=None if args.json else _note, **options)
+        else:
+            sp = response_vs_speed(scene, args.speed_list, args.case or "full", **options)
     except SceneError as err:
-        return report_scene_error(err)
+        return report_scene_error(err) if rank0 else EXIT_BAD_INPUT
+    except (RunRefused, SweepInterrupted) as err:
+        if rank0:
+            _note(str(err))
+        return err.exit_code
+    if not rank0:
+        return EXIT_OK
     if args.plot:
         sp.plot().savefig(args.plot, dpi=120)
-    if args.output:
-        sp.save(args.output, {"command_line": " ".join(sys.argv)})
     d = sp.as_dict()
     if args.json:
         json.dump(d, sys.stdout)
         print()
-        return EXIT_OK
+        return _archived_exit(args)
     print(f"{d['scene']}: peak response over the cycle vs speed, case {d['case']}")
     print(f"  {'Ω (rad/s)':>10} {'max |μ|':>10} " + " ".join(f"{s['station']:>20}" for s in d["stations"]))
     for i, w in enumerate(d["speed_rad_s"]):
@@ -178,4 +204,19 @@ def _vs_speed(args, scene, angles, gravity, stations) -> int:
     for r in d["forced_resonances"]:
         print(f"  forced resonance {r['order']}·Ω = ω̄{r['mode']} ({r['frequency_rad_s']:.5g} rad/s) at "
               f"Ω ≈ {r['speed_rad_s']:.5g} rad/s")
-    return EXIT_OK
+    return _archived_exit(args)
+
+
+def _archived_exit(args) -> int:
+    """EXIT_NOT_CONVERGED when a speed of the archive failed or missed its tolerance (named on stderr)."""
+    if not args.output:
+        return EXIT_OK
+    from fkev_slepc.status import EXIT_NOT_CONVERGED, RETRYABLE, Status, codes
+    from fkev_slepc.api.response_archive import read_status
+
+    st = read_status(args.output)
+    bad = np.flatnonzero(np.isin(st, codes(RETRYABLE)))
+    for i in bad:
+        _note(f"fkev response: speed {args.speed_list[i]:g} rad/s is {Status.from_code(int(st[i])).value}: "
+              f"message in the archive's /response/errors")
+    return EXIT_NOT_CONVERGED if bad.size else EXIT_OK

@@ -25,9 +25,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from fkev_slepc.archive import lock, store
 from fkev_slepc.archive import products as P
-from fkev_slepc.archive.writer import Block, Writer
+from fkev_slepc.archive.writer import Block
 from fkev_slepc.scene import Scene
 from fkev_slepc.solve.floquet_bands import (
     DEFAULT_TOL, EDGE_RTOL, Band, SpeedPoint, brackets, bands_from, label, margin, refine_edge,
@@ -35,7 +34,8 @@ from fkev_slepc.solve.floquet_bands import (
 from fkev_slepc.solve.floquet_results import FloquetResults
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.parallel import local
-from fkev_slepc.sweep.units import pending, run_units
+from fkev_slepc.sweep.product_run import finish, open_product, solve_pending
+from fkev_slepc.sweep.units import pending
 
 log = logging.getLogger(__name__)
 MONODROMY_TOL = 1e-10  # relative error of Φ asked of the integrator
@@ -116,17 +116,8 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
               progress=progress)
     model = Model(sc, (request.case,))
     n_index = 2 * model.n_free
-    part, status = None, None
-    if comm.rank == 0:
-        lock.hold(out)
-        part = store.reopen_finished(out)
-        status = store.read_status(part, P.FLOQUET)
-        if status is None or not request.resume or _settings_differ(part, request, n_index):
-            store.add_product(part, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)})
-            status = store.read_status(part, P.FLOQUET)
-        with h5py.File(part, "r+") as f:
-            f[P.FLOQUET.name].attrs.update(_settings(request))
-    part, status = comm.bcast((part, status), root=0)
+    part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request),
+                                request.resume, comm, same=lambda p: not _settings_differ(p, request, n_index))
     speeds = np.asarray(sc.driver.speeds, dtype=float)
     evaluate = (evaluator or _evaluator)(model, request.case, request.monodromy_tol)
 
@@ -145,21 +136,14 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     todo = pending(status)
     if notify is not None and comm.rank == 0:
         notify(f"floquet: {int(todo.sum())} of {todo.size} speed(s) to solve")
-    writer = Writer(part, comm, product=P.FLOQUET)
-    try:
-        run_units(todo, solve, writer, comm, n_unit_axes=2)
-    finally:
-        writer.close()
+    solve_pending(part, out, P.FLOQUET, todo, solve, comm, n_unit_axes=2, notify=notify, label="speeds")
     grid = _read_grid(part, speeds) if comm.rank == 0 else None
     grid = comm.bcast(grid, root=0)
     bands = _bands(grid, lambda w: evaluate(w)[0], request, comm)
     if comm.rank == 0:
         bands = label(bands, _mean_frequencies(part))
         _write_bands(part, bands)
-        store.finalize(part, out, {"last_command_line": request.command_line}, time.monotonic() - t0)
-        lock.release(out)
-    comm.Barrier()
-    return out
+    return finish(part, out, request.command_line, t0, comm)
 
 
 def _settings(request: FloquetRequest) -> dict:

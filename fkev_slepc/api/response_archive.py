@@ -1,0 +1,191 @@
+"""``fkev response --speeds … -o`` / ``Study.response_vs_speed(..., output=...)``: the peak steady periodic
+response of every station over a speed range, archived over MPI ranks and resumable (docs/response.md §5).
+
+Like ``fkev floquet`` (and with its steps, :mod:`fkev_slepc.sweep.product_run`): the archive is the frozen
+sweep of the same speeds and case (the root product), with the ``/response`` product
+(:data:`fkev_slepc.archive.products.RESPONSE`) beside it: one unit of work per (speed, case), the response at
+that speed by :func:`fkev_slepc.api.response_speeds.speed_peaks` (harmonic balance, and shooting when asked),
+units dealt to the ranks by :func:`fkev_slepc.sweep.units.run_units`. A resume solves only the pending speeds
+(every speed again when the response settings differ); Ctrl-C stops every rank at the same sync with the
+``.part`` resumable. :func:`read_response` reads it back as a
+:class:`~fkev_slepc.api.response_speeds.SpeedResponse`, the forced resonances located from the archived
+cycle-mean frequencies.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive.writer import Block
+from fkev_slepc.scene import Scene, SceneError
+from fkev_slepc.status import Status
+from fkev_slepc.sweep.parallel import local
+from fkev_slepc.sweep.product_run import finish, open_product, solve_pending
+from fkev_slepc.sweep.units import pending
+
+OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stations")
+
+
+@dataclass(frozen=True)
+class ResponseRequest:
+    """An archived response scan: ``scene`` with the speeds (``driver.speeds``, increasing, > 0) and the one
+    case (``analysis.cases``) set; ``options`` those of :func:`fkev_slepc.api.response.study_response`
+    (:data:`OPTION_KEYS`); ``modes`` the cycle-mean frozen frequencies kept per speed."""
+
+    scene: Scene
+    output: Path
+    options: dict = field(default_factory=dict)
+    modes: int = 4
+    resume: bool = False
+    force: bool = False
+    solver: str | None = None
+    command_line: str = ""
+    make_dirs: bool = True
+
+    @property
+    def case(self) -> str:
+        return self.scene.analysis.cases[0]
+
+    def settings(self) -> dict:
+        """The group attributes that a resume must find unchanged (JSON of the options)."""
+        from fkev_slepc.api.response_speeds import SCAN_DEFAULTS
+
+        opts = {k: {**SCAN_DEFAULTS, **self.options}.get(k) for k in OPTION_KEYS}
+        if opts["angles_deg"] is not None:
+            opts["angles_deg"] = [float(a) for a in opts["angles_deg"]]
+        return {"options": json.dumps(opts, sort_keys=True, default=float), "modes": int(self.modes),
+                "analysed_case": self.case}
+
+
+def _status(values: dict, options: dict) -> int:
+    tol, fixed = options.get("tol"), options.get("harmonics") is not None
+    if not fixed and tol is not None and not values["harmonic_balance_error"] <= tol:
+        return Status.NOT_CONVERGED.code
+    mu = values["max_abs_multiplier"]
+    return (Status.UNSTABLE if np.isfinite(mu) and mu > 1.0 + max(1e-8, 10 * values["multiplier_error"])
+            else Status.OK).code
+
+
+def run_response(request: ResponseRequest, comm=None, notify=None, progress: bool = False) -> Path:
+    """Collective over ``comm`` (None: this process alone). Returns the finished archive's path.
+
+    Raises SceneError for bad options (before anything is solved), RunRefused as ``fkev run``,
+    SweepInterrupted after Ctrl-C/SIGTERM (the ``.part`` holds the speeds finished so far)."""
+    from fkev_slepc.api.response import chosen_stations
+    from fkev_slepc.api.response_speeds import SCAN_DEFAULTS, checked_speeds, speed_peaks
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.solve.response_stations import default_stations
+    from fkev_slepc.sweep.runner import recoverable_errors
+    from fkev_slepc.sweep.session import SweepRequest, run_sweep
+
+    comm = local(comm)
+    t0 = time.monotonic()
+    sc, out, opts = request.scene, Path(request.output), {**SCAN_DEFAULTS, **request.options}
+    speeds = checked_speeds(sc, sc.driver.speeds)
+    run_sweep(SweepRequest(sc, out, resume=request.resume, force=request.force, solver=request.solver,
+                           command_line=request.command_line, make_dirs=request.make_dirs), comm, notify=notify,
+              progress=progress)
+    model = Model(sc, (request.case,))
+    stations = chosen_stations(sc, model.mechanism, opts.get("stations"))
+    stations = default_stations(model.mechanism) if stations is None else stations
+    n_modes = min(int(request.modes), model.n_free)
+    settings = request.settings()
+    names = model.mechanism.link_names
+    part, status = open_product(
+        out, P.RESPONSE, {P.R_STATION: np.arange(len(stations), dtype="i4"),
+                          P.R_MODE: np.arange(1, n_modes + 1, dtype="i4")}, settings, request.resume, comm,
+        data={P.STATION_LINK.path: [names[st.link] for st in stations],
+              P.STATION_S.path: np.array([st.s for st in stations])},
+        same=lambda p: _settings_of(p) == settings)
+    rows = (P.PEAK_TRANSVERSE, P.PEAK_CHORD, P.PEAK_MOMENT, P.PEAK_STRESS)
+
+    def solve(unit, mask):
+        js, jc = unit
+        try:
+            values, r = speed_peaks(sc, float(speeds[js]), request.case, n_modes, **opts)
+        except (SceneError, *recoverable_errors()) as exc:
+            msg = "; ".join(p.message for p in exc.problems) if isinstance(exc, SceneError) else str(exc)
+            return Block(unit, mask, {}, np.array(Status.FAILED.code, np.uint8),
+                         [((js, jc), Status.FAILED.code, f"{type(exc).__name__}: {msg}")])
+        values["multiplier_error"] = r.multiplier_error
+        code = _status(values, opts)
+        data = {v.path: np.asarray(values[v.source], float) for v in rows}
+        data.update({P.R_MAX_ABS.path: np.array(values["max_abs_multiplier"]),
+                     P.R_HARMONICS.path: np.array(values["harmonics"], "i4"),
+                     P.R_HB_ERROR.path: np.array(values["harmonic_balance_error"]),
+                     P.R_MEAN_FREQUENCY.path: np.asarray(values["mean_frequency_rad_s"], float)})
+        errors = [((js, jc), code, f"harmonic balance error {values['harmonic_balance_error']:.2e} > tol "
+                   f"{opts.get('tol')}")] if code == Status.NOT_CONVERGED.code else []
+        return Block(unit, mask, data, np.array(code, np.uint8), errors)
+
+    todo = pending(status)
+    if notify is not None and comm.rank == 0:
+        notify(f"response: {int(todo.sum())} of {todo.size} speed(s) to solve")
+    report = (lambda done, total: notify(f"{done}/{total} response speeds")) if progress and notify else None
+    solve_pending(part, out, P.RESPONSE, todo, solve, comm, n_unit_axes=2, notify=notify, label="speeds",
+                  progress=report)
+    return finish(part, out, request.command_line, t0, comm)
+
+
+def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *, modes: int = 4, orders: int = 6,
+                               resume: bool = False, force: bool = False, comm=None, solver: str | None = None,
+                               command_line: str = "", notify=None, progress: bool = False, names=None,
+                               **options):
+    """:func:`fkev_slepc.api.response_speeds.response_vs_speed` archived in ``output`` over the ranks of ``comm``
+    (:func:`run_response`: one speed per unit of work, resumable);
+    the same numbers, read back from the archive."""
+    from fkev_slepc.api.response_speeds import checked_speeds
+    from fkev_slepc.scene import Problem
+    from fkev_slepc.scene.cases import case_name
+    from fkev_slepc.sweep.grid import configure
+
+    names = names or {}
+    speeds = checked_speeds(scene, speeds_rad_s, names)
+    try:
+        case = case_name(case)
+    except ValueError as err:
+        raise SceneError(scene.source, [Problem(names.get("case", "case"), str(err))]) from None
+    sc = configure(scene, speeds=[float(w) for w in speeds], cases=[case])
+    out = run_response(ResponseRequest(sc, Path(output), options, modes, resume, force, solver, command_line), comm,
+                       notify=notify, progress=progress)
+    return read_response(out, orders)
+
+
+def _settings_of(part) -> dict:
+    with h5py.File(part, "r") as f:
+        a = f[P.RESPONSE.name].attrs
+        return {k: (_text(a[k]) if isinstance(a[k], (str, bytes)) else int(a[k])) for k in ("options", "modes",
+                                                                                           "analysed_case") if k in a}
+
+
+def read_response(path, orders: int = 6):
+    """The ``/response`` product of an archive (case 0) as a :class:`SpeedResponse`; failed and pending
+    speeds are NaN (their status: :func:`read_status`)."""
+    from fkev_slepc.api.response_speeds import SpeedResponse, forced_resonances
+
+    with h5py.File(path, "r") as f:
+        g = f[P.RESPONSE.name]
+        labels = tuple(f"{_text(n)} @ {s:g} m" for n, s in zip(f[P.STATION_LINK.path][()], f[P.STATION_S.path][()]))
+        speeds = f[P.SPEED][()]
+        peaks = [f[v.path][:, 0, :] for v in (P.PEAK_TRANSVERSE, P.PEAK_CHORD, P.PEAK_MOMENT, P.PEAK_STRESS)]
+        wbar = f[P.R_MEAN_FREQUENCY.path][:, 0, :]
+        mu = f[P.R_MAX_ABS.path][:, 0]
+        title, case = _text(f.attrs.get("title", Path(path).stem)), _text(g.attrs["analysed_case"])
+    return SpeedResponse(title, case, speeds, labels, *peaks, mu, wbar, tuple(forced_resonances(speeds, wbar, orders)))
+
+
+def read_status(path) -> np.ndarray:
+    """Status code of every speed (case 0) of the ``/response`` product."""
+    with h5py.File(path, "r") as f:
+        return np.asarray(f[P.R_STATUS.path][:, 0], np.uint8)
+
+
+def _text(v) -> str:
+    return v.decode("utf-8") if isinstance(v, bytes) else str(v)

@@ -1,0 +1,94 @@
+"""The archived response vs speed (docs/response.md §5, docs/archive.md "Units of work"): one speed per
+unit of work of the /response product over MPI ranks, equal to the in-process scan, resumable, verified,
+xarray-readable. Lean: one element per link, three speeds, eight output angles."""
+
+import os
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+from clitools import ROOT, fkev
+
+from fkev_slepc.api import Study
+from fkev_slepc.archive import products as P
+from fkev_slepc.scene import load_scene, with_elements
+from fkev_slepc.sweep.grid import configure
+from fkev_slepc.api.response_archive import read_response, read_status
+
+BENCH = ROOT / "runs" / "slider-crank-benchmark-stiff-crank.toml"
+SPEEDS = [50.0, 150.0, 250.0]
+OPTS = dict(harmonics=12, angles_deg=np.arange(0, 360, 45.0), shoot=False)
+FIELDS = ("peak_transverse", "peak_chord", "peak_moment", "peak_stress", "mean_frequencies")
+
+
+def _study():
+    return Study(configure(with_elements(load_scene(BENCH), (1, 1)), angles="0:360:90"))
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return _study().response_vs_speed(SPEEDS, **OPTS)
+
+
+def test_two_ranks_equal_the_serial_scan_verify_and_open_in_xarray(tmp_path, serial):
+    """mpiexec -n 2 fkev response --speeds -o: the speeds dealt to two ranks give the in-process
+    scan's peaks and cycle-mean frequencies to 1e-12; fkev verify passes; xarray opens the root
+    (the frozen sweep of the same speeds) and the /response group."""
+    if shutil.which("mpiexec") is None:  # pragma: no cover - part of the stack
+        pytest.skip("mpiexec not found")
+    import xarray as xr
+
+    out = tmp_path / "p.h5"
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=str(ROOT),
+               OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    r = subprocess.run(["mpiexec", "-n", "2", sys.executable, "-m", "fkev_slepc", "response", str(BENCH),
+                        "--elements", "1", "--speeds", "50,150,250", "--harmonics", "12", "--angles", "0:315:45",
+                        "--no-shooting", "-o", str(out)], env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.count("peak response over the cycle vs speed") == 1  # rank 0 prints, once
+    par = read_response(out)
+    for name in FIELDS:
+        np.testing.assert_allclose(getattr(par, name), getattr(serial, name), rtol=1e-12, atol=0, err_msg=name)
+    assert par.station_labels == serial.station_labels and par.resonances == serial.resonances
+    assert read_status(out).tolist() == [1, 1, 1]
+    with h5py.File(out, "r") as f:
+        assert int(f.attrs["n_ranks"]) == 2 and int(f.attrs["complete"]) == 1
+    v = fkev("verify", out)
+    assert v.returncode == 0 and ": ok" in v.stdout, v.stdout + v.stderr
+    ds = xr.open_dataset(out, group="response", engine="h5netcdf")
+    np.testing.assert_array_equal(ds["peak_transverse_chord_m"].values[:, 0, :], par.peak_chord)
+    assert ds["peak_stress_pa"].attrs["units"] == "Pa" and list(ds["station_link"].values[:3]) == ["crank"] * 3
+    root = xr.open_dataset(out, engine="h5netcdf")
+    assert root["frequency_hz"].shape[1:3] == (3, 1) and root["speed_rad_s"].values.tolist() == SPEEDS
+
+
+def test_resume_solves_only_the_pending_speeds(tmp_path, serial, monkeypatch):
+    """A finished archive with one speed set back to pending: the resume solves that speed alone and
+    gives the same numbers; other response settings redo every speed."""
+    from fkev_slepc.api import response_speeds as rs
+
+    out = tmp_path / "s.h5"
+    first = _study().response_vs_speed(SPEEDS, output=out, **OPTS)
+    for name in FIELDS:
+        np.testing.assert_allclose(getattr(first, name), getattr(serial, name), rtol=1e-12, atol=0, err_msg=name)
+    with h5py.File(out, "r+") as f:
+        f[P.R_STATUS.path][1, 0] = 0
+    calls = []
+    real = rs.speed_peaks
+
+    def counting(scene, speed, *a, **k):
+        calls.append(speed)
+        return real(scene, speed, *a, **k)
+
+    monkeypatch.setattr(rs, "speed_peaks", counting)
+    again = _study().response_vs_speed(SPEEDS, output=out, resume=True, **OPTS)
+    assert calls == [150.0]
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(again, name), getattr(first, name), err_msg=name)
+    assert read_status(out).tolist() == [1, 1, 1] and fkev("verify", out).returncode == 0
+    calls.clear()
+    _study().response_vs_speed(SPEEDS, output=out, resume=True, **{**OPTS, "harmonics": 8})
+    assert calls == SPEEDS
