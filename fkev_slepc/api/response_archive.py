@@ -27,31 +27,20 @@ from fkev_slepc.archive.writer import Block
 from fkev_slepc.scene import Scene, SceneError
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.parallel import local
-from fkev_slepc.sweep.product_run import finish, open_product, solve_pending
+from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
 from fkev_slepc.sweep.units import pending
 
 OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stations")
 
 
 @dataclass(frozen=True)
-class ResponseRequest:
+class ResponseRequest(ProductRequest):
     """An archived response scan: ``scene`` with the speeds (``driver.speeds``, increasing, > 0) and the one
     case (``analysis.cases``) set; ``options`` those of :func:`fkev_slepc.api.response.study_response`
     (:data:`OPTION_KEYS`); ``modes`` the cycle-mean frozen frequencies kept per speed."""
 
-    scene: Scene
-    output: Path
     options: dict = field(default_factory=dict)
     modes: int = 4
-    resume: bool = False
-    force: bool = False
-    solver: str | None = None
-    command_line: str = ""
-    make_dirs: bool = True
-
-    @property
-    def case(self) -> str:
-        return self.scene.analysis.cases[0]
 
     def settings(self) -> dict:
         """The group attributes that a resume must find unchanged (JSON of the options)."""
@@ -60,7 +49,7 @@ class ResponseRequest:
         opts = {k: {**SCAN_DEFAULTS, **self.options}.get(k) for k in OPTION_KEYS}
         if opts["angles_deg"] is not None:
             opts["angles_deg"] = [float(a) for a in opts["angles_deg"]]
-        return {"options": json.dumps(opts, sort_keys=True, default=float), "modes": int(self.modes),
+        return {"options": json.dumps(opts, sort_keys=True, default=float), "n_modes": int(self.modes),
                 "analysed_case": self.case}
 
 
@@ -83,15 +72,12 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
     from fkev_slepc.model.operators import Model
     from fkev_slepc.solve.response_stations import default_stations
     from fkev_slepc.sweep.runner import recoverable_errors
-    from fkev_slepc.sweep.session import SweepRequest, run_sweep
 
     comm = local(comm)
     t0 = time.monotonic()
     sc, out, opts = request.scene, Path(request.output), {**SCAN_DEFAULTS, **request.options}
     speeds = checked_speeds(sc, sc.driver.speeds)
-    run_sweep(SweepRequest(sc, out, resume=request.resume, force=request.force, solver=request.solver,
-                           command_line=request.command_line, make_dirs=request.make_dirs), comm, notify=notify,
-              progress=progress)
+    request.run_frozen_sweep(comm, notify, progress)
     model = Model(sc, (request.case,))
     stations = chosen_stations(sc, model.mechanism, opts.get("stations"))
     stations = default_stations(model.mechanism) if stations is None else stations
@@ -153,7 +139,7 @@ def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *,
     except ValueError as err:
         raise SceneError(scene.source, [Problem(names.get("case", "case"), str(err))]) from None
     sc = configure(scene, speeds=[float(w) for w in speeds], cases=[case])
-    out = run_response(ResponseRequest(sc, Path(output), options, modes, resume, force, solver, command_line), comm,
+    out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line, options=options, modes=modes), comm,
                        notify=notify, progress=progress)
     return read_response(out, orders)
 
@@ -161,7 +147,7 @@ def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *,
 def _settings_of(part) -> dict:
     with h5py.File(part, "r") as f:
         a = f[P.RESPONSE.name].attrs
-        return {k: (_text(a[k]) if isinstance(a[k], (str, bytes)) else int(a[k])) for k in ("options", "modes",
+        return {k: (_text(a[k]) if isinstance(a[k], (str, bytes)) else int(a[k])) for k in ("options", "n_modes",
                                                                                            "analysed_case") if k in a}
 
 

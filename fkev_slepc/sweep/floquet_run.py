@@ -27,14 +27,13 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.writer import Block
-from fkev_slepc.scene import Scene
 from fkev_slepc.solve.floquet_bands import (
     DEFAULT_TOL, EDGE_RTOL, Band, SpeedPoint, brackets, bands_from, label, margin, refine_edge,
 )
 from fkev_slepc.solve.floquet_results import FloquetResults
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.parallel import local
-from fkev_slepc.sweep.product_run import finish, open_product, solve_pending
+from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
 from fkev_slepc.sweep.units import pending
 
 log = logging.getLogger(__name__)
@@ -44,24 +43,13 @@ BAND_ATTRS = ("lower", "upper", "lower_open", "upper_open", "resonance", "predic
 
 
 @dataclass(frozen=True)
-class FloquetRequest:
+class FloquetRequest(ProductRequest):
     """A Floquet run: ``scene`` with the speeds (``driver.speeds``, all > 0), the crank angles of the
     frozen sweep (``analysis.crank_angles_deg``) and the one case (``analysis.cases``) set."""
 
-    scene: Scene
-    output: Path
     tol: float = DEFAULT_TOL
     rtol: float = EDGE_RTOL
     monodromy_tol: float = MONODROMY_TOL
-    resume: bool = False
-    force: bool = False
-    solver: str | None = None
-    command_line: str = ""
-    make_dirs: bool = True
-
-    @property
-    def case(self) -> str:
-        return self.scene.analysis.cases[0]
 
 
 def _evaluator(model, case: str, tol: float):
@@ -104,16 +92,12 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     ``evaluator(model, case, monodromy_tol)`` -> ``evaluate(speed) -> (SpeedPoint, message)``
     replaces the linkage monodromy (tests put a system with known bands through the same run)."""
     from fkev_slepc.model.operators import Model
-    from fkev_slepc.sweep.session import SweepRequest, run_sweep
-
     comm = local(comm)
     t0 = time.monotonic()
     sc, out = request.scene, Path(request.output)
     if evaluator is None:
         _engine_available()
-    run_sweep(SweepRequest(sc, out, resume=request.resume, force=request.force, solver=request.solver,
-                           command_line=request.command_line, make_dirs=request.make_dirs), comm, notify=notify,
-              progress=progress)
+    request.run_frozen_sweep(comm, notify, progress)
     model = Model(sc, (request.case,))
     n_index = 2 * model.n_free
     part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request),

@@ -16,6 +16,7 @@ the steps shared by ``fkev floquet`` (fkev_slepc/sweep/floquet_run.py) and ``fke
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -23,6 +24,33 @@ import h5py
 import numpy as np
 
 from fkev_slepc.archive import lock, store
+from fkev_slepc.scene import Scene
+
+
+@dataclass(frozen=True)
+class ProductRequest:
+    """What every product run beside a frozen sweep is asked: ``scene`` with its speeds and its one case
+    (``analysis.cases``) set, the archive, and how to treat an existing one (as ``fkev run``)."""
+
+    scene: Scene
+    output: Path
+    resume: bool = False
+    force: bool = False
+    solver: str | None = None
+    command_line: str = ""
+    make_dirs: bool = True
+
+    @property
+    def case(self) -> str:
+        return self.scene.analysis.cases[0]
+
+    def run_frozen_sweep(self, comm, notify=None, progress: bool = False) -> None:
+        """The root product: the frozen sweep of the scene's grid (resumed or forced as asked)."""
+        from fkev_slepc.sweep.session import SweepRequest, run_sweep
+
+        run_sweep(SweepRequest(self.scene, Path(self.output), resume=self.resume, force=self.force,
+                               solver=self.solver, command_line=self.command_line, make_dirs=self.make_dirs), comm,
+                  notify=notify, progress=progress)
 
 
 def open_product(out: Path, product, values: dict, settings: dict, resume: bool, comm, data: dict | None = None,
