@@ -92,3 +92,65 @@ def test_resume_solves_only_the_pending_speeds(tmp_path, serial, monkeypatch):
     calls.clear()
     _study().response_vs_speed(SPEEDS, output=out, resume=True, **{**OPTS, "harmonics": 8})
     assert calls == SPEEDS
+
+
+def test_ctrl_c_stops_at_a_sync_and_resume_finishes(tmp_path):
+    """Ctrl-C during the speeds (paused at the first sync by FKEV_PAUSE_AFTER, no race): exit 130,
+    the .part keeps the speed written and the other two pending; --resume solves those two and gives
+    the uninterrupted archive's numbers."""
+    import signal
+
+    from fkev_slepc.sweep.interrupt import PAUSE_VARIABLE, PAUSED
+
+    out = tmp_path / "c.h5"
+    args = ["response", BENCH, "--elements", "1", "--speeds", "50,150,250", "--harmonics", "12", "--angles",
+            "0:315:45", "--no-shooting", "-o", out]
+    assert fkev(*args, "--json").returncode == 0
+    done = read_response(out)
+    with h5py.File(out, "r+") as f:  # every speed pending again: the frozen sweep has nothing left to do
+        f[P.R_STATUS.path][:, 0] = 0
+    env = {**os.environ, "PYTHONPATH": str(ROOT), PAUSE_VARIABLE: "1", "OPENBLAS_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "fkev_slepc", *map(str, args), "--resume", "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    lines = []
+    while True:
+        line = proc.stderr.readline()
+        assert line, "the run ended without pausing: " + "".join(lines)
+        lines.append(line)
+        if line.startswith(PAUSED):
+            break
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err
+    part = out.with_name(out.name + ".part")
+    assert part.exists() and "resume" in err
+    assert sorted(read_status(part).tolist()) == [0, 0, 1]
+    r = fkev(*args, "--resume")
+    assert r.returncode == 0, r.stderr
+    assert "response: 2 of 3 speed(s) to solve" in r.stderr
+    again = read_response(out)
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(again, name), getattr(done, name), err_msg=name)
+
+
+def test_a_speed_that_raises_is_flagged_not_filled(tmp_path, monkeypatch):
+    """A solver failure at one speed: status failed, its message in /response/errors, NaN peaks; the
+    other speeds archived; the archive verifies."""
+    from fkev_slepc.api import response_speeds as rs
+
+    real = rs.speed_peaks
+
+    def failing(scene, speed, *a, **k):
+        if speed == 150.0:
+            raise np.linalg.LinAlgError("singular matrix (injected)")
+        return real(scene, speed, *a, **k)
+
+    monkeypatch.setattr(rs, "speed_peaks", failing)
+    out = tmp_path / "f.h5"
+    res = _study().response_vs_speed(SPEEDS, output=out, **OPTS)
+    assert read_status(out).tolist() == [1, 5, 1]
+    assert np.isnan(res.peak_chord[1]).all() and np.isfinite(res.peak_chord[[0, 2]]).all()
+    with h5py.File(out, "r") as f:
+        assert f[P.R_ERRORS.index.path][()].tolist() == [[1, 0]]
+        assert b"singular matrix (injected)" in bytes(f[P.R_ERRORS.message.path][0])
+    assert fkev("verify", out).returncode == 0
