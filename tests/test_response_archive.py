@@ -98,9 +98,9 @@ def test_ctrl_c_stops_at_a_sync_and_resume_finishes(tmp_path):
     """Ctrl-C during the speeds (paused at the first sync by FKEV_PAUSE_AFTER, no race): exit 130,
     the .part keeps the speed written and the other two pending; --resume solves those two and gives
     the uninterrupted archive's numbers."""
-    import signal
+    from test_cli_interrupt import interrupt_when_paused
 
-    from fkev_slepc.sweep.interrupt import PAUSE_VARIABLE, PAUSED
+    from fkev_slepc.sweep.interrupt import PAUSE_VARIABLE
 
     out = tmp_path / "c.h5"
     args = ["response", BENCH, "--elements", "1", "--speeds", "50,150,250", "--harmonics", "12", "--angles",
@@ -112,16 +112,8 @@ def test_ctrl_c_stops_at_a_sync_and_resume_finishes(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT), PAUSE_VARIABLE: "1", "OPENBLAS_NUM_THREADS": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "fkev_slepc", *map(str, args), "--resume", "--json"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    lines = []
-    while True:
-        line = proc.stderr.readline()
-        assert line, "the run ended without pausing: " + "".join(lines)
-        lines.append(line)
-        if line.startswith(PAUSED):
-            break
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=300)
-    assert proc.returncode == 130, err
+    code, err, written = interrupt_when_paused(proc)
+    assert code == 130 and written == 1, err
     part = out.with_name(out.name + ".part")
     assert part.exists() and "resume" in err
     assert sorted(read_status(part).tolist()) == [0, 0, 1]
