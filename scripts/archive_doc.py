@@ -4,26 +4,13 @@
 Usage: python scripts/archive_doc.py [--check]   (--check: exit 1 if the page is out of date)
 """
 
-from __future__ import annotations
-
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from doclib import regenerate  # noqa: E402
 from fkev_slepc.archive.products_doc import replace_block  # noqa: E402
 
-
-def main(argv: list[str]) -> int:
-    page = ROOT / "docs" / "archive.md"
-    text = page.read_text()
-    new = replace_block(text)
-    if "--check" in argv:
-        return 0 if new == text else 1
-    page.write_text(new)
-    return 0
-
-
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    raise SystemExit(regenerate("archive.md", replace_block, "archive_doc.py", sys.argv[1:]))
