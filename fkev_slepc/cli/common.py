@@ -129,3 +129,22 @@ def transmission_warning(mu: float, angle_deg: float) -> None:
         print(f"warning: transmission angle {mu:.3g}° < {TRANSMISSION_WARN_DEG:g}° at θ = {angle_deg:g}°: "
               "near a toggle position, where link speeds and the speed-dependent terms grow like "
               "1/sin(μ) (docs/numerical-stability.md)", file=sys.stderr)
+
+
+def angles_and_gravity(args, bad: list) -> tuple:
+    """``--angles`` (deg grid, None if not given) and ``--gravity GX,GY`` (a tuple, or the text as typed
+    for the scene check to name) of the cycle commands (loads, response); a bad grid is added to ``bad``."""
+    from fkev_slepc.sweep.grid import parse_angles
+
+    angles = gravity = None
+    if args.angles is not None:
+        try:
+            angles = parse_angles(args.angles)
+        except ValueError as err:
+            bad.append(Problem("--angles", str(err)))
+    if args.gravity is not None:
+        try:
+            gravity = tuple(float(v) for v in args.gravity.split(","))
+        except ValueError:
+            gravity = args.gravity
+    return angles, gravity

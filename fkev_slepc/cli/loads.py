@@ -10,9 +10,9 @@ import sys
 
 import numpy as np
 
-from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
-from .common import add_elements_argument, load_checked, report_scene_error
+from .common import add_elements_argument, angles_and_gravity, load_checked, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "accel_rad_s2": "--accel", "gravity_m_s2": "--gravity",
          "angles_deg": "--angles"}
@@ -41,19 +41,8 @@ def add_parser(sub) -> None:
 
 
 def _parse(args):
-    from fkev_slepc.sweep.grid import parse_angles
-
-    bad, angles, gravity = [], None, None
-    if args.angles is not None:
-        try:
-            angles = parse_angles(args.angles)
-        except ValueError as err:
-            bad.append(Problem("--angles", str(err)))
-    if args.gravity is not None:
-        try:
-            gravity = tuple(float(v) for v in args.gravity.split(","))
-        except ValueError:
-            gravity = args.gravity
+    bad = []
+    angles, gravity = angles_and_gravity(args, bad)
     if bad:
         raise SceneError(args.scene, bad)
     return angles, gravity

@@ -11,7 +11,7 @@ import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
-from .common import add_elements_argument, apply_element, load_checked, report_scene_error
+from .common import add_elements_argument, angles_and_gravity, apply_element, load_checked, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
          "harmonics": "--harmonics", "stations": "--station"}
@@ -57,17 +57,8 @@ def add_parser(sub) -> None:
 def _parse(args):
     from fkev_slepc.sweep.grid import parse_angles
 
-    bad, angles, gravity, stations = [], None, None, None
-    if args.angles is not None:
-        try:
-            angles = parse_angles(args.angles)
-        except ValueError as err:
-            bad.append(Problem("--angles", str(err)))
-    if args.gravity is not None:
-        try:
-            gravity = tuple(float(v) for v in args.gravity.split(","))
-        except ValueError:
-            gravity = args.gravity
+    bad, stations = [], None
+    angles, gravity = angles_and_gravity(args, bad)
     if args.station:
         stations = {}
         for text in args.station:
