@@ -24,6 +24,13 @@ OPTS = dict(harmonics=12, angles_deg=np.arange(0, 360, 45.0), shoot=False)
 FIELDS = ("peak_transverse", "peak_chord", "peak_moment", "peak_stress", "mean_frequencies")
 
 
+def _same(a, b, name):
+    """Equal to 1e-12 of the field's largest value: a tip's bending moment is ~1e-5 of the root's and
+    carries the round-off of the root's size (3e-14 N m seen between a 2-rank and an in-process scan)."""
+    b = np.asarray(b)
+    np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.nanmax(np.abs(b)), err_msg=name)
+
+
 def _study():
     return Study(configure(with_elements(load_scene(BENCH), (1, 1)), angles="0:360:90"))
 
@@ -51,7 +58,7 @@ def test_two_ranks_equal_the_serial_scan_verify_and_open_in_xarray(tmp_path, ser
     assert r.stdout.count("peak response over the cycle vs speed") == 1  # rank 0 prints, once
     par = read_response(out)
     for name in FIELDS:
-        np.testing.assert_allclose(getattr(par, name), getattr(serial, name), rtol=1e-12, atol=0, err_msg=name)
+        _same(getattr(par, name), getattr(serial, name), name)
     assert par.station_labels == serial.station_labels and par.resonances == serial.resonances
     assert read_status(out).tolist() == [1, 1, 1]
     with h5py.File(out, "r") as f:
@@ -73,7 +80,7 @@ def test_resume_solves_only_the_pending_speeds(tmp_path, serial, monkeypatch):
     out = tmp_path / "s.h5"
     first = _study().response_vs_speed(SPEEDS, output=out, **OPTS)
     for name in FIELDS:
-        np.testing.assert_allclose(getattr(first, name), getattr(serial, name), rtol=1e-12, atol=0, err_msg=name)
+        _same(getattr(first, name), getattr(serial, name), name)
     with h5py.File(out, "r+") as f:
         f[P.R_STATUS.path][1, 0] = 0
     calls = []
