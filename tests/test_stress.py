@@ -158,9 +158,10 @@ def test_lock_refuses_a_second_writer_and_is_released_when_the_holder_dies(tmp_p
     from fkev_slepc.archive.lock import ArchiveLock, ArchiveLocked, lock_path
 
     out = tmp_path / "a.h5"
-    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\nfrom fkev_slepc.archive.lock import "
+    # the holder keeps the lock until its stdin closes or it is killed: no timer anywhere
+    holder = subprocess.Popen([sys.executable, "-c", "import sys\nfrom fkev_slepc.archive.lock import "
                                "ArchiveLock\nArchiveLock(sys.argv[1]).acquire()\nprint('held', flush=True)\n"
-                               "time.sleep(60)", str(out)], stdout=subprocess.PIPE, text=True)
+                               "sys.stdin.read()", str(out)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout.readline().strip() == "held"
         with pytest.raises(ArchiveLocked, match=f"pid {holder.pid}"):
