@@ -95,3 +95,39 @@ def test_resonance_candidates_and_nearest():
     assert nearest_resonance(Band(340.0, 352.0), [100.0, 250.0]).label == "(ω̄1+ω̄2)/1"
     assert nearest_resonance(Band(248.0, 251.0), [100.0, 250.0]).label == "2ω̄2/2"
     assert nearest_resonance(Band(480.0, 490.0), [100.0, 250.0]).label == "2ω̄2/1"
+
+
+def test_a_band_between_two_stable_grid_speeds_is_flagged_then_found_by_a_probe():
+    """A 0.15 rad/s grid steps over the second tongue (0.967-1.007 rad/s: between 0.95 and 1.1,
+    both stable): the scan sees one band, but the gap holding the resonance candidate 2ω̄1/2 is
+    listed (its speed inside the exact tongue); one probe there finds the tongue, whose edges are
+    then refined to 1e-6 of the closed form."""
+    from fkev_slepc.solve.floquet_bands import unsampled
+
+    speeds = np.arange(0.8, 2.6 + 1e-9, 0.15)
+    pts, bands, _ = find_bands(speeds, mathieu_point)
+    assert len(bands) == 1 and bands[0].lower > 1.7
+    gaps = unsampled(pts, lambda w: [mean_frequency()], max_order=3)
+    assert [(g.resonance.label, g.between) for g in gaps] == [("2ω̄1/2", (pytest.approx(0.95), pytest.approx(1.1)))]
+    lo, hi = exact_edges(2)
+    assert lo < gaps[0].resonance.speed < hi
+    probe = mathieu_point(gaps[0].resonance.speed)
+    pts2, bands2, _ = find_bands(speeds, mathieu_point, points=pts + [probe])
+    assert len(bands2) == 2
+    assert abs(bands2[0].lower / lo - 1) < 1e-6 and abs(bands2[0].upper / hi - 1) < 1e-6, (bands2[0], lo, hi)
+    assert unsampled(pts, lambda w: [mean_frequency()], max_order=1) == []  # order 2 is not asked
+
+
+def test_unsampled_candidate_crosses_the_speed_where_it_equals_it():
+    """ω̄(Ω) = 0.5 + 0.25 Ω: 2ω̄/1 = 1 + 0.5 Ω equals Ω at Ω = 2 (linear, so exactly), in the
+    gap (1.5, 2.5) of two stable speeds; an unstable end or a failed speed makes no gap."""
+    from fkev_slepc.solve.floquet_bands import unsampled
+
+    stable = [SpeedPoint(w, np.array([1.0, 1.0]), 1e-14) for w in (1.5, 2.5, 3.5)]
+    (gap,) = unsampled(stable, lambda w: [0.5 + 0.25 * w], max_order=1)
+    assert gap.resonance.label == "2ω̄1/1" and gap.resonance.speed == pytest.approx(2.0, rel=1e-14)
+    assert gap.between == (1.5, 2.5)
+    unstable = [stable[0], SpeedPoint(2.5, np.array([1.1, 1 / 1.1]), 1e-14), stable[2]]
+    assert unsampled(unstable, lambda w: [0.5 + 0.25 * w], max_order=1) == []
+    failed = [stable[0], SpeedPoint(2.5, np.zeros(0, complex), float("nan"), False), stable[2]]
+    assert unsampled(failed, lambda w: [0.5 + 0.25 * w], max_order=1) == []

@@ -226,3 +226,93 @@ def test_fkev_floquet_json_on_the_undamped_four_bar(tmp_path):
     assert out["frozen_time_unstable_fraction"][0] > 0.5
     mu = np.array([complex(*z) for z in out["multipliers"][0]])
     assert mu.size == 30 and np.max(np.min(np.abs(mu[:, None] - 1 / mu.conj()[None, :]), axis=1)) < 1e-8
+
+
+def test_interrupted_edge_refinement_resumes_where_it_stopped(tmp_path):
+    """Every monodromy of the edge refinement is archived (/floquet/samples) as it is solved: a
+    run stopped by Ctrl-C in the refinement (FKEV_PAUSE_AFTER: paused after the second round, no
+    race) exits 130 with those speeds in the .part; --resume solves only the speeds it had not,
+    and ends with the uninterrupted run's edges and samples, bit for bit."""
+    import os
+    import shutil
+    import signal
+    import subprocess
+    import sys
+
+    import h5py
+    import numpy as np
+
+    from test_cli_interrupt import interrupt_when_paused
+
+    from fkev_slepc.archive.products_floquet import SAMPLE_ROWS
+    from fkev_slepc.sweep import floquet_run as fr
+    from fkev_slepc.sweep.floquet_samples import read_samples
+    from fkev_slepc.sweep.interrupt import PAUSE_VARIABLE
+
+    calls = []
+    ref = fr.run_floquet(_request(tmp_path, speeds="8:26:1.0"), evaluator=lambda *a: mathieu_evaluator(*a, calls=calls))
+    first, ref_samples = fr.read_floquet(ref), read_samples(ref)
+    assert len(first.bands) == 2 and first.samples == {"edge": len(ref_samples), "probe": 0} and len(ref_samples) > 8
+    assert sorted(ref_samples) == sorted(calls[19:])  # after the 19 grid speeds, each refinement speed once
+    run = tmp_path / "run"
+    run.mkdir()
+    shutil.copy(ref, run / "fq.h5")
+    with h5py.File(run / "fq.h5", "r+") as f:  # grid and frozen sweep done, refinement not started
+        for v in SAMPLE_ROWS:
+            f[v.path].resize(0, axis=0)
+    script = tmp_path / "interrupted_script"
+    script.write_text(
+        "import sys; from pathlib import Path; sys.path.insert(0, sys.argv[1])\n"
+        "import test_floquet_cli as t\nfrom fkev_slepc.sweep import floquet_run as fr\n"
+        "from fkev_slepc.sweep.interrupt import SweepInterrupted\n"
+        "try:\n    fr.run_floquet(t._request(Path(sys.argv[2]), speeds='8:26:1.0', resume=True), "
+        "evaluator=t.mathieu_evaluator, notify=lambda m: print(m, file=sys.stderr, flush=True))\n"
+        "except SweepInterrupted as e:\n    sys.exit(e.exit_code)\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT), PAUSE_VARIABLE: "3", "OPENBLAS_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, str(script), str(ROOT / "tests"), str(run)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+    code, err, written = interrupt_when_paused(proc, sig=signal.SIGINT)
+    assert code == 130 and written == 4 and "continue with --resume" in err, err
+    kept = read_samples(run / "fq.h5.part")
+    assert len(kept) == 4 and all(ref_samples[w][0].max_abs == p.max_abs for w, (p, _) in kept.items())
+    calls.clear()
+    again = fr.read_floquet(fr.run_floquet(_request(run, speeds="8:26:1.0", resume=True),
+                                           evaluator=lambda *a: mathieu_evaluator(*a, calls=calls)))
+    assert sorted(calls) == sorted(set(ref_samples) - set(kept))  # the grid and the 4 kept not solved again
+    assert [(b.lower, b.upper, b.resonance) for b in again.bands] == [(b.lower, b.upper, b.resonance) for b in first.bands]
+    done = read_samples(run / "fq.h5")
+    assert sorted(done) == sorted(ref_samples)
+    for w, (p, purpose) in done.items():
+        assert purpose == "edge" and np.array_equal(p.multipliers, ref_samples[w][0].multipliers)
+
+
+def test_a_band_open_at_both_ends_of_the_speeds_examined(tmp_path):
+    """Undamped Bahgat-Willmert at 800 rad/s alone (inside the band 710-838 rad/s of
+    docs/stability.md): unstable, a band open at both ends; its JSON edges are null, the grid
+    ends that bound it are given; the text says "1 speed" and which edge was not located; a
+    negative --resonance-order is refused naming the flag."""
+    import json
+
+    from clitools import BW, fkev
+
+    args = ("floquet", BW, "--speeds", "800", "--angles", "0:360:60", "--no-critical", "-o", tmp_path / "bw.h5")
+    r = fkev(*args, "--json")
+    assert r.returncode == 0, r.stderr
+    (band,) = json.loads(r.stdout)["bands"]
+    assert (band["lower_rad_s"], band["upper_rad_s"], band["lower_open"], band["upper_open"]) == (None, None, True, True)
+    assert band["unstable_down_to_rad_s"] == band["unstable_up_to_rad_s"] == 800.0 and band["peak_max_abs_multiplier"] > 1.01
+    text = fkev(*args, "--resume").stdout  # nothing left to solve: the same archive as text
+    assert ", 1 speed 800 rad/s;" in text and "1 of 1 grid speed unstable" in text, text
+    assert "<= 800 (unstable at the lowest speed examined) to >= 800 (unstable at the highest speed examined) rad/s" in text
+    bad = fkev("floquet", BW, "--speeds", "800", "--resonance-order", "-1", "-o", tmp_path / "x.h5")
+    assert bad.returncode == 2 and "--resonance-order" in bad.stderr and "Traceback" not in bad.stderr, bad.stderr
+
+
+def test_study_floquet_is_the_api_of_fkev_floquet(tmp_path):
+    """Study.floquet (lost from Study when the running-speed methods moved to a mixin) runs the
+    same analysis: undamped Bahgat-Willmert at 500 rad/s is Floquet-stable, max|μ| = 1 to 1e-8."""
+    from fkev_slepc.api import load
+
+    res = load(RUNS / "bahgat-willmert-1976.toml").floquet([500.0], "full", tmp_path / "bw.h5", angles_deg=[0, 90, 180, 270],
+                                                         critical=False, resonance_order=2)
+    assert res.bands == () and abs(res.max_abs[0] - 1.0) < 1e-8 and res.resonance_order == 2 and res.gaps == ()

@@ -13,12 +13,12 @@ from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
 
 API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "angles_deg", "cases": "case",
              "modes": "modes", "element": "element", "rel_error": "rel_error", "tol": "tol", "rtol": "rtol",
-             "monodromy_tol": "monodromy_tol", "output": "output"}
+             "monodromy_tol": "monodromy_tol", "output": "output", "resonance_order": "resonance_order"}
 
 
 def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_deg=None, resume: bool = False,
                   force: bool = False, tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL, monodromy_tol: float = 1e-10,
-                  solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
+                  resonance_order: int = 3, probe: bool = False, solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
                   command_line: str = "", notify=None, progress: bool = False):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
     messages name the arguments (the CLI passes its flags)."""
@@ -37,6 +37,8 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
     for key, v, lo, hi in (("tol", tol, 0.0, 1.0), ("rtol", rtol, 0.0, 1.0), ("monodromy_tol", monodromy_tol, 0.0, 1.0)):
         if not (np.isfinite(v) and lo < v < hi):
             bad.append(Problem(names[key], f"must be in (0, 1) (got {v})"))
+    if isinstance(resonance_order, bool) or not isinstance(resonance_order, (int, np.integer)) or resonance_order < 0:
+        bad.append(Problem(names["resonance_order"], f"must be a whole number >= 0 (got {resonance_order!r})"))
     if sc.driver.acceleration != 0.0:
         bad.append(Problem("driver.acceleration_rad_s2", "the Floquet analysis needs a constant crank speed "
                            f"(got {sc.driver.acceleration:g} rad/s²)"))
@@ -52,7 +54,8 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
             raise SceneError(sc.source, [Problem(names["output"], "required for a study made from text")])
         output = default_output(study.path).with_name(Path(study.path).stem + "-floquet.h5")
     request = FloquetRequest(scene, Path(output), tol=float(tol), rtol=float(rtol),
-                             monodromy_tol=float(monodromy_tol or MONODROMY_TOL), resume=resume, force=force,
+                             monodromy_tol=float(monodromy_tol or MONODROMY_TOL), resonance_order=int(resonance_order),
+                             probe=bool(probe), resume=resume, force=force,
                              solver=solver, command_line=command_line)
     comm = local(comm)
     out = run_floquet(request, comm, notify=notify, progress=progress)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 
 class RunningSpeed:
-    """``Study.loads`` and ``Study.response`` (``self.scene`` is the study's scene)."""
+    """``Study.loads``, ``Study.response`` and ``Study.floquet`` (``self.scene`` is the study's scene)."""
 
     def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
         """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
@@ -34,3 +34,11 @@ class RunningSpeed:
         if output is None:
             return response_vs_speed(self.scene, speeds_rad_s, case, **options)
         return archived_response_vs_speed(self.scene, speeds_rad_s, case, output, **options)
+
+    def floquet(self, speeds_rad_s=None, case="full", output=None, **options):
+        """Floquet multipliers over a speed range, unstable bands labelled (``fkev floquet``):
+        :func:`fkev_slepc.api.floquet.study_floquet` (options: angles_deg, resume, force, tol, rtol,
+        resonance_order, probe, ...)."""
+        from fkev_slepc.api.floquet import study_floquet
+
+        return study_floquet(self, speeds_rad_s, case, output, **options)

@@ -8,7 +8,7 @@ import numpy as np
 
 from fkev_slepc.archive.product_types import CASE, CNAN, SPEED, STATUS, STRING, Product, Var, error_table
 
-F_INDEX, F_BAND = "floquet/multiplier_index", "floquet/bands/band"
+F_INDEX, F_BAND, F_SAMPLE = "floquet/multiplier_index", "floquet/bands/band", "floquet/samples/sample"
 FLOQUET_ERRORS = error_table("floquet/errors", ("speed", "case"))
 MULTIPLIER = Var("floquet/multiplier", (SPEED, CASE, F_INDEX), "c16", "1",
                  "Floquet multiplier mu of one crank revolution, sorted by decreasing |mu|", CNAN, required=True,
@@ -43,16 +43,38 @@ BAND_ROWS = (
     Var("floquet/bands/peak_max_abs_multiplier", (F_BAND,), "f8", "1", "max|mu| there", np.nan,
         source="peak_max_abs", **_BAND),
 )
+_ROW = dict(growable=True, chunks=(64,))
+SAMPLE_STATUS = Var("floquet/samples/status", (F_SAMPLE,), STATUS, "1", "outcome of the speed (as floquet/status; "
+                    "written last: a row still pending was cut short and is solved again)", 0, source="status", **_ROW)
+SAMPLE_ROWS = (  # every monodromy beside the grid, appended as it is solved: a resumed run re-uses them
+    Var(F_SAMPLE, (F_SAMPLE,), "i4", "1", "extra speed number, in the order solved", scale=True, **_ROW),
+    Var("floquet/samples/speed_rad_s", (F_SAMPLE,), "f8", "rad/s", "crank speed examined beside the grid", np.nan,
+        source="speed", **_ROW),
+    Var("floquet/samples/purpose", (F_SAMPLE,), STRING, "1",
+        "edge: an evaluation of a band edge's refinement; probe: a resonance candidate between stable grid speeds",
+        source="purpose", **_ROW),
+    Var("floquet/samples/multiplier", (F_SAMPLE, F_INDEX), "c16", "1", "Floquet multipliers, by decreasing |mu|",
+        CNAN, source="multipliers", growable=True),
+    Var("floquet/samples/max_abs_multiplier", (F_SAMPLE,), "f8", "1", "largest |mu|", np.nan, source="max_abs",
+        **_ROW),
+    Var("floquet/samples/multiplier_error", (F_SAMPLE,), "f8", "1", "estimated absolute error of the multipliers",
+        np.nan, source="error", **_ROW),
+    SAMPLE_STATUS,
+    Var("floquet/samples/message", (F_SAMPLE,), STRING, "1", "the solver's message of a failed speed", source="message",
+        **_ROW),
+)
 FLOQUET = Product(
     name="floquet",
     unit_dims=(SPEED, CASE),
     point_dims=(),
     status=F_STATUS.path,
     variables=(Var(F_INDEX, (F_INDEX,), "i4", "1", "multiplier number, 1-based", scale=True, required=True),
-               MULTIPLIER, MAX_ABS_MULTIPLIER, MULTIPLIER_ERROR, F_STATUS) + FLOQUET_ERRORS.rows + BAND_ROWS,
+               MULTIPLIER, MAX_ABS_MULTIPLIER, MULTIPLIER_ERROR, F_STATUS) + FLOQUET_ERRORS.rows + BAND_ROWS
+              + SAMPLE_ROWS,
     errors=FLOQUET_ERRORS,
     groups={"floquet": "Floquet multipliers of the time-periodic linkage over one crank revolution, per (speed, "
                        "case) of the root grid (whose frozen sweep gives the cycle-mean frequencies of the labels)",
             "floquet/errors": "messages of failed and not-converged speeds (one row per speed)",
-            "floquet/bands": "unstable speed bands, edges refined to the floquet group's rtol"},
+            "floquet/bands": "unstable speed bands, edges refined to the floquet group's rtol",
+            "floquet/samples": "monodromies solved beside the grid: band-edge refinements and resonance probes"},
 )

@@ -16,7 +16,10 @@ from .common import add_elements_argument, load_checked
 
 NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles", "cases": "--case",
          "modes": "--modes", "element": "--element", "rel_error": "--rel-error", "tol": "--tol", "rtol": "--rtol",
-         "monodromy_tol": "--monodromy-tol", "output": "-o"}
+         "monodromy_tol": "--monodromy-tol", "output": "-o", "resonance_order": "--resonance-order"}
+
+
+SAMPLE_WORDS = {"edge": "edge-refinement", "probe": "resonance-probe"}  # /floquet/samples purposes
 
 
 def add_parser(sub) -> None:
@@ -36,6 +39,11 @@ def add_parser(sub) -> None:
                    "error estimate) a speed is unstable (default 1e-6)")
     p.add_argument("--rtol", type=float, default=None, help="relative accuracy of the band edges (default 1e-6)")
     p.add_argument("--monodromy-tol", type=float, default=None, help="relative error asked of the monodromy (default 1e-10)")
+    p.add_argument("--resonance-order", type=int, default=None, metavar="N",
+                   help="list the resonance candidates 2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of order n <= N that lie between two stable "
+                   "grid speeds, where a band narrower than the spacing would not be seen (default 3; 0: none)")
+    p.add_argument("--probe-resonances", action="store_true",
+                   help="solve one more monodromy at each of those candidates (a band found there is refined)")
     add_elements_argument(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver of the frozen sweep")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run (only pending speeds are solved)")
@@ -50,7 +58,8 @@ def run(args) -> int:
     from fkev_slepc.api import Study
     from fkev_slepc.api.floquet import study_floquet
     from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
-    from fkev_slepc.sweep.floquet_run import MONODROMY_TOL
+    from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, RESONANCE_ORDER
+    from fkev_slepc.sweep.interrupt import SweepInterrupted
     from fkev_slepc.sweep.parallel import install_abort_hook, world
     from fkev_slepc.sweep.session import RunRefused
 
@@ -63,6 +72,8 @@ def run(args) -> int:
                             force=args.force, tol=DEFAULT_TOL if args.tol is None else args.tol,
                             rtol=EDGE_RTOL if args.rtol is None else args.rtol,
                             monodromy_tol=MONODROMY_TOL if args.monodromy_tol is None else args.monodromy_tol,
+                            resonance_order=RESONANCE_ORDER if args.resonance_order is None else args.resonance_order,
+                            probe=args.probe_resonances,
                             solver=args.solver, comm=comm, critical=not args.no_critical, names=NAMES,
                             command_line="fkev " + " ".join(sys.argv[1:]),
                             notify=None if args.json or args.quiet else _note)
@@ -73,6 +84,8 @@ def run(args) -> int:
     except RunRefused as err:
         if rank0:
             _note(str(err))
+        return err.exit_code
+    except SweepInterrupted as err:  # the notice with what to do is already printed
         return err.exit_code
     if not rank0:
         return EXIT_OK
@@ -95,19 +108,20 @@ def lines(o: dict) -> list[str]:
     w = o["speed_rad_s"]
     mx = [v - 1.0 for v in o["max_abs_multiplier"] if v is not None]
     n_bad = sum(s == "unstable" for s in o["status"])
-    out = [f"{o['scene']}: case {o['case']}, {len(w)} speeds {min(w):g}-{max(w):g} rad/s; archive {o['archive']}",
-           f"  cycle verdict (Floquet multipliers of one revolution): {n_bad} of {len(w)} speeds unstable "
-           f"(max|μ| - 1 > {o['tol']:g} + 10 x error estimate); max|μ| - 1 from {min(mx):.3g} to {max(mx):.3g}"]
-    frozen = [v for v in o["frozen_time_unstable_fraction"] if v is not None]
+    extra = o.get("samples_beside_grid") or {}
+    more = ", ".join(f"{n} {SAMPLE_WORDS.get(k, k)} {_plural(n, 'speed')}" for k, n in sorted(extra.items()) if n)
+    out = [f"{o['scene']}: case {o['case']}, {_speeds(w)}{f' (and {more})' if more else ''}; archive {o['archive']}",
+           f"  cycle verdict (Floquet multipliers of one revolution): {n_bad} of {len(w)} grid {_plural(len(w), 'speed')} "
+           f"unstable (max|μ| - 1 > {o['tol']:g} + 10 x error estimate); max|μ| - 1 {_span(mx, '.3g')}"]
+    frozen = [100 * v for v in o["frozen_time_unstable_fraction"] if v is not None]
     if frozen:
-        out.append(f"  frozen-time verdict of the same speeds: {100 * min(frozen):.0f}-{100 * max(frozen):.0f} % of "
-                   "crank angles unstable or divergent")
+        out.append(f"  frozen-time verdict of the same speeds: {_span(frozen, '.0f')} % of crank angles unstable or "
+                   "divergent")
     out.append(f"  unstable bands (edges to {o['edge_rtol']:g} relative):" + ("" if o["bands"] else " none"))
     for b in o["bands"]:
-        lo = "below" if b["lower_open"] else f"{b['lower_rad_s']:.10g}"
-        hi = "above" if b["upper_open"] else f"{b['upper_rad_s']:.10g}"
         res = f"{b['resonance']} = {b['predicted_rad_s']:.6g} rad/s" if b["resonance"] else "no resonance in range"
-        out.append(f"    {lo} - {hi} rad/s: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} at {b['peak_rad_s']:g} rad/s")
+        out.append(f"    {_edges(b)}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} at {b['peak_rad_s']:g} rad/s")
+    out += _gap_lines(o)
     crit = o.get("frozen_time_critical")
     if crit:
         def show(v, a):
@@ -116,6 +130,52 @@ def lines(o: dict) -> list[str]:
         out.append(f"  frozen-time critical speeds up to {crit['max_speed_rad_s']:g} rad/s: divergence "
                    f"{show(crit['divergence_speed_rad_s'], crit['divergence_angle_deg'])}, flutter "
                    f"{show(crit['flutter_speed_rad_s'], crit['flutter_angle_deg'])}")
+    return out
+
+
+def _plural(n: int, word: str) -> str:
+    return word if n == 1 else word + "s"
+
+
+def _speeds(w: list) -> str:
+    return f"1 speed {w[0]:g} rad/s" if len(w) == 1 else f"{len(w)} speeds {min(w):g}-{max(w):g} rad/s"
+
+
+def _span(v: list, fmt: str) -> str:
+    """'x' for one value (or all equal as printed), else 'from x to y'."""
+    if not v:
+        return "not computed"
+    lo, hi = format(min(v), fmt), format(max(v), fmt)
+    return lo if lo == hi else f"from {lo} to {hi}"
+
+
+def _edges(b: dict) -> str:
+    """A band's edges; one not located says why (open at the end of the speeds examined, or not refined)."""
+    lo = (f"<= {b['unstable_down_to_rad_s']:.10g} (unstable at the lowest speed examined)" if b["lower_open"] else
+          "edge not located (a monodromy did not converge)" if b["lower_rad_s"] is None else f"{b['lower_rad_s']:.10g}")
+    hi = (f">= {b['unstable_up_to_rad_s']:.10g} (unstable at the highest speed examined)" if b["upper_open"] else
+          "edge not located (a monodromy did not converge)" if b["upper_rad_s"] is None else f"{b['upper_rad_s']:.10g}")
+    return f"{lo} to {hi} rad/s"
+
+
+def _gap_lines(o: dict) -> list[str]:
+    """The grid's blind spots: resonance candidates between stable speeds, probed or not."""
+    gaps, n = o.get("resonance_gaps") or [], o.get("resonance_order", 0)
+    if not n:
+        return []
+    head = f"  resonance candidates of order n <= {n} between two stable grid speeds (a band narrower than the spacing " \
+           "would not be seen there):"
+    if not gaps:
+        return [head + " none"]
+    probed = [g for g in gaps if g["probe_status"]]
+    out = [head + f" {len(gaps)}, {len(probed)} probed"]
+    for g in gaps:
+        lo, hi = g["between_rad_s"]
+        verdict = (f"probed: {g['probe_status']}, max|μ| {g['probe_max_abs_multiplier']:.6g}" if g["probe_status"]
+                   else "not sampled")
+        out.append(f"    {g['resonance']} = {g['predicted_rad_s']:.6g} rad/s (between {lo:g} and {hi:g}): {verdict}")
+    if len(probed) < len(gaps):
+        out.append("    add a monodromy at each with --probe-resonances (or a finer --speeds grid)")
     return out
 
 

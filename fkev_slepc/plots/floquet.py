@@ -17,10 +17,12 @@ def speed_map(res) -> Figure:
     fig = Figure(figsize=(8.0, 5.6), layout="constrained")
     ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
     for i, b in enumerate(res.bands):
-        ax.axvspan(b.lower, b.upper, color="tab:red", alpha=0.2, lw=0, label="unstable bands" if i == 0 else None)
-        ax.annotate(b.resonance or "?", (b.centre, 1.0), xycoords=("data", "axes fraction"), xytext=(0, -10),
+        lo, hi = (b.lower if np.isfinite(b.lower) else b.peak_speed), (b.upper if np.isfinite(b.upper) else b.peak_speed)
+        ax.axvspan(lo, hi, color="tab:red", alpha=0.2, lw=0, label="unstable bands" if i == 0 else None)
+        ax.annotate(b.resonance or "?", (0.5 * (lo + hi), 1.0), xycoords=("data", "axes fraction"), xytext=(0, -10),
                     textcoords="offset points", ha="center", va="top", fontsize=8, color="tab:red")
     ax.plot(w, growth, ".-", color="k", lw=1, ms=4, label="log max|μ| per revolution (Floquet)")
+    _gaps(ax, getattr(res, "gaps", ()), getattr(res, "resonance_order", 0))
     ax.axhline(np.log1p(res.tol), color="0.5", lw=0.8, ls=":", label=f"threshold log(1 + {res.tol:g})")
     crit = res.extras.get("frozen_time_critical") or {}
     for key, style, name in (("flutter_speed_rad_s", "--", "frozen-time flutter"),
@@ -46,3 +48,20 @@ def speed_map(res) -> Figure:
     fig.suptitle(f"{res.title}: cycle (Floquet) verdict, case {res.case}; {n} unstable band{'s' if n != 1 else ''}",
                  fontsize=10)
     return fig
+
+
+def _gaps(ax, gaps, order: int) -> None:
+    """The grid's blind spots: resonance candidates between stable grid speeds, as ticks at the
+    bottom (hollow: not sampled; filled: probed, at the probe's log max|μ| on the curve's axis)."""
+    for probed, style in ((False, dict(mfc="none")), (True, {})):
+        sel = [g for g in gaps if bool(g.probe_status) == probed]
+        if not sel:
+            continue
+        x = [g.resonance.speed for g in sel]
+        name = (f"resonance candidates n <= {order} probed" if probed else
+                f"resonance candidates n <= {order} not sampled (between stable speeds)")
+        if probed:
+            ax.plot(x, np.log([g.probe_max_abs for g in sel]), "D", color="tab:orange", ms=4, ls="none", label=name)
+        else:
+            ax.plot(x, np.zeros(len(x)), "^", transform=ax.get_xaxis_transform(), color="tab:orange", ms=5, ls="none",
+                    clip_on=False, label=name, **style)

@@ -12,15 +12,17 @@ into the band. The margin is therefore a continuous function with a sign change 
 
 1. :func:`scan`: the margin on a speed grid (the caller's evaluations, e.g. spread over MPI ranks);
 2. :func:`brackets`: consecutive grid speeds whose margins differ in sign bracket an edge;
-3. :func:`refine_edge`: Brent's method on the margin inside a bracket, to ``rtol`` relative
+3. :func:`edge`: Brent's method on the margin inside a bracket, to ``rtol`` relative
    (the edge is where max|μ| - 1 reaches tol + SAFETY·error, inside the band by about
    ((tol + SAFETY·error)/c)² for max|μ| - 1 ≈ c·√(relative distance): 1e-12 relative for
-   tol = 1e-6, c = 1);
+   tol = 1e-6, c = 1); :func:`refine_edges` refines every bracket at once, in rounds of one
+   speed per bracket, replaying Brent on the speeds already known (resumable);
 4. :func:`bands_from`: runs of unstable grid speeds between refined edges; a band reaching the end
    of the grid is open there (``lower_open``/``upper_open``).
 
-A band narrower than the grid spacing, between two stable grid speeds, is not seen; the
-resonance speeds of :func:`resonance_speeds` are the places to add grid points.
+A band narrower than the grid spacing, between two stable grid speeds, is not seen: the
+resonance candidates of low order that fall in such gaps (:func:`unsampled`) are where it would
+be, and the places to add samples.
 
 **Labels.** A band is labelled with the resonance whose predicted speed is nearest its centre,
 from the cycle-mean frozen frequencies ω̄ₖ (rad/s) at the band's speed: parametric resonances
@@ -34,7 +36,7 @@ edges against scipy.special.mathieu_a/b).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import brentq
@@ -94,9 +96,15 @@ class Band:
         return 0.5 * (self.lower + self.upper)
 
     def as_dict(self) -> dict:
+        """JSON: an edge that was not located is null: open (the band reaches the end of the
+        speeds examined, ``lower_open``/``upper_open``, which end: ``unstable_down_to_rad_s`` /
+        ``unstable_up_to_rad_s``) or not refined (a monodromy inside did not converge)."""
         num = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
-        return {"lower_rad_s": num(self.lower), "upper_rad_s": num(self.upper), "resonance": self.resonance or None,
+        return {"lower_rad_s": None if self.lower_open else num(self.lower),
+                "upper_rad_s": None if self.upper_open else num(self.upper), "resonance": self.resonance or None,
                 "lower_open": self.lower_open, "upper_open": self.upper_open,
+                "unstable_down_to_rad_s": num(self.lower) if self.lower_open else None,
+                "unstable_up_to_rad_s": num(self.upper) if self.upper_open else None,
                 "predicted_rad_s": num(self.predicted_speed), "peak_rad_s": num(self.peak_speed),
                 "peak_max_abs_multiplier": num(self.peak_max_abs)}
 
@@ -115,18 +123,28 @@ def brackets(points: Sequence[SpeedPoint], tol: float = DEFAULT_TOL) -> list[tup
     return [(int(i), int(i) + 1) for i in hit]
 
 
-def refine_edge(lo: SpeedPoint, hi: SpeedPoint, evaluate: Callable[[float], SpeedPoint],
-                tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL) -> tuple[float, list[SpeedPoint]]:
-    """The speed in [lo, hi] where the margin changes sign (Brent, to ``rtol`` relative), and
-    every point evaluated on the way. Returns NaN if an evaluation inside does not converge."""
-    seen: list[SpeedPoint] = []
-    known = {lo.speed: lo, hi.speed: hi}  # Brent starts at the ends: they are evaluated already
+class NeedSpeed(Exception):
+    """Raised by :func:`edge` when Brent's next evaluation is not among the speeds known."""
 
+    def __init__(self, speed: float):
+        super().__init__(speed)
+        self.speed = float(speed)
+
+
+def edge(lo: SpeedPoint, hi: SpeedPoint, known: Mapping[float, SpeedPoint], tol: float = DEFAULT_TOL,
+         rtol: float = EDGE_RTOL) -> float:
+    """The speed in [lo, hi] where the margin changes sign (Brent, to ``rtol`` relative), from
+    the points ``known`` by speed; raises :class:`NeedSpeed` with the next speed Brent asks for
+    when it is not known. NaN if a point inside did not converge.
+
+    Brent's iterates depend only on the margins it was given, so replaying it on the points of
+    an interrupted refinement (archived) asks for the same speeds again and continues where it
+    stopped: :func:`refine_edges` is resumable and gives the uninterrupted result exactly."""
     def f(w):
-        p = known.get(float(w))
+        w = float(w)
+        p = lo if w == lo.speed else hi if w == hi.speed else known.get(w)
         if p is None:
-            p = evaluate(float(w))
-            seen.append(p)
+            raise NeedSpeed(w)
         v = margin(p, tol)
         if not np.isfinite(v):
             raise _Unconverged(w)
@@ -134,15 +152,37 @@ def refine_edge(lo: SpeedPoint, hi: SpeedPoint, evaluate: Callable[[float], Spee
 
     a, b = lo.speed, hi.speed
     try:
-        x = brentq(f, a, b, xtol=0.25 * rtol * min(abs(a), abs(b)), rtol=max(0.25 * rtol, 4 * np.finfo(float).eps),
-                   maxiter=200)
+        return float(brentq(f, a, b, xtol=0.25 * rtol * min(abs(a), abs(b)),
+                            rtol=max(0.25 * rtol, 4 * np.finfo(float).eps), maxiter=200))
     except _Unconverged:
-        return float("nan"), seen
-    return float(x), seen
+        return float("nan")
 
 
 class _Unconverged(Exception):
     pass
+
+
+def refine_edges(points: Sequence[SpeedPoint], pairs: Sequence[tuple[int, int]],
+                 evaluate_many: Callable[[list[float]], Sequence[SpeedPoint]], known: dict[float, SpeedPoint],
+                 tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL) -> dict[tuple[int, int], float]:
+    """The edge in every bracket ``pairs`` of ``points``, all brackets refined together in rounds:
+    each round asks ``evaluate_many`` for the next speed of every bracket not yet converged (one
+    list, e.g. dealt to the MPI ranks and archived) and adds the points to ``known`` (updated in
+    place; points already there, e.g. from an interrupted run, are not evaluated again)."""
+    edges: dict[tuple[int, int], float] = {}
+    todo = list(pairs)
+    while todo:
+        need = {}
+        for pair in todo:
+            try:
+                edges[pair] = edge(points[pair[0]], points[pair[1]], known, tol, rtol)
+            except NeedSpeed as n:
+                need[pair] = n.speed
+        todo = list(need)
+        if need:
+            speeds = list(dict.fromkeys(need.values()))
+            known.update(zip(speeds, evaluate_many(speeds)))
+    return edges
 
 
 def bands_from(points: Sequence[SpeedPoint], edges: dict[tuple[int, int], float],
@@ -176,11 +216,9 @@ def find_bands(speeds: Sequence[float], evaluate: Callable[[float], SpeedPoint],
 
     Returns (grid points sorted by speed, bands unlabelled, the extra points the refinement evaluated)."""
     pts = sorted(points if points is not None else scan(speeds, evaluate), key=lambda p: p.speed)
-    edges, extra = {}, []
-    for i, j in brackets(pts, tol):
-        edges[(i, j)], seen = refine_edge(pts[i], pts[j], evaluate, tol, rtol)
-        extra += seen
-    return pts, bands_from(pts, edges, tol), extra
+    known: dict[float, SpeedPoint] = {}
+    edges = refine_edges(pts, brackets(pts, tol), lambda ws: [evaluate(w) for w in ws], known, tol, rtol)
+    return pts, bands_from(pts, edges, tol), list(known.values())
 
 
 # ------------------------------------------------------------------------------ labels
@@ -236,3 +274,48 @@ def label(bands: Sequence[Band], mean_frequencies: Callable[[float], Sequence[fl
         out.append(replace(b, resonance=r.label if r else "", predicted_speed=r.speed if r else float("nan"),
                            mean_frequencies=w))
     return out
+
+
+@dataclass(frozen=True)
+class Gap:
+    """A resonance candidate between two neighbouring stable speeds, where no speed was examined."""
+
+    resonance: Resonance  # its speed: where the candidate 2ω̄ₖ(Ω)/n (...) equals Ω, interpolated
+    between: tuple[float, float]  # the stable speeds either side, rad/s
+    probe_status: str = ""  # the verdict of a monodromy solved at the candidate's speed ("": none)
+    probe_max_abs: float = float("nan")
+
+    def as_dict(self) -> dict:
+        r = self.resonance
+        return {"resonance": r.label, "predicted_rad_s": r.speed, "order": r.order, "kind": r.kind,
+                "between_rad_s": [float(w) for w in self.between], "probe_status": self.probe_status or None,
+                "probe_max_abs_multiplier": float(self.probe_max_abs) if np.isfinite(self.probe_max_abs) else None}
+
+
+def unsampled(points: Sequence[SpeedPoint], mean_frequencies: Callable[[float], Sequence[float]],
+              max_order: int, tol: float = DEFAULT_TOL) -> list[Gap]:
+    """The resonance candidates of order n <= ``max_order`` that lie strictly between two
+    neighbouring stable speeds of ``points``: the speed Ω where a candidate c(Ω) = 2ω̄ₖ(Ω)/n or
+    (ω̄ⱼ(Ω) ± ω̄ₖ(Ω))/n (``mean_frequencies(Ω)``, rad/s) crosses Ω, linear between the two
+    speeds. A band there, narrower than the spacing, would not have been seen."""
+    pts = sorted(points, key=lambda p: p.speed)
+    if len(pts) < 2 or max_order < 1:
+        return []
+    freq = [np.asarray(mean_frequencies(p.speed), dtype=float) for p in pts]
+    n_modes = min(w.size for w in freq)
+    fams = [resonance_speeds(w[:n_modes], max_order) for w in freq]
+    keep = set.intersection(*(set(r.label for r in f) for f in fams))  # candidates defined at every speed
+    fams = [[r for r in f if r.label in keep] for f in fams]
+    if not fams[0]:
+        return []
+    s = np.array([p.speed for p in pts])
+    g = np.array([[r.speed for r in f] for f in fams]) - s[:, None]  # (speed, candidate)
+    m = np.array([margin(p, tol) for p in pts])
+    stable = np.isfinite(m) & (m <= 0)
+    out = []
+    for i in np.flatnonzero(stable[:-1] & stable[1:]):
+        for k in np.flatnonzero(g[i] * g[i + 1] < 0):
+            w = s[i] - g[i, k] * (s[i + 1] - s[i]) / (g[i + 1, k] - g[i, k])
+            r = fams[i][k]
+            out.append(Gap(Resonance(r.label, float(w), r.kind, r.modes, r.order), (float(s[i]), float(s[i + 1]))))
+    return sorted(out, key=lambda c: (c.resonance.speed, c.resonance.order))

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fkev_slepc.solve.floquet_bands import Band
+from fkev_slepc.solve.floquet_bands import Band, Gap
 from fkev_slepc.status import Status
 
 
@@ -29,6 +29,9 @@ class FloquetResults:
     rtol: float
     frozen_unstable_fraction: np.ndarray  # per speed: share of crank angles frozen-time unstable or divergent
     extras: dict = field(default_factory=dict)  # e.g. the frozen-time critical speeds
+    resonance_order: int = 0  # candidates of order n <= this between stable speeds are the gaps
+    gaps: tuple[Gap, ...] = ()  # resonance candidates between stable grid speeds (probed or not)
+    samples: dict = field(default_factory=dict)  # purpose -> monodromies archived beside the grid
 
     def as_dict(self) -> dict:
         num = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
@@ -42,5 +45,7 @@ class FloquetResults:
             "bands": [b.as_dict() for b in self.bands],
             "tol": self.tol, "edge_rtol": self.rtol,
             "frozen_time_unstable_fraction": [num(v) for v in self.frozen_unstable_fraction],
+            "resonance_order": self.resonance_order, "resonance_gaps": [g.as_dict() for g in self.gaps],
+            "samples_beside_grid": dict(self.samples),
             **self.extras,
         }

@@ -9,17 +9,22 @@ One archive holds both verdicts of the same speeds (docs/stability.md, "Frozen-t
    (speed, case) unit (``floquet_multipliers`` of the solve stage's linkage engine, the exact periodic
    coefficients), units dealt to the MPI ranks by :func:`fkev_slepc.sweep.units.run_units` and
    resumable like the sweep (``resume``: only pending speeds are solved).
-3. **Bands** (:mod:`fkev_slepc.solve.floquet_bands`): brackets on the grid, each refined by Brent's
-   method on one rank (brackets dealt cyclically), labelled on rank 0 from ω̄ₖ interpolated to the
-   band's centre, written to ``/floquet/bands``; then the archive is finalised (checksums, rename).
-   A resumed run refines the edges again (they are not resumable; the grid is).
+3. **Gaps and probes**: the resonance candidates of order <= ``resonance_order`` (2ω̄ₖ/n,
+   (ω̄ⱼ ± ω̄ₖ)/n) that fall between two stable grid speeds, where a band narrower than the spacing
+   would go unseen (:func:`~fkev_slepc.solve.floquet_bands.unsampled`); with ``probe`` one more
+   monodromy at each, added to the grid's points for the bands.
+4. **Bands** (:mod:`fkev_slepc.solve.floquet_bands`): every bracket refined by Brent's method, all
+   brackets together in rounds whose speeds are dealt to the ranks; probes and refinement speeds
+   are archived as they are solved (``/floquet/samples``, :mod:`fkev_slepc.sweep.floquet_samples`),
+   so an interrupted refinement resumes where it stopped. The bands are labelled on rank 0 from ω̄ₖ
+   interpolated to the band's centre, written to ``/floquet/bands``; then the archive is finalised.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import h5py
@@ -28,16 +33,18 @@ import numpy as np
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.solve.floquet_bands import (
-    DEFAULT_TOL, EDGE_RTOL, Band, SpeedPoint, brackets, bands_from, label, margin, refine_edge,
+    DEFAULT_TOL, EDGE_RTOL, Band, Gap, SpeedPoint, brackets, bands_from, label, margin, refine_edges, unsampled,
 )
 from fkev_slepc.solve.floquet_results import FloquetResults
 from fkev_slepc.status import Status
+from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, read_samples, text as _text
 from fkev_slepc.sweep.parallel import local
 from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
 from fkev_slepc.sweep.units import pending
 
 log = logging.getLogger(__name__)
 MONODROMY_TOL = 1e-10  # relative error of Φ asked of the integrator
+RESONANCE_ORDER = 3  # candidates n <= this between stable grid speeds are reported (and probed if asked)
 BAND_ATTRS = ("lower", "upper", "lower_open", "upper_open", "resonance", "predicted_speed", "peak_speed",
               "peak_max_abs")
 
@@ -50,6 +57,8 @@ class FloquetRequest(ProductRequest):
     tol: float = DEFAULT_TOL
     rtol: float = EDGE_RTOL
     monodromy_tol: float = MONODROMY_TOL
+    resonance_order: int = RESONANCE_ORDER
+    probe: bool = False  # one more monodromy at each resonance candidate between stable grid speeds
 
 
 def _evaluator(model, case: str, tol: float):
@@ -123,16 +132,28 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     solve_pending(part, out, P.FLOQUET, todo, solve, comm, n_unit_axes=2, notify=notify, label="speeds")
     grid = _read_grid(part, speeds) if comm.rank == 0 else None
     grid = comm.bcast(grid, root=0)
-    bands = _bands(grid, lambda w: evaluate(w)[0], request, comm)
+    mean = _mean_frequencies(part) if comm.rank == 0 else None
+    gaps = comm.bcast(unsampled(grid, mean, request.resonance_order, request.tol) if comm.rank == 0 else None)
+    sampler = Sampler(part, out, evaluate, lambda p, msg: _status(p, msg, request.tol), comm, n_index, notify)
+    with sampler.stop:
+        probes = sampler([g.resonance.speed for g in gaps], "probe") if request.probe else []
+        points = sorted(grid + probes, key=lambda p: p.speed)
+        pairs = brackets(points, request.tol)
+        if notify is not None and comm.rank == 0 and (probes or pairs):
+            notify(f"floquet: {len(probes)} resonance probe(s), {len(pairs)} band edge(s) to refine "
+                   f"({sampler.resumed} speed(s) beside the grid already archived)")
+        edges = refine_edges(points, pairs, lambda ws: sampler(ws, "edge"), sampler.known, request.tol, request.rtol)
+    bands = bands_from(points, edges, request.tol)
     if comm.rank == 0:
-        bands = label(bands, _mean_frequencies(part))
+        bands = label(bands, mean)
         _write_bands(part, bands)
     return finish(part, out, request.command_line, t0, comm)
 
 
 def _settings(request: FloquetRequest) -> dict:
     return {"tol": request.tol, "rtol": request.rtol, "monodromy_tol": request.monodromy_tol,
-            "safety": 10.0, "analysed_case": request.case}
+            "safety": 10.0, "analysed_case": request.case, "resonance_order": request.resonance_order,
+            "probe_resonances": int(request.probe)}
 
 
 def _settings_differ(part, request: FloquetRequest, n_index: int) -> bool:
@@ -152,17 +173,6 @@ def _read_grid(part, speeds) -> list[SpeedPoint]:
         st = np.asarray(f[P.F_STATUS.path][:, 0], dtype=np.uint8)
     ok = np.isin(st, [Status.OK.code, Status.UNSTABLE.code])
     return [SpeedPoint(float(w), m[np.isfinite(m)], float(e), bool(c)) for w, m, e, c in zip(speeds, mu, err, ok)]
-
-
-def _bands(grid: list[SpeedPoint], evaluate, request: FloquetRequest, comm) -> list[Band]:
-    """Edges of every bracket, the brackets dealt cyclically to the ranks; the bands on every rank."""
-    pairs = brackets(grid, request.tol)
-    mine = {pair: refine_edge(grid[pair[0]], grid[pair[1]], evaluate, request.tol, request.rtol)[0]
-            for pair in pairs[comm.rank::comm.size]}
-    edges: dict = {}
-    for part in comm.allgather(mine):
-        edges.update(part)
-    return bands_from(grid, edges, request.tol)
 
 
 def _mean_frequencies(part):
@@ -212,11 +222,21 @@ def read_floquet(path) -> FloquetResults:
                       for i in range(n))
         st = np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8)
         frozen = np.mean(np.isin(st, [Status.UNSTABLE.code, Status.DIVERGENT.code]), axis=0)
-        return FloquetResults(path, _text(f.attrs.get("title", path.stem)), _text(g.attrs["analysed_case"]), f[P.SPEED][()],
-                              f[P.MULTIPLIER.path][:, 0, :], f[P.MAX_ABS_MULTIPLIER.path][:, 0],
-                              f[P.MULTIPLIER_ERROR.path][:, 0], np.asarray(f[P.F_STATUS.path][:, 0], np.uint8), bands,
-                              float(g.attrs["tol"]), float(g.attrs["rtol"]), frozen)
+        tol, order = float(g.attrs["tol"]), int(g.attrs.get("resonance_order", RESONANCE_ORDER))
+        res = FloquetResults(path, _text(f.attrs.get("title", path.stem)), _text(g.attrs["analysed_case"]), f[P.SPEED][()],
+                             f[P.MULTIPLIER.path][:, 0, :], f[P.MAX_ABS_MULTIPLIER.path][:, 0],
+                             f[P.MULTIPLIER_ERROR.path][:, 0], np.asarray(f[P.F_STATUS.path][:, 0], np.uint8), bands,
+                             tol, float(g.attrs["rtol"]), frozen, resonance_order=order)
+    samples = read_samples(path)
+    gaps = unsampled(_read_grid(path, res.speed_rad_s), _mean_frequencies(path), order, tol)
+    return replace(res, gaps=tuple(_probed(gap, samples.get(gap.resonance.speed), tol) for gap in gaps),
+                   samples={k: sum(p == k for _s, p in samples.values()) for k in PURPOSES})
 
 
-def _text(v) -> str:
-    return v.decode("utf-8") if isinstance(v, bytes) else str(v)
+def _probed(gap: Gap, sample, tol: float) -> Gap:
+    """``gap`` with the verdict of the probe solved at its speed, if any."""
+    if sample is None:
+        return gap
+    m = margin(sample[0], tol)
+    verdict = Status.NOT_CONVERGED if not np.isfinite(m) else Status.UNSTABLE if m > 0 else Status.OK
+    return replace(gap, probe_max_abs=sample[0].max_abs, probe_status=verdict.value)

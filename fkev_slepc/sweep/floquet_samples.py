@@ -1,0 +1,120 @@
+"""The monodromies ``fkev floquet`` solves beside its speed grid, archived as they are solved.
+
+Band-edge refinement (Brent's method, :func:`fkev_slepc.solve.floquet_bands.refine_edges`) and
+resonance probes (:func:`fkev_slepc.solve.floquet_bands.unsampled`) ask for speeds that are not
+on the grid. :class:`Sampler` solves each round of them over the MPI ranks (dealt cyclically),
+appends them on rank 0 to ``/floquet/samples`` (docs/archive.md; the status column last, so a
+row cut short by a kill stays pending and is solved again), and then stops cleanly if a rank
+was sent Ctrl-C/SIGTERM (:mod:`fkev_slepc.sweep.interrupt`: every rank leaves after the same
+sync, the ``.part`` resumable). A resumed run reads the archived samples back: Brent, replayed
+on them, asks for the same speeds and finds them, so an interrupted refinement continues where
+it stopped and ends with the uninterrupted edges.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive.products_floquet import F_SAMPLE, SAMPLE_ROWS, SAMPLE_STATUS
+from fkev_slepc.solve.floquet_bands import SpeedPoint
+from fkev_slepc.status import Status
+
+PURPOSES = ("edge", "probe")
+_COLUMNS = {v.source: v for v in SAMPLE_ROWS if v.source and v is not SAMPLE_STATUS}
+
+
+def read_samples(part) -> dict[float, tuple[SpeedPoint, str]]:
+    """speed -> (point, purpose) of every finished row of ``/floquet/samples``."""
+    with h5py.File(part, "r") as f:
+        if F_SAMPLE not in f:
+            return {}
+        col = {k: f[v.path][()] for k, v in _COLUMNS.items()}
+        codes = np.asarray(f[SAMPLE_STATUS.path][()], dtype=np.uint8)
+    out = {}
+    for i, code in enumerate(codes):
+        if code == Status.PENDING.code:
+            continue
+        mu = col["multipliers"][i]
+        ok = code in (Status.OK.code, Status.UNSTABLE.code)
+        point = SpeedPoint(float(col["speed"][i]), mu[np.isfinite(mu)], float(col["error"][i]), ok)
+        out[point.speed] = (point, text(col["purpose"][i]))
+    return out
+
+
+def append_samples(part, rows: list[tuple[SpeedPoint, str, int, str]], n_index: int) -> None:
+    """Rank 0: append (point, purpose, status code, message) rows, the status column last."""
+    if not rows:
+        return
+    with h5py.File(part, "r+") as f:
+        n0 = f[F_SAMPLE].shape[0]
+        n = n0 + len(rows)
+        for v in SAMPLE_ROWS:
+            f[v.path].resize(n, axis=0)
+        f[F_SAMPLE][n0:] = np.arange(n0 + 1, n + 1)
+        mu = np.full((len(rows), n_index), P.CNAN)
+        for i, (p, *_r) in enumerate(rows):
+            mu[i, : p.multipliers.size] = p.multipliers
+        values = {"speed": [p.speed for p, *_r in rows], "purpose": [r[1] for r in rows], "multipliers": mu,
+                  "max_abs": [p.max_abs for p, *_r in rows], "error": [p.error for p, *_r in rows],
+                  "message": [r[3] for r in rows]}
+        for key, vals in values.items():
+            ds = f[_COLUMNS[key].path]
+            ds[n0:] = vals if _COLUMNS[key].dtype == P.STRING else np.asarray(vals, dtype=ds.dtype)
+        f.flush()
+        f[SAMPLE_STATUS.path][n0:] = np.asarray([r[2] for r in rows], dtype=np.uint8)
+
+
+class Sampler:
+    """Collective ``sampler(speeds, purpose) -> points``: the speeds not archived yet solved over
+    the ranks and archived; raises SweepInterrupted on every rank after a signal (lock released).
+
+    ``evaluate(speed) -> (SpeedPoint, message)``; ``status(point, message) -> code``. Use inside
+    ``with sampler.stop:`` (the signal handlers)."""
+
+    def __init__(self, part: Path, out: Path, evaluate, status, comm, n_index: int, notify=None):
+        from fkev_slepc.sweep.interrupt import StopRequest
+
+        self.part, self.out, self.evaluate, self.status, self.comm, self.n_index = (
+            part, out, evaluate, status, comm, n_index)
+        archived = read_samples(part) if comm.rank == 0 else None
+        archived = comm.bcast(archived, root=0)
+        self.known = {w: p for w, (p, _purpose) in archived.items()}  # speed -> SpeedPoint
+        self.resumed = len(self.known)
+        self.solved = {purpose: 0 for purpose in PURPOSES}  # by this run
+
+        def say(what):
+            if notify is not None and comm.rank == 0:
+                notify(f"interrupted by {what}: stopping at the next sync; the speeds solved so far stay in {part}; "
+                       "continue with --resume")
+
+        self.stop = StopRequest(notify=say)
+
+    def __call__(self, speeds, purpose: str) -> list[SpeedPoint]:
+        from fkev_slepc.archive import lock
+        from fkev_slepc.sweep.interrupt import SweepInterrupted
+
+        new = list(dict.fromkeys(float(w) for w in speeds if float(w) not in self.known))
+        mine = {w: self.evaluate(w) for w in new[self.comm.rank::self.comm.size]}
+        got: dict = {}
+        for part in self.comm.allgather(mine):
+            got.update(part)
+        if self.comm.rank == 0:
+            append_samples(self.part, [(got[w][0], purpose, self.status(*got[w]), got[w][1]) for w in new],
+                           self.n_index)
+        self.known.update((w, got[w][0]) for w in new)
+        self.solved[purpose] += len(new)
+        done = len(self.known)
+        if self.stop.agreed(self.comm, done, done + 1):
+            if self.comm.rank == 0:
+                lock.release(self.out)
+            raise SweepInterrupted(self.part, sum(self.solved.values()))
+        return [self.known[float(w)] for w in speeds]
+
+
+def text(v) -> str:
+    """An HDF5 string as str."""
+    return v.decode("utf-8") if isinstance(v, bytes) else str(v)
