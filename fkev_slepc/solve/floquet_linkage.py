@@ -18,18 +18,21 @@ How:
    ``no_coriolis`` and ``no_tangential`` drop one half of a Lagrangian term and are not
    Hamiltonian; they use the state (q, q̇). Both are scaled DOF by DOF (q̂ᵢ = dᵢqᵢ,
    p̂ᵢ = pᵢ/dᵢ, dᵢ = (Mᵢᵢ Kᵢᵢ)^¼), which keeps the canonical structure.
-3. ``reduce=r`` projects on co-rotating frozen modes (:mod:`fkev_slepc.solve.floquet_reduce`):
-   the r lowest undamped frozen modes of the case at ``basis_angles`` equispaced angles, each node
-   translation written in its link's frame (Galerkin on a Lagrangian system is Lagrangian). ``truncation_error`` is then measured, not assumed: the same monodromy on the
-   basis of 2r modes per angle, and the largest change of a matched Floquet exponent of the
-   lowest r modes and of max|μ|.
+3. ``reduce`` projects on co-rotating frozen modes (:mod:`fkev_slepc.solve.floquet_reduce`):
+   undamped frozen modes of the case at ``basis_angles`` equispaced angles, unit-normalised, each
+   node translation written in its link's frame, SVD-compressed (Galerkin on a Lagrangian system
+   is Lagrangian, so the reduced steps stay symplectic). ``reduce="auto"`` grows the basis level
+   by level until max|μ| and the retained Floquet frequencies change by less than ``reduce_tol``
+   (:mod:`fkev_slepc.solve.floquet_truncation`, which states the rule); ``reduce=r`` takes the
+   lowest r modes per angle and measures the same changes against 2r. ``truncation`` holds them.
 
 Result (``LinkageFloquet``): ``multipliers`` (2n,) complex sorted by |μ|, ``exponents`` (2n,)
 complex in 1/s (Re: growth rate; Im unwrapped to the mode's frequency, rad/s, by its
 eigenvector's Rayleigh quotient on the frozen stiffness and mass at the start angle), ``max_abs``,
 ``growth_per_revolution`` (= max|μ|), ``monodromy`` (the :class:`Monodromy`, Φ in the scaled
 coordinates), ``error`` (multiplier error estimate), ``interp_error``, ``samples``, ``n_dof``,
-``basis`` (None or the basis size), ``truncation_error`` (None unless reduced).
+``basis`` (None or the basis size), ``truncation`` (None or the :class:`Truncation` measured)
+and ``truncation_error`` (its larger measure).
 
 ``TrigInterpolant(start, samples)``: the trigonometric interpolant used in step 1 (callable
 θ -> (len(θ), n, n)), for any other smooth 2π-periodic matrix function sampled at k equispaced
@@ -38,14 +41,15 @@ angles; ``to_dense(pattern, data)``: (k, nnz) CSR data -> (k, n, n).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as la
 
 from fkev_slepc.model.periodic import periodic_pieces
-from fkev_slepc.solve.floquet import Monodromy, match_multipliers, monodromy
-from fkev_slepc.solve.floquet_reduce import corotated_basis, reduced_coefficients
+from fkev_slepc.solve.floquet import Monodromy, monodromy
+from fkev_slepc.solve.floquet_reduce import compress, frozen_pool, reduced_coefficients
+from fkev_slepc.solve.floquet_truncation import AUTO_ANGLES, AUTO_MODES, REDUCE_TOL, Truncation, between, converge
 
 TWO_PI = 2.0 * np.pi
 
@@ -157,7 +161,13 @@ class LinkageFloquet:
     samples: int
     n_dof: int
     basis: int | None = None
-    truncation_error: float | None = None
+    truncation: Truncation | None = None
+
+    @property
+    def truncation_error(self) -> float | None:
+        """None unless reduced with its truncation measured: the larger of |Δ max|μ|| and the
+        largest relative change of a retained Floquet frequency (:class:`Truncation`)."""
+        return None if self.truncation is None else self.truncation.value
 
     @property
     def max_abs(self) -> float:
@@ -221,15 +231,41 @@ def _unwrapped_exponents(mono: Monodromy, c: _Coefficients, d, omega: float) -> 
 def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, damping: bool = True,
                         start: float = 0.0, order: int = 6, steps: int | None = None,
                         tol: float = 1e-10, samples: int = 16, interp_tol: float = 1e-12,
-                        reduce: int | None = None, basis_angles: int = 8,
-                        check_truncation: bool = True) -> LinkageFloquet:
-    """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0)."""
+                        reduce: int | str | None = None, basis_angles: int = AUTO_ANGLES,
+                        threshold: float = 1e-10, reduce_tol: float = REDUCE_TOL,
+                        max_basis: int | None = None, check_truncation: bool = True,
+                        basis: np.ndarray | None = None) -> LinkageFloquet:
+    """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
+
+    ``reduce``: None (the full model), ``"auto"`` (the convergence sequence of
+    :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
+    vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
+    its truncation measured against the pool of 2r unless ``check_truncation`` is False).
+    ``basis``: an explicit co-rotated basis V̂ (n, R) instead."""
     from fkev_slepc.model.operators import Model
 
     if not np.isfinite(omega) or omega == 0.0:
         raise ValueError(f"omega: the Floquet analysis needs a non-zero crank speed, got {omega!r}")
     model = model_or_scene if isinstance(model_or_scene, Model) else Model(model_or_scene, (case,))
-    basis = None if reduce is None else corotated_basis(model, omega, case, reduce, basis_angles, start)
+    if basis is None and reduce is not None:
+        opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
+                    interp_tol=interp_tol)
+        solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
+        pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
+        n = int(model.n_free)
+        if reduce == "auto":
+            res, trunc = converge(solve, pool, n, modes=min(AUTO_MODES, n - 1), tol=reduce_tol,
+                                  max_basis=max_basis)
+            return replace(res, truncation=trunc)
+        if isinstance(reduce, str) or int(reduce) < 1:
+            raise ValueError(f"reduce: 'auto' or a number of modes per angle >= 1, got {reduce!r}")
+        r = min(int(reduce), n - 1)
+        res = solve(compress(pool(r), threshold))
+        if not check_truncation:
+            return res
+        ref = solve(compress(pool(min(2 * r, n - 1)), threshold))
+        return replace(res, truncation=between(ref, res, r, reduce_tol, [
+            (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
     gen, ierr, k, c, d = _build(model, omega, case, damping, start, samples, interp_tol, basis)
     # the step must resolve the fastest oscillation: h·ρ(A) <= 1 on the coarse half of the
     # step doubling (Magnus is exact for constant A, but the linkage's A turns with the links)
@@ -237,15 +273,5 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=tol,
                      min_steps=int(np.ceil(2.0 * TWO_PI * rho)))
     mu, s = _unwrapped_exponents(mono, c, d, omega)
-    trunc = None
-    if reduce is not None and check_truncation:
-        ref = floquet_multipliers(model, omega, case, damping=damping, start=start, order=order,
-                                  steps=steps, tol=tol, samples=samples, interp_tol=interp_tol,
-                                  reduce=2 * reduce, basis_angles=basis_angles,
-                                  check_truncation=False)
-        low = np.argsort(np.abs(s.imag))[: 2 * reduce]
-        i, j = match_multipliers(s[low] / abs(omega), ref.exponents / abs(omega))
-        trunc = float(max(np.max(np.abs(mu[low][i] - ref.multipliers[j])),
-                          abs(np.max(np.abs(mu)) - ref.max_abs)))
     return LinkageFloquet(float(omega), case, mu, s, mono, ierr, k, int(model.n_free),
-                          None if basis is None else basis.shape[1], trunc)
+                          None if basis is None else basis.shape[1])

@@ -8,7 +8,10 @@ translation pair (U, V) is written in the frame of the link that owns it,
 
 (ψ_node the owning link's angle; slider DOFs along a fixed guide and rotations stay as they
 are) and q̂ = V̂ η with a constant V̂: the lowest ``r`` undamped frozen modes at a few angles,
-mapped to q̂ = Qᵀ q and orthonormalised. With W = Q V̂ the Galerkin projection of the Lagrangian
+each unit-normalised and mapped to q̂ = Qᵀ q (:func:`frozen_pool`), then the pool's left
+singular directions above a threshold of the largest singular value (:func:`compress`; which
+threshold and pool, and the truncation error they leave, are decided by measurement in
+solve/floquet_truncation.py). With W = Q V̂ the Galerkin projection of the Lagrangian
 of model/periodic.py is again Lagrangian (so symplectic steps still apply):
 
     M_r = WᵀMW,  N_r = Ω WᵀMW' + WᵀNW,  V_r = WᵀVW - Ω² W'ᵀMW' - 2Ω sym(W'ᵀNW),
@@ -74,8 +77,9 @@ def basis_derivatives(Vhat, pairs, phi, dphi, ddphi):
     return W, W1, W2
 
 
-def corotated_basis(model, omega, case, r, angles, start=0.0):
-    """V̂ (n, R): the lowest r undamped frozen modes at ``angles`` equispaced angles, co-rotated."""
+def frozen_pool(model, omega, case, r, angles, start=0.0):
+    """(n, r·angles): the lowest r undamped frozen modes at ``angles`` equispaced angles from
+    ``start``, each unit-normalised and co-rotated (q̂ = Qᵀq), in angle-major order."""
     th = start + TWO_PI * np.arange(angles) / angles
     p = periodic_pieces(model, th, case)
     kin = solve_kinematics(model.mechanism, th)
@@ -86,9 +90,21 @@ def corotated_basis(model, omega, case, r, angles, start=0.0):
         K = pat.matrix(p.stiffness[i] + omega * omega * stiff[i])
         _, x = spla.eigsh(0.5 * (K + K.T), k=min(r, model.n_free - 1), M=pat.matrix(p.mass[i]),
                           sigma=0.0, which="LM")
+        x = x / np.linalg.norm(x, axis=0)
         cols.append(rotate_rows(x, pairs, kin.phi[i, pairs[2]], sign=-1.0))
-    U, s, _ = np.linalg.svd(np.hstack(cols), full_matrices=False)
-    return U[:, s > 1e-10 * s[0]]
+    return np.hstack(cols)
+
+
+def compress(pool, threshold=1e-10):
+    """V̂ (n, R): the left singular vectors of ``pool`` with s > threshold·s₀ (orthonormal)."""
+    U, s, _ = np.linalg.svd(pool, full_matrices=False)
+    return U[:, s > threshold * s[0]]
+
+
+def corotated_basis(model, omega, case, r, angles, start=0.0, threshold=1e-10):
+    """V̂ (n, R): the lowest r undamped frozen modes at ``angles`` equispaced angles, co-rotated,
+    compressed at ``threshold`` (:func:`frozen_pool`, :func:`compress`)."""
+    return compress(frozen_pool(model, omega, case, r, angles, start), threshold)
 
 
 def reduced_coefficients(model, p, thetas, omega, damping, Vhat):

@@ -1,0 +1,93 @@
+"""The frozen-mode reduction of the linkage monodromy on a closed loop (solve/floquet_truncation.py).
+
+Turcic–Midha four-bar, undamped, case ``full``: at 1 element per link (9 DOFs, 100 rad/s, unstable,
+max|μ| ≈ 25) the full monodromy is cheap, so the convergence sequence of the reduction is compared
+with it level by level; at 2 elements per link and 30 rad/s (Floquet-stable) a strict sub-basis is
+integrated and must keep the Lagrangian structure (|μ| = 1, det Φ = 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fkev_slepc.model.operators import Model
+from fkev_slepc.scene import load_scene
+from fkev_slepc.solve.floquet import match_multipliers
+from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+
+TM = Path(__file__).resolve().parents[1] / "runs" / "turcic-midha-1984.toml"
+
+
+def _tm(elements: int) -> Model:
+    sc = load_scene(TM)
+    return Model(replace(sc, links=tuple(replace(lk, elements=elements) for lk in sc.links)), ("full",))
+
+
+@pytest.fixture(scope="module")
+def tm100():
+    model = _tm(1)
+    full = floquet_multipliers(model, 100.0, "full", damping=False)
+    auto = floquet_multipliers(model, 100.0, "full", damping=False, reduce="auto", reduce_tol=1e-9)
+    return model, full, auto
+
+
+def test_reduced_max_multiplier_converges_to_the_full_model(tm100):
+    """The basis levels approach the full max|μ| (unstable, ≈ 25 per revolution); the last level
+    spans every DOF and is the full model (the projection is then a change of variables)."""
+    model, full, auto = tm100
+    sizes = [s for s, _, _ in auto.truncation.levels]
+    mu = np.array([m for _, m, _ in auto.truncation.levels])
+    assert full.max_abs > 20.0
+    assert sizes == sorted(set(sizes)) and sizes[-1] == model.n_free and sizes[0] < model.n_free
+    err = np.abs(mu - full.max_abs) / full.max_abs
+    assert err[-1] < 1e-8 and auto.truncation.converged and auto.truncation_error == 0.0
+    assert err[-2] < 1e-3 and err[-3] < 1e-3  # two reduced levels already within 1e-3
+    assert np.all(np.diff(err[-4:]) < 0)  # and the last ones approach it monotonically
+
+
+def test_truncation_estimate_bounds_the_true_error(tm100):
+    """Each level's estimate (the relative change of max|μ| from the previous level) is at least
+    its true relative error against the full model, once the basis holds the unstable pair."""
+    _, full, auto = tm100
+    mu = np.array([m for _, m, _ in auto.truncation.levels])[:-1]  # the reduced levels
+    est = np.abs(np.diff(mu)) / mu[1:]
+    true = np.abs(mu[1:] - full.max_abs) / full.max_abs
+    assert est.size >= 3
+    assert np.all(est[1:] >= true[1:])
+
+
+def test_a_capped_basis_reports_its_error_unconverged(tm100):
+    """max_basis below convergence: the last level is returned with its measured changes and
+    converged False (the error is reported, never hidden)."""
+    model, full, _ = tm100
+    res = floquet_multipliers(model, 100.0, "full", damping=False, reduce="auto", max_basis=7)
+    t = res.truncation
+    assert res.basis <= 7 and not t.converged
+    assert t.max_abs > 1e-3 and np.isfinite(t.frequency) and np.isfinite(t.growth_rate)
+    assert abs(res.max_abs - full.max_abs) / full.max_abs <= t.max_abs
+
+
+def test_undamped_reduced_multipliers_stay_on_the_unit_circle():
+    """A strict sub-basis (11 of 18 DOFs) at a Floquet-stable speed: the Galerkin projection of the
+    Lagrangian system is Lagrangian, so the symplectic steps keep every |μ| = 1, det Φ = 1 and the
+    set closed under μ -> 1/μ̄."""
+    model = _tm(2)
+    res = floquet_multipliers(model, 30.0, "full", damping=False, reduce=4, basis_angles=8,
+                              threshold=1e-3, check_truncation=False)
+    assert 6 <= res.basis < model.n_free
+    mu = res.multipliers
+    assert res.error < 1e-8
+    assert np.max(np.abs(np.abs(mu) - 1.0)) < 1e-9
+    assert abs(np.linalg.det(res.monodromy.phi) - 1.0) < 1e-8
+    i, j = match_multipliers(mu, 1.0 / mu.conj())
+    assert np.max(np.abs(mu[i] - 1.0 / mu[j].conj())) < 1e-8
+
+
+@pytest.mark.parametrize("bad", ["full", 0, -2])
+def test_bad_reduce_is_named(bad):
+    with pytest.raises(ValueError, match="reduce"):
+        floquet_multipliers(_tm(1), 100.0, "full", reduce=bad)
