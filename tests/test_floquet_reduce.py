@@ -91,3 +91,30 @@ def test_undamped_reduced_multipliers_stay_on_the_unit_circle():
 def test_bad_reduce_is_named(bad):
     with pytest.raises(ValueError, match="reduce"):
         floquet_multipliers(_tm(1), 100.0, "full", reduce=bad)
+
+
+def test_fkev_floquet_archives_the_basis_and_truncation(tmp_path):
+    """``fkev floquet --reduce auto`` (Turcic–Midha, 1 element per link, 100 rad/s): the archived
+    max|μ| is the in-process reduced one, with its basis size and truncation measures per speed;
+    ``--reduce none`` archives the full model (basis 0, no truncation); a bad value names the flag."""
+    import h5py
+
+    from clitools import fkev
+
+    runs = {}
+    for flag in ("auto", "none"):
+        out = tmp_path / f"{flag}.h5"
+        r = fkev("floquet", TM, "--elements", "1", "--speeds", "100", "--angles", "0:360:90", "--no-critical",
+                 "--reduce", flag, "-q", "-o", out)
+        assert r.returncode == 0, r.stderr
+        with h5py.File(out, "r") as f:
+            runs[flag] = {k: f[f"floquet/{k}"][0, 0] for k in ("max_abs_multiplier", "basis_size", "truncation_max_abs",
+                                                              "truncation_frequency", "truncation_converged")}
+            reduce = f["floquet"].attrs["reduce"]
+            assert (reduce.decode() if isinstance(reduce, bytes) else reduce) == {"auto": "auto", "none": "None"}[flag]
+    a, n = runs["auto"], runs["none"]
+    assert a["basis_size"] >= 5 and a["truncation_converged"] == 1 and np.isfinite(a["truncation_max_abs"])
+    assert n["basis_size"] == 0 and np.isnan(n["truncation_max_abs"])
+    assert abs(a["max_abs_multiplier"] - n["max_abs_multiplier"]) <= 1e-3 * n["max_abs_multiplier"]
+    r = fkev("floquet", TM, "--speeds", "100", "--reduce", "half", "-o", tmp_path / "bad.h5")
+    assert r.returncode != 0 and "--reduce" in r.stderr

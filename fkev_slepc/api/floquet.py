@@ -13,15 +13,17 @@ from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
 
 API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "angles_deg", "cases": "case",
              "modes": "modes", "element": "element", "rel_error": "rel_error", "tol": "tol", "rtol": "rtol",
-             "monodromy_tol": "monodromy_tol", "output": "output", "resonance_order": "resonance_order"}
+             "monodromy_tol": "monodromy_tol", "output": "output", "resonance_order": "resonance_order", "reduce": "reduce"}
 
 
 def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_deg=None, resume: bool = False,
                   force: bool = False, tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL, monodromy_tol: float = 1e-10,
                   resonance_order: int = 3, probe: bool = False, solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
-                  command_line: str = "", notify=None, progress: bool = False):
+                  command_line: str = "", notify=None, progress: bool = False, reduce="default"):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
-    messages name the arguments (the CLI passes its flags)."""
+    messages name the arguments (the CLI passes its flags). ``reduce``: the frozen-mode reduction
+    of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" from
+    ``AUTO_ABOVE_DOFS`` free DOFs; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, FloquetRequest, read_floquet, run_floquet
     from fkev_slepc.sweep.grid import configure
@@ -39,6 +41,12 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
             bad.append(Problem(names[key], f"must be in (0, 1) (got {v})"))
     if isinstance(resonance_order, bool) or not isinstance(resonance_order, (int, np.integer)) or resonance_order < 0:
         bad.append(Problem(names["resonance_order"], f"must be a whole number >= 0 (got {resonance_order!r})"))
+    from fkev_slepc.solve.floquet_truncation import resolve_reduce
+
+    try:
+        reduce = resolve_reduce(reduce, study.n_free)
+    except ValueError as err:
+        bad.append(Problem(names["reduce"], str(err)))
     if sc.driver.acceleration != 0.0:
         bad.append(Problem("driver.acceleration_rad_s2", "the Floquet analysis needs a constant crank speed "
                            f"(got {sc.driver.acceleration:g} rad/s²)"))
@@ -55,7 +63,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
         output = default_output(study.path).with_name(Path(study.path).stem + "-floquet.h5")
     request = FloquetRequest(scene, Path(output), tol=float(tol), rtol=float(rtol),
                              monodromy_tol=float(monodromy_tol or MONODROMY_TOL), resonance_order=int(resonance_order),
-                             probe=bool(probe), resume=resume, force=force,
+                             probe=bool(probe), reduce=reduce, resume=resume, force=force,
                              solver=solver, command_line=command_line)
     comm = local(comm)
     out = run_floquet(request, comm, notify=notify, progress=progress)

@@ -17,7 +17,21 @@ MAX_ABS_MULTIPLIER = Var("floquet/max_abs_multiplier", (SPEED, CASE), "f8", "1",
                          "largest |mu|: amplitude factor per crank revolution of the fastest-growing solution", np.nan,
                          required=True, source="max_abs")
 MULTIPLIER_ERROR = Var("floquet/multiplier_error", (SPEED, CASE), "f8", "1",
-                       "estimated absolute error of the multipliers (monodromy step doubling)", np.nan, source="error")
+                       "estimated absolute error of the multipliers (monodromy step doubling; reduced model: plus the "
+                       "truncation change of max|mu|)", np.nan, source="error")
+BASIS_SIZE = Var("floquet/basis_size", (SPEED, CASE), "i4", "1",
+                 "vectors of the frozen-mode reduction (0: the full model)", 0, source="basis")
+REDUCTION_ROWS = (
+    BASIS_SIZE,
+    Var("floquet/truncation_max_abs", (SPEED, CASE), "f8", "1", "reduced model: relative change of max|mu| from "
+        "the previous basis level (NaN: full model)", np.nan, source="max_abs"),
+    Var("floquet/truncation_growth_rate", (SPEED, CASE), "f8", "1/s", "reduced model: change of the largest "
+        "Floquet growth rate Re s from the previous basis level", np.nan, source="growth_rate"),
+    Var("floquet/truncation_frequency", (SPEED, CASE), "f8", "1", "reduced model: largest relative change of a "
+        "retained cycle-mean Floquet frequency from the previous basis level", np.nan, source="frequency"),
+    Var("floquet/truncation_converged", (SPEED, CASE), "u1", "1", "reduced model: 1 if both changes were below "
+        "the floquet group's reduce_tol twice in a row", 0, source="converged"),
+)
 F_STATUS = Var("floquet/status", (SPEED, CASE), STATUS, "1", "outcome of the speed", 0, required=True,
                source="status", attrs={"description": "ok: max|mu| - 1 <= tol + 10 x multiplier_error (tol: the "
                                                       "floquet group's attribute); unstable above; not_converged: the "
@@ -69,8 +83,8 @@ FLOQUET = Product(
     point_dims=(),
     status=F_STATUS.path,
     variables=(Var(F_INDEX, (F_INDEX,), "i4", "1", "multiplier number, 1-based", scale=True, required=True),
-               MULTIPLIER, MAX_ABS_MULTIPLIER, MULTIPLIER_ERROR, F_STATUS) + FLOQUET_ERRORS.rows + BAND_ROWS
-              + SAMPLE_ROWS,
+               MULTIPLIER, MAX_ABS_MULTIPLIER, MULTIPLIER_ERROR, F_STATUS) + REDUCTION_ROWS + FLOQUET_ERRORS.rows
+              + BAND_ROWS + SAMPLE_ROWS,
     errors=FLOQUET_ERRORS,
     groups={"floquet": "Floquet multipliers of the time-periodic linkage over one crank revolution, per (speed, "
                        "case) of the root grid (whose frozen sweep gives the cycle-mean frequencies of the labels)",

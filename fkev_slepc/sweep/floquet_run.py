@@ -31,6 +31,7 @@ import h5py
 import numpy as np
 
 from fkev_slepc.archive import products as P
+from fkev_slepc.archive.products_floquet import REDUCTION_ROWS
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.solve.floquet_bands import (
     DEFAULT_TOL, EDGE_RTOL, Band, Gap, SpeedPoint, brackets, bands_from, label, margin, refine_edges, unsampled,
@@ -59,19 +60,29 @@ class FloquetRequest(ProductRequest):
     monodromy_tol: float = MONODROMY_TOL
     resonance_order: int = RESONANCE_ORDER
     probe: bool = False  # one more monodromy at each resonance candidate between stable grid speeds
+    reduce: int | str | None = None  # frozen-mode reduction: None (full model), "auto" or r modes per angle
 
 
-def _evaluator(model, case: str, tol: float):
-    """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised)."""
+def _evaluator(model, case: str, tol: float, reduce=None):
+    """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised). Reduced
+    (``reduce``), the point's error adds the truncation change of max|μ| (so that it enters the verdict's
+    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures."""
     from fkev_slepc.solve.floquet_linkage import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
     def evaluate(speed: float) -> tuple[SpeedPoint, str]:
         try:
-            return SpeedPoint.of(speed, floquet_multipliers(model, float(speed), case, tol=tol)), ""
+            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce)
         except recoverable_errors() as exc:
             return SpeedPoint(float(speed), np.zeros(0, complex), float("nan"), False), f"{type(exc).__name__}: {exc}"
+        point, t = SpeedPoint.of(speed, res), res.truncation
+        if t is not None:
+            evaluate.reduction[float(speed)] = {"basis": res.basis, "max_abs": t.max_abs, "converged": t.converged,
+                                                "growth_rate": t.growth_rate, "frequency": t.frequency}
+            point = replace(point, error=point.error + t.max_abs * point.max_abs)
+        return point, ""
 
+    evaluate.reduction = {}
     return evaluate
 
 
@@ -112,7 +123,8 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request),
                                 request.resume, comm, same=lambda p: not _settings_differ(p, request, n_index))
     speeds = np.asarray(sc.driver.speeds, dtype=float)
-    evaluate = (evaluator or _evaluator)(model, request.case, request.monodromy_tol)
+    evaluate = evaluator(model, request.case, request.monodromy_tol) if evaluator else _evaluator(
+        model, request.case, request.monodromy_tol, request.reduce)
 
     def solve(unit, mask):
         js, jc = unit
@@ -122,6 +134,9 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
         mu[: point.multipliers.size] = point.multipliers
         data = {P.MULTIPLIER.path: mu, P.MAX_ABS_MULTIPLIER.path: np.array(point.max_abs),
                 P.MULTIPLIER_ERROR.path: np.array(point.error)}
+        reduced = getattr(evaluate, "reduction", {}).get(float(speeds[js]))
+        if reduced:
+            data.update({v.path: np.array(reduced[v.source], dtype=v.dtype) for v in REDUCTION_ROWS})
         errors = [((js, jc), code, message or "monodromy did not reach its tolerance")] if code in (
             Status.FAILED.code, Status.NOT_CONVERGED.code) else []
         return Block(unit, mask, data, np.array(code, np.uint8), errors)
@@ -153,7 +168,7 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
 def _settings(request: FloquetRequest) -> dict:
     return {"tol": request.tol, "rtol": request.rtol, "monodromy_tol": request.monodromy_tol,
             "safety": 10.0, "analysed_case": request.case, "resonance_order": request.resonance_order,
-            "probe_resonances": int(request.probe)}
+            "probe_resonances": int(request.probe), "reduce": str(request.reduce)}
 
 
 def _settings_differ(part, request: FloquetRequest, n_index: int) -> bool:
@@ -161,7 +176,7 @@ def _settings_differ(part, request: FloquetRequest, n_index: int) -> bool:
     with h5py.File(part, "r") as f:
         g = f[P.FLOQUET.name]
         old = {k: g.attrs.get(k) for k in ("tol", "monodromy_tol")}
-        return f[P.F_INDEX].shape[0] != n_index or any(
+        return f[P.F_INDEX].shape[0] != n_index or _text(g.attrs.get("reduce", "None")) != str(request.reduce) or any(
             old[k] is None or float(old[k]) != float(v) for k, v in _settings(request).items() if k in old)
 
 
