@@ -38,7 +38,7 @@ from fkev_slepc.solve.floquet_bands import (
 )
 from fkev_slepc.solve.floquet_results import FloquetResults
 from fkev_slepc.status import Status
-from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, read_samples, text as _text
+from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples, text as _text
 from fkev_slepc.sweep.parallel import local
 from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
 from fkev_slepc.sweep.units import pending
@@ -149,6 +149,8 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     grid = comm.bcast(grid, root=0)
     mean = _mean_frequencies(part) if comm.rank == 0 else None
     gaps = comm.bcast(unsampled(grid, mean, request.resonance_order, request.tol) if comm.rank == 0 else None)
+    if comm.rank == 0:
+        add_sample_rows(part)
     sampler = Sampler(part, out, evaluate, lambda p, msg: _status(p, msg, request.tol), comm, n_index, notify)
     with sampler.stop:
         probes = sampler([g.resonance.speed for g in gaps], "probe") if request.probe else []

@@ -27,6 +27,16 @@ PURPOSES = ("edge", "probe")
 _COLUMNS = {v.source: v for v in SAMPLE_ROWS if v.source and v is not SAMPLE_STATUS}
 
 
+def add_sample_rows(part) -> None:
+    """Rank 0: the empty ``/floquet/samples`` rows in an archive written before they existed."""
+    from fkev_slepc.archive.groups import build, describe_groups
+
+    with h5py.File(part, "r+") as f:
+        if F_SAMPLE not in f:
+            build(f, SAMPLE_ROWS, {})
+            describe_groups(f, P.FLOQUET)
+
+
 def read_samples(part) -> dict[float, tuple[SpeedPoint, str]]:
     """speed -> (point, purpose) of every finished row of ``/floquet/samples``."""
     with h5py.File(part, "r") as f:
