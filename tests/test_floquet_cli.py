@@ -232,7 +232,8 @@ def test_interrupted_edge_refinement_resumes_where_it_stopped(tmp_path):
     """Every monodromy of the edge refinement is archived (/floquet/samples) as it is solved: a
     run stopped by Ctrl-C in the refinement (FKEV_PAUSE_AFTER: paused after the second round, no
     race) exits 130 with those speeds in the .part; --resume solves only the speeds it had not,
-    and ends with the uninterrupted run's edges and samples, bit for bit."""
+    and ends with the uninterrupted run's edges and samples, bit for bit; a resume with a tighter
+    --rtol continues the bisection (no speed solved twice)."""
     import os
     import shutil
     import signal
@@ -282,6 +283,12 @@ def test_interrupted_edge_refinement_resumes_where_it_stopped(tmp_path):
     assert sorted(done) == sorted(ref_samples)
     for w, (p, purpose) in done.items():
         assert purpose == "edge" and np.array_equal(p.multipliers, ref_samples[w][0].multipliers)
+    calls.clear()  # a tighter --rtol on resume continues the bisection: no speed solved twice
+    finer = fr.read_floquet(fr.run_floquet(_request(run, speeds="8:26:1.0", resume=True, rtol=1e-9),
+                                           evaluator=lambda *a: mathieu_evaluator(*a, calls=calls)))
+    assert calls and not set(calls) & set(done) and len(calls) <= 4 * 12  # 4 edges, log2(1e3) < 10 more each
+    for b, c in zip(finer.bands, first.bands):
+        assert abs(b.lower / c.lower - 1) < 1e-6 and abs(b.upper / c.upper - 1) < 1e-6
 
 
 def test_a_band_open_at_both_ends_of_the_speeds_examined(tmp_path):

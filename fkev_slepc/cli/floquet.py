@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 import sys
+
+import numpy as np
 from pathlib import Path
 
 from fkev_slepc.scene import SceneError
@@ -20,6 +22,7 @@ NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles
          "reduce": "--reduce"}
 
 
+GAPS_LISTED = 12  # resonance gaps listed in the text report
 SAMPLE_WORDS = {"edge": "edge-refinement", "probe": "resonance-probe"}  # /floquet/samples purposes
 
 
@@ -125,8 +128,8 @@ def lines(o: dict) -> list[str]:
     out.append(f"  unstable bands (edges to {o['edge_rtol']:g} relative):" + ("" if o["bands"] else " none"))
     for b in o["bands"]:
         res = f"{b['resonance']} = {b['predicted_rad_s']:.6g} rad/s" if b["resonance"] else "no resonance in range"
-        out.append(f"    {_edges(b)}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} at {b['peak_rad_s']:g} rad/s")
-    out += _gap_lines(o)
+        out.append(f"    {_edges(b, o['edge_rtol'])}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} at {b['peak_rad_s']:g} rad/s")
+    out += _resolution_lines(o) + _gap_lines(o)
     crit = o.get("frozen_time_critical")
     if crit:
         def show(v, a):
@@ -154,13 +157,27 @@ def _span(v: list, fmt: str) -> str:
     return lo if lo == hi else f"from {lo} to {hi}"
 
 
-def _edges(b: dict) -> str:
-    """A band's edges; one not located says why (open at the end of the speeds examined, or not refined)."""
-    lo = (f"<= {b['unstable_down_to_rad_s']:.10g} (unstable at the lowest speed examined)" if b["lower_open"] else
-          "edge not located (a monodromy did not converge)" if b["lower_rad_s"] is None else f"{b['lower_rad_s']:.10g}")
-    hi = (f">= {b['unstable_up_to_rad_s']:.10g} (unstable at the highest speed examined)" if b["upper_open"] else
-          "edge not located (a monodromy did not converge)" if b["upper_rad_s"] is None else f"{b['upper_rad_s']:.10g}")
+def _edges(b: dict, rtol: float) -> str:
+    """A band's edges, to the digits ``rtol`` gives; one not located says why (open at the end of
+    the speeds examined, or not refined)."""
+    fmt = f".{max(4, int(np.ceil(-np.log10(rtol))) + 1)}g"
+    lo = (f"<= {b['unstable_down_to_rad_s']:g} (unstable at the lowest speed examined)" if b["lower_open"] else
+          "edge not located (a monodromy did not converge)" if b["lower_rad_s"] is None else format(b["lower_rad_s"], fmt))
+    hi = (f">= {b['unstable_up_to_rad_s']:g} (unstable at the highest speed examined)" if b["upper_open"] else
+          "edge not located (a monodromy did not converge)" if b["upper_rad_s"] is None else format(b["upper_rad_s"], fmt))
     return f"{lo} to {hi} rad/s"
+
+
+def _resolution_lines(o: dict) -> list[str]:
+    """A warning when bands hold at most one grid speed: others as narrow can lie unseen between stable speeds."""
+    thin = [b for b in o["bands"] if b.get("grid_speeds_inside", 2) <= 1]
+    if not thin or len(o["speed_rad_s"]) < 2:
+        return []
+    w = sorted(o["speed_rad_s"])
+    step = _span([b - a for a, b in zip(w, w[1:])], ".3g")
+    return [f"  resolution: {len(thin)} of {len(o['bands'])} {_plural(len(o['bands']), 'band')} with at most one grid "
+            f"speed inside (spacing {step} rad/s): bands as narrow may lie unseen between stable grid speeds; refine "
+            "--speeds"]
 
 
 def _gap_lines(o: dict) -> list[str]:
@@ -174,11 +191,13 @@ def _gap_lines(o: dict) -> list[str]:
         return [head + " none"]
     probed = [g for g in gaps if g["probe_status"]]
     out = [head + f" {len(gaps)}, {len(probed)} probed"]
-    for g in gaps:
+    for g in gaps[:GAPS_LISTED]:
         lo, hi = g["between_rad_s"]
         verdict = (f"probed: {g['probe_status']}, max|μ| {g['probe_max_abs_multiplier']:.6g}" if g["probe_status"]
                    else "not sampled")
         out.append(f"    {g['resonance']} = {g['predicted_rad_s']:.6g} rad/s (between {lo:g} and {hi:g}): {verdict}")
+    if len(gaps) > GAPS_LISTED:
+        out.append(f"    ... and {len(gaps) - GAPS_LISTED} more (all in --json: resonance_gaps)")
     if len(probed) < len(gaps):
         out.append("    add a monodromy at each with --probe-resonances (or a finer --speeds grid)")
     return out

@@ -9,6 +9,8 @@ from matplotlib.figure import Figure
 
 from fkev_slepc.plots.common import SPEED_LABEL
 
+LABEL_GAP = 0.11  # a band is labelled when its centre is this share of the speed range from the last label
+
 
 def speed_map(res) -> Figure:
     """Figure of a :class:`fkev_slepc.sweep.floquet_run.FloquetResults`."""
@@ -16,11 +18,14 @@ def speed_map(res) -> Figure:
     growth = np.log(np.asarray(res.max_abs, dtype=float))  # per revolution
     fig = Figure(figsize=(8.0, 5.6), layout="constrained")
     ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
+    span, last = (np.ptp(w) if w.size > 1 else 1.0), -np.inf
     for i, b in enumerate(res.bands):
         lo, hi = (b.lower if np.isfinite(b.lower) else b.peak_speed), (b.upper if np.isfinite(b.upper) else b.peak_speed)
         ax.axvspan(lo, hi, color="tab:red", alpha=0.2, lw=0, label="unstable bands" if i == 0 else None)
-        ax.annotate(b.resonance or "?", (0.5 * (lo + hi), 1.0), xycoords=("data", "axes fraction"), xytext=(0, -10),
-                    textcoords="offset points", ha="center", va="top", fontsize=8, color="tab:red")
+        if 0.5 * (lo + hi) - last > LABEL_GAP * span:  # crowded bands: labels in the text report and JSON only
+            last = 0.5 * (lo + hi)
+            ax.annotate(b.resonance or "?", (last, 1.0), xycoords=("data", "axes fraction"), xytext=(0, -10),
+                        textcoords="offset points", ha="center", va="top", fontsize=8, color="tab:red")
     ax.plot(w, growth, ".-", color="k", lw=1, ms=4, label="log max|μ| per revolution (Floquet)")
     _gaps(ax, getattr(res, "gaps", ()), getattr(res, "resonance_order", 0))
     ax.axhline(np.log1p(res.tol), color="0.5", lw=0.8, ls=":", label=f"threshold log(1 + {res.tol:g})")

@@ -12,11 +12,11 @@ into the band. The margin is therefore a continuous function with a sign change 
 
 1. :func:`scan`: the margin on a speed grid (the caller's evaluations, e.g. spread over MPI ranks);
 2. :func:`brackets`: consecutive grid speeds whose margins differ in sign bracket an edge;
-3. :func:`edge`: Brent's method on the margin inside a bracket, to ``rtol`` relative
+3. :func:`edge`: bisection on the sign of the margin inside a bracket, to ``rtol`` relative
    (the edge is where max|μ| - 1 reaches tol + SAFETY·error, inside the band by about
    ((tol + SAFETY·error)/c)² for max|μ| - 1 ≈ c·√(relative distance): 1e-12 relative for
    tol = 1e-6, c = 1); :func:`refine_edges` refines every bracket at once, in rounds of one
-   speed per bracket, replaying Brent on the speeds already known (resumable);
+   speed per bracket, replaying the bisection on the speeds already known (resumable);
 4. :func:`bands_from`: runs of unstable grid speeds between refined edges; a band reaching the end
    of the grid is open there (``lower_open``/``upper_open``).
 
@@ -39,7 +39,6 @@ from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import brentq
 
 SAFETY = 10.0  # the error estimate counts this many times against an apparent growth
 DEFAULT_TOL = 1e-6  # max|μ| - 1 above which (and above SAFETY·error) a speed is unstable
@@ -124,7 +123,7 @@ def brackets(points: Sequence[SpeedPoint], tol: float = DEFAULT_TOL) -> list[tup
 
 
 class NeedSpeed(Exception):
-    """Raised by :func:`edge` when Brent's next evaluation is not among the speeds known."""
+    """Raised by :func:`edge` when its next evaluation is not among the speeds known."""
 
     def __init__(self, speed: float):
         super().__init__(speed)
@@ -133,33 +132,34 @@ class NeedSpeed(Exception):
 
 def edge(lo: SpeedPoint, hi: SpeedPoint, known: Mapping[float, SpeedPoint], tol: float = DEFAULT_TOL,
          rtol: float = EDGE_RTOL) -> float:
-    """The speed in [lo, hi] where the margin changes sign (Brent, to ``rtol`` relative), from
-    the points ``known`` by speed; raises :class:`NeedSpeed` with the next speed Brent asks for
-    when it is not known. NaN if a point inside did not converge.
+    """The speed in [lo, hi] (lo.speed < hi.speed) where the margin changes sign, by bisection to
+    ``rtol`` relative (the midpoint of the last bracket, narrower than 2·rtol·lo.speed), from the
+    points ``known`` by speed; raises :class:`NeedSpeed` with the next midpoint when it is not
+    known. NaN if a point inside did not converge.
 
-    Brent's iterates depend only on the margins it was given, so replaying it on the points of
-    an interrupted refinement (archived) asks for the same speeds again and continues where it
-    stopped: :func:`refine_edges` is resumable and gives the uninterrupted result exactly."""
-    def f(w):
-        w = float(w)
-        p = lo if w == lo.speed else hi if w == hi.speed else known.get(w)
+    Bisection, not Brent: on the stable side the margin is a constant -(tol + SAFETY·error), on
+    the unstable side it grows like √(distance), and secant or inverse-quadratic steps from the
+    flat side crawl (Brent needed about twice bisection's evaluations). Its iterates depend only on
+    the signs met, not on ``rtol``: replaying it on the points of an interrupted refinement asks for
+    the same speeds again, so :func:`refine_edges` resumes where it stopped (also to a smaller
+    ``rtol``) and gives the uninterrupted result exactly."""
+    a, b = lo, hi
+    unstable_a = margin(a, tol) > 0
+    while b.speed - a.speed > 2.0 * rtol * abs(lo.speed):
+        w = 0.5 * (a.speed + b.speed)
+        if w in (a.speed, b.speed):  # adjacent floats: as narrow as the speed can be
+            break
+        p = known.get(w)
         if p is None:
             raise NeedSpeed(w)
-        v = margin(p, tol)
-        if not np.isfinite(v):
-            raise _Unconverged(w)
-        return v
-
-    a, b = lo.speed, hi.speed
-    try:
-        return float(brentq(f, a, b, xtol=0.25 * rtol * min(abs(a), abs(b)),
-                            rtol=max(0.25 * rtol, 4 * np.finfo(float).eps), maxiter=200))
-    except _Unconverged:
-        return float("nan")
-
-
-class _Unconverged(Exception):
-    pass
+        m = margin(p, tol)
+        if not np.isfinite(m):
+            return float("nan")
+        if (m > 0) == unstable_a:
+            a = p
+        else:
+            b = p
+    return 0.5 * (a.speed + b.speed)
 
 
 def refine_edges(points: Sequence[SpeedPoint], pairs: Sequence[tuple[int, int]],

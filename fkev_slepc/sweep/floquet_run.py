@@ -13,7 +13,7 @@ One archive holds both verdicts of the same speeds (docs/stability.md, "Frozen-t
    (ω̄ⱼ ± ω̄ₖ)/n) that fall between two stable grid speeds, where a band narrower than the spacing
    would go unseen (:func:`~fkev_slepc.solve.floquet_bands.unsampled`); with ``probe`` one more
    monodromy at each, added to the grid's points for the bands.
-4. **Bands** (:mod:`fkev_slepc.solve.floquet_bands`): every bracket refined by Brent's method, all
+4. **Bands** (:mod:`fkev_slepc.solve.floquet_bands`): every bracket refined by bisection, all
    brackets together in rounds whose speeds are dealt to the ranks; probes and refinement speeds
    are archived as they are solved (``/floquet/samples``, :mod:`fkev_slepc.sweep.floquet_samples`),
    so an interrupted refinement resumes where it stopped. The bands are labelled on rank 0 from ω̄ₖ

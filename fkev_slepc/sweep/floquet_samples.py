@@ -1,12 +1,12 @@
 """The monodromies ``fkev floquet`` solves beside its speed grid, archived as they are solved.
 
-Band-edge refinement (Brent's method, :func:`fkev_slepc.solve.floquet_bands.refine_edges`) and
+Band-edge refinement (bisection, :func:`fkev_slepc.solve.floquet_bands.refine_edges`) and
 resonance probes (:func:`fkev_slepc.solve.floquet_bands.unsampled`) ask for speeds that are not
 on the grid. :class:`Sampler` solves each round of them over the MPI ranks (dealt cyclically),
 appends them on rank 0 to ``/floquet/samples`` (docs/archive.md; the status column last, so a
 row cut short by a kill stays pending and is solved again), and then stops cleanly if a rank
 was sent Ctrl-C/SIGTERM (:mod:`fkev_slepc.sweep.interrupt`: every rank leaves after the same
-sync, the ``.part`` resumable). A resumed run reads the archived samples back: Brent, replayed
+sync, the ``.part`` resumable). A resumed run reads the archived samples back: the bisection, replayed
 on them, asks for the same speeds and finds them, so an interrupted refinement continues where
 it stopped and ends with the uninterrupted edges.
 """
