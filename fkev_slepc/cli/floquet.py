@@ -183,7 +183,7 @@ def _resolution_lines(o: dict) -> list[str]:
 def _gap_lines(o: dict) -> list[str]:
     """The grid's blind spots: resonance candidates between stable speeds, probed or not."""
     gaps, n = o.get("resonance_gaps") or [], o.get("resonance_order", 0)
-    if not n:
+    if not n or len(o["speed_rad_s"]) < 2:  # one speed has no gaps
         return []
     head = f"  resonance candidates of order n <= {n} between two stable grid speeds (a band narrower than the spacing " \
            "would not be seen there):"
