@@ -271,7 +271,7 @@ def test_interrupted_edge_refinement_resumes_where_it_stopped(tmp_path):
     proc = subprocess.Popen([sys.executable, str(script), str(ROOT / "tests"), str(run)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=env)
     code, err, written = interrupt_when_paused(proc, sig=signal.SIGINT)
-    assert code == 130 and written == 4 and "continue with --resume" in err, err
+    assert code == 130 and written == 4 and "continue with: the same run with resume=True" in err, err
     kept = read_samples(run / "fq.h5.part")
     assert len(kept) == 4 and all(ref_samples[w][0].max_abs == p.max_abs for w, (p, _) in kept.items())
     calls.clear()

@@ -151,7 +151,9 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     gaps = comm.bcast(unsampled(grid, mean, request.resonance_order, request.tol) if comm.rank == 0 else None)
     if comm.rank == 0:
         add_sample_rows(part)
-    sampler = Sampler(part, out, evaluate, lambda p, msg: _status(p, msg, request.tol), comm, n_index, notify)
+    cmd = request.command_line
+    sampler = Sampler(part, out, evaluate, lambda p, msg: _status(p, msg, request.tol), comm, n_index, notify,
+                      cmd + ("" if " --resume" in cmd else " --resume") if cmd else "")
     with sampler.stop:
         probes = sampler([g.resonance.speed for g in gaps], "probe") if request.probe else []
         points = sorted(grid + probes, key=lambda p: p.speed)

@@ -82,10 +82,12 @@ class Sampler:
     """Collective ``sampler(speeds, purpose) -> points``: the speeds not archived yet solved over
     the ranks and archived; raises SweepInterrupted on every rank after a signal (lock released).
 
-    ``evaluate(speed) -> (SpeedPoint, message)``; ``status(point, message) -> code``. Use inside
-    ``with sampler.stop:`` (the signal handlers)."""
+    ``evaluate(speed) -> (SpeedPoint, message)``; ``status(point, message) -> code``;
+    ``resume_command``: what the interruption notice says to run. Use inside ``with sampler.stop:``
+    (the signal handlers)."""
 
-    def __init__(self, part: Path, out: Path, evaluate, status, comm, n_index: int, notify=None):
+    def __init__(self, part: Path, out: Path, evaluate, status, comm, n_index: int, notify=None,
+                 resume_command: str = ""):
         from fkev_slepc.sweep.interrupt import StopRequest
 
         self.part, self.out, self.evaluate, self.status, self.comm, self.n_index = (
@@ -98,8 +100,9 @@ class Sampler:
 
         def say(what):
             if notify is not None and comm.rank == 0:
+                how = resume_command or "the same run with resume=True"
                 notify(f"interrupted by {what}: stopping at the next sync; the speeds solved so far stay in {part}; "
-                       "continue with --resume")
+                       f"continue with: {how}")
 
         self.stop = StopRequest(notify=say)
 
