@@ -8,7 +8,9 @@ row cut short by a kill stays pending and is solved again), and then stops clean
 was sent Ctrl-C/SIGTERM (:mod:`fkev_slepc.sweep.interrupt`: every rank leaves after the same
 sync, the ``.part`` resumable). A resumed run reads the archived samples back: the bisection, replayed
 on them, asks for the same speeds and finds them, so an interrupted refinement continues where
-it stopped and ends with the uninterrupted edges.
+it stopped and ends with the uninterrupted edges. ``FKEV_PAUSE_AFTER=K`` pauses at the first
+round after which K samples are archived (counted beside the grid, the resumed ones included; a
+grid phase that paused and went on, SIGUSR2, pauses here again).
 """
 
 from __future__ import annotations
