@@ -144,6 +144,19 @@ def test_floquet_run_archives_bands_resumes_and_opens_with_xarray(tmp_path, monk
     assert {"speed_rad_s", "multipliers", "max_abs_multiplier", "bands"} <= set(d)
     assert len(d["multipliers"][0]) == 2 and all(len(z) == 2 for z in d["multipliers"][0])
     assert set(d["bands"][0]) >= {"lower_rad_s", "upper_rad_s", "resonance"}
+    # what a band is: a run of consecutive unstable grid speeds (listed) between two refined edges
+    for b in d["bands"]:
+        run = [w for w, st in zip(d["speed_rad_s"], d["status"]) if b["lower_rad_s"] <= w <= b["upper_rad_s"]]
+        assert b["unstable_grid_speeds_rad_s"] == run and len(run) == b["grid_speeds_inside"] >= 1, (b, run)
+        assert {d["status"][d["speed_rad_s"].index(w)] for w in run} == {"unstable"}
+    from fkev_slepc.cli.floquet import lines
+
+    text = "\n".join(lines(d))
+    assert "between the grid speeds of a run the verdict is not sampled" in text
+    narrow, wide = (b["unstable_grid_speeds_rad_s"] for b in d["bands"])  # the tongues n = 2 (one grid speed), 1
+    assert len(narrow) == 1 and f"(unstable at the grid speed {narrow[0]:g})" in text, text
+    assert len(wide) > 6 and f"(unstable at the grid speeds {wide[0]:g}, {wide[1]:g}, ..., {wide[-1]:g} ({len(wide)}); " \
+        "between them not sampled)" in text, text
     with xr.open_dataset(out, group="floquet", engine="h5netcdf") as ds:
         assert ds.max_abs_multiplier.dims == ("speed_rad_s", "case") and ds.status.attrs["units"] == "1"
     with xr.open_dataset(out, group="floquet/bands", engine="h5netcdf") as ds:

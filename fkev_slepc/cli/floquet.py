@@ -125,10 +125,12 @@ def lines(o: dict) -> list[str]:
     if frozen:
         out.append(f"  frozen-time verdict of the same speeds: {_span(frozen, '.0f')} % of crank angles unstable or "
                    "divergent")
-    out.append(f"  unstable bands (edges to {o['edge_rtol']:g} relative):" + ("" if o["bands"] else " none"))
+    out.append(f"  unstable runs (unstable grid speeds in a row, outer edges refined to {o['edge_rtol']:g} relative; "
+               "between the grid speeds of a run the verdict is not sampled):" + ("" if o["bands"] else " none"))
     for b in o["bands"]:
         res = f"{b['resonance']} = {b['predicted_rad_s']:.6g} rad/s" if b["resonance"] else "no resonance in range"
-        out.append(f"    {_edges(b, o['edge_rtol'])}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} at {b['peak_rad_s']:g} rad/s")
+        out.append(f"    {_edges(b, o['edge_rtol'])}{_unstable_at(b)}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} "
+                   f"at {b['peak_rad_s']:g} rad/s")
     out += _resolution_lines(o) + _gap_lines(o)
     crit = o.get("frozen_time_critical")
     if crit:
@@ -168,6 +170,19 @@ def _edges(b: dict, rtol: float) -> str:
     return f"{lo} to {hi} rad/s"
 
 
+def _unstable_at(b: dict) -> str:
+    """Where a run is known to be unstable: its grid speeds (stable speeds can lie between them)."""
+    w = b.get("unstable_grid_speeds_rad_s")
+    if w is None:
+        return ""
+    if not w:
+        return f" (no grid speed inside; unstable at {b['peak_rad_s']:g} rad/s)"
+    if len(w) == 1:
+        return f" (unstable at the grid speed {w[0]:g})"
+    shown = ", ".join(f"{v:g}" for v in w) if len(w) <= 6 else f"{w[0]:g}, {w[1]:g}, ..., {w[-1]:g} ({len(w)})"
+    return f" (unstable at the grid speeds {shown}; between them not sampled)"
+
+
 def _resolution_lines(o: dict) -> list[str]:
     """A warning when bands hold at most one grid speed: others as narrow can lie unseen between stable speeds."""
     thin = [b for b in o["bands"] if b.get("grid_speeds_inside", 2) <= 1]
@@ -175,9 +190,9 @@ def _resolution_lines(o: dict) -> list[str]:
         return []
     w = sorted(o["speed_rad_s"])
     step = _span([b - a for a, b in zip(w, w[1:])], ".3g")
-    return [f"  resolution: {len(thin)} of {len(o['bands'])} {_plural(len(o['bands']), 'band')} with at most one grid "
-            f"speed inside (spacing {step} rad/s): bands as narrow may lie unseen between stable grid speeds; refine "
-            "--speeds"]
+    return [f"  resolution: {len(thin)} of {len(o['bands'])} unstable {_plural(len(o['bands']), 'run')} with at most one "
+            f"grid speed inside (spacing {step} rad/s): bands as narrow may lie unseen between stable grid speeds, and "
+            "stable ones between the unstable speeds of a run; refine --speeds"]
 
 
 def _gap_lines(o: dict) -> list[str]:

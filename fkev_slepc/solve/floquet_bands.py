@@ -18,7 +18,8 @@ into the band. The margin is therefore a continuous function with a sign change 
    tol = 1e-6, c = 1); :func:`refine_edges` refines every bracket at once, in rounds of one
    speed per bracket, replaying the bisection on the speeds already known (resumable);
 4. :func:`bands_from`: runs of unstable grid speeds between refined edges; a band reaching the end
-   of the grid is open there (``lower_open``/``upper_open``).
+   of the grid is open there (``lower_open``/``upper_open``). A band is known unstable at its own
+   grid speeds only: between two of them nothing is sampled, and stable speeds can lie there.
 
 A band narrower than the grid spacing, between two stable grid speeds, is not seen: the
 resonance candidates of low order that fall in such gaps (:func:`unsampled`) are where it would

@@ -33,12 +33,17 @@ class FloquetResults:
     gaps: tuple[Gap, ...] = ()  # resonance candidates between stable grid speeds (probed or not)
     samples: dict = field(default_factory=dict)  # purpose -> monodromies archived beside the grid
 
-    def inside(self, band: Band) -> int:
-        """How many grid speeds lie in ``band`` (1: the band is not resolved by the grid)."""
+    def grid_inside(self, band: Band) -> list[float]:
+        """The grid speeds in ``band``, rad/s: all unstable (a band is a run of consecutive unstable
+        grid speeds, or a probe's, between refined edges); between them nothing was sampled."""
         w = np.asarray(self.speed_rad_s, dtype=float)
         lo = band.lower if np.isfinite(band.lower) else band.peak_speed
         hi = band.upper if np.isfinite(band.upper) else band.peak_speed
-        return int(np.count_nonzero((w >= lo) & (w <= hi)))
+        return [float(v) for v in w[(w >= lo) & (w <= hi)]]
+
+    def inside(self, band: Band) -> int:
+        """How many grid speeds lie in ``band`` (1: the band is not resolved by the grid)."""
+        return len(self.grid_inside(band))
 
     def as_dict(self) -> dict:
         num = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
@@ -49,7 +54,8 @@ class FloquetResults:
             "max_abs_multiplier": [num(v) for v in self.max_abs],
             "multiplier_error": [num(v) for v in self.error],
             "status": [Status.from_code(c).value for c in self.status],
-            "bands": [{**b.as_dict(), "grid_speeds_inside": self.inside(b)} for b in self.bands],
+            "bands": [{**b.as_dict(), "grid_speeds_inside": self.inside(b), "unstable_grid_speeds_rad_s": self.grid_inside(b)}
+                      for b in self.bands],
             "tol": self.tol, "edge_rtol": self.rtol,
             "frozen_time_unstable_fraction": [num(v) for v in self.frozen_unstable_fraction],
             "resonance_order": self.resonance_order, "resonance_gaps": [g.as_dict() for g in self.gaps],
