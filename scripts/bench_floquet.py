@@ -9,11 +9,17 @@ for every angle: pieces, QEP, dense engine, selection and classification; no HDF
 timed alternately, medians over ``--repeats``. The multiplier error is measured against a run at
 ``--tol``/1000 (matched multipliers), beside the run's own step-doubling estimate.
 
-Large model (``--large-elements`` per link, 111 gives 999 DOFs; 0 skips it): the monodromy
-reduced to ``--reduce`` co-rotating frozen modes at ``--basis-angles`` angles
-(solve/floquet_reduce.py), its cost, and its truncation error: the largest change of a matched
-multiplier of the lowest modes, and of max|μ|, against the basis of twice as many modes.
-One BLAS thread.
+Reduced against full (``--reduce-speeds``, e.g. ``60,30``; empty skips it): on ``--reduce-scene``
+(default Turcic–Midha, 27 DOFs) at ``--reduce-elements`` per link (0: the scene's mesh), the full
+monodromy and the reduced one (``reduce="auto"``: the convergence sequence of
+solve/floquet_truncation.py) timed alternately, medians over ``--reduce-repeats``: basis size,
+steps, max|μ| of both, the true relative error of the reduced max|μ| beside its truncation
+estimate, the frequency measure, and the speed-up.
+
+Large model (``--large-elements`` per link, 111 gives 999 DOFs; 0 skips it): the full monodromy is
+out of reach; the reduced one (``reduce="auto"``, at most ``--large-max-basis`` vectors) is timed
+and its convergence sequence printed level by level (basis size, max|μ|, max Re s) with the
+truncation measures of the last pair and whether they met the tolerance. One BLAS thread.
 
     .venv/bin/python scripts/bench_floquet.py
     .venv/bin/python scripts/bench_floquet.py --repeats 1 --large-elements 0 --angles 36
@@ -40,8 +46,11 @@ def parse_args(argv=None):
     ap.add_argument("--angles", type=int, default=360, help="frozen sweep angles over a turn")
     ap.add_argument("--tol", type=float, default=1e-10, help="monodromy tolerance (relative error of Φ)")
     ap.add_argument("--large-elements", type=int, default=111)
-    ap.add_argument("--reduce", type=int, default=4)
-    ap.add_argument("--basis-angles", type=int, default=2)
+    ap.add_argument("--large-max-basis", type=int, default=14, help="cap of the large model's basis")
+    ap.add_argument("--reduce-speeds", default="", help="speeds of the reduced-vs-full comparison (a,b,...)")
+    ap.add_argument("--reduce-scene", default="runs/turcic-midha-1984.toml")
+    ap.add_argument("--reduce-elements", type=int, default=0, help="elements per link (0: the scene's)")
+    ap.add_argument("--reduce-repeats", type=int, default=1)
     return benchlib.parse(ap, argv)[0]
 
 
@@ -69,10 +78,8 @@ def frozen_sweep(scene, model, speed, case, n_angles, modes):
 
 def main(argv=None) -> None:
     args = parse_args(argv)
-    from dataclasses import replace
-
     from fkev_slepc.model.operators import Model
-    from fkev_slepc.scene import load_scene
+    from fkev_slepc.scene import load_scene, with_elements
     from fkev_slepc.solve.floquet import match_multipliers
     from fkev_slepc.solve.floquet_linkage import floquet_multipliers
 
@@ -99,28 +106,52 @@ def main(argv=None) -> None:
     print(f"max|mu| {res.max_abs:.12f}, max||mu|-1| {np.max(np.abs(np.abs(res.multipliers) - 1)):.1e}")
     print(f"multiplier error vs tol/1000 run: {err:.1e} (step-doubling estimate {res.error:.1e}; "
           f"reference {ref.monodromy.steps} steps)")
-    if args.large_elements <= 0:
-        return
-    big = replace(scene, links=tuple(replace(lk, elements=args.large_elements) for lk in scene.links))
-    bm = Model(big, cases=(args.case,))
-    t0 = time.perf_counter()
-    red = floquet_multipliers(bm, args.speed, args.case, tol=args.tol, reduce=args.reduce,
-                              basis_angles=args.basis_angles, check_truncation=False)
-    t_red = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    ref2 = floquet_multipliers(bm, args.speed, args.case, tol=args.tol, reduce=2 * args.reduce,
-                               basis_angles=args.basis_angles, check_truncation=False)
-    t_ref2 = time.perf_counter() - t0
-    low = np.argsort(np.abs(red.exponents.imag))
-    i, j = match_multipliers(red.exponents[low] / abs(args.speed), ref2.exponents / abs(args.speed))
-    trunc = float(np.max(np.abs(red.multipliers[low][i] - ref2.multipliers[j])))
-    dfreq = np.abs(red.exponents[low][i].imag - ref2.exponents[j].imag) / np.abs(ref2.exponents[j].imag)
-    print(f"large: {bm.n_free} DOFs reduced to {red.basis} co-rotating modes "
-          f"({args.reduce} per angle at {args.basis_angles} angles): {t_red:.2f} s, "
-          f"{red.monodromy.steps} steps, max|mu| {red.max_abs:.12f}")
-    print(f"truncation error vs {ref2.basis} modes ({t_ref2:.2f} s): multipliers {trunc:.1e}, "
-          f"max|mu| {abs(red.max_abs - ref2.max_abs):.1e}, Floquet frequencies {np.max(dfreq):.1e} relative")
+    for w in [float(x) for x in args.reduce_speeds.split(",") if x.strip()]:
+        reduced_vs_full(load_scene(benchlib.ROOT / args.reduce_scene), args.reduce_elements, w, args.case,
+                        args.tol, args.reduce_repeats)
+    if args.large_elements > 0:
+        big = with_elements(scene, args.large_elements)
+        bm = Model(big, cases=(args.case,))
+        t0 = time.perf_counter()
+        red = floquet_multipliers(bm, args.speed, args.case, tol=args.tol, reduce="auto",
+                                  max_basis=args.large_max_basis)
+        print(f"large: {bm.n_free} DOFs, reduce=auto (at most {args.large_max_basis} vectors): "
+              f"{time.perf_counter() - t0:.1f} s, last level {red.basis} vectors, {red.monodromy.steps} steps")
+        print_truncation(red.truncation)
 
+
+def print_truncation(t) -> None:
+    for size, mu, re in t.levels:
+        print(f"  level {size:3d} vectors: max|mu| {mu:.9f}, max Re s {re:.6g} 1/s")
+    print(f"  truncation (last two pairs of levels): max|mu| {t.max_abs:.1e} relative, growth rate "
+          f"{t.growth_rate:.1e} 1/s, Floquet frequencies {t.frequency:.1e} relative; "
+          f"{'converged' if t.converged else 'NOT converged'} to {t.tol:g}")
+
+
+def reduced_vs_full(scene, elements, speed, case, tol, repeats) -> None:
+    """The full and the auto-reduced monodromy of one speed, timed alternately (medians)."""
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+
+    from fkev_slepc.scene import with_elements
+
+    model = Model(with_elements(scene, elements) if elements > 0 else scene, cases=(case,))
+    t_full, t_red = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        full = floquet_multipliers(model, speed, case, tol=tol)
+        t_full.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        red = floquet_multipliers(model, speed, case, tol=tol, reduce="auto")
+        t_red.append(time.perf_counter() - t0)
+    tf, tr = np.median(t_full), np.median(t_red)
+    print(f"reduced vs full: {scene.title}, {model.n_free} DOFs, case {case}, {speed:g} rad/s, {repeats} repeat(s)")
+    print(f"  full: {tf:.2f} s, {full.monodromy.steps} steps, max|mu| {full.max_abs:.12f}")
+    print(f"  reduced: {tr:.2f} s, {red.basis} vectors, {red.monodromy.steps} steps (last level), "
+          f"max|mu| {red.max_abs:.12f}")
+    print(f"  true error of max|mu|: {abs(red.max_abs - full.max_abs) / full.max_abs:.1e} relative; "
+          f"speed-up full / reduced: {tf / tr:.1f}")
+    print_truncation(red.truncation)
 
 if __name__ == "__main__":
     main()

@@ -118,3 +118,16 @@ def test_fkev_floquet_archives_the_basis_and_truncation(tmp_path):
     assert abs(a["max_abs_multiplier"] - n["max_abs_multiplier"]) <= 1e-3 * n["max_abs_multiplier"]
     r = fkev("floquet", TM, "--speeds", "100", "--reduce", "half", "-o", tmp_path / "bad.h5")
     assert r.returncode != 0 and "--reduce" in r.stderr
+
+
+def test_default_reduces_only_where_the_full_model_is_expensive():
+    """reduce="default": the full model where its step count 2·2π·ρ(A) is below AUTO_MIN_STEPS
+    (Turcic–Midha, 1 element per link, 100 rad/s: ~4,400), auto above (9 elements, 60 rad/s:
+    ~74,000, where the full monodromy takes 131,072 steps)."""
+    from fkev_slepc.solve.floquet_linkage import full_min_steps
+    from fkev_slepc.solve.floquet_truncation import AUTO_MIN_STEPS
+
+    small = _tm(1)
+    assert full_min_steps(small, 100.0) < AUTO_MIN_STEPS
+    assert floquet_multipliers(small, 100.0, "full", damping=False, reduce="default").basis is None
+    assert full_min_steps(_tm(3), 60.0) >= AUTO_MIN_STEPS

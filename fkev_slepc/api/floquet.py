@@ -22,8 +22,8 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
                   command_line: str = "", notify=None, progress: bool = False, reduce="default"):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
     messages name the arguments (the CLI passes its flags). ``reduce``: the frozen-mode reduction
-    of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" from
-    ``AUTO_ABOVE_DOFS`` free DOFs; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
+    of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" where the full model
+    needs ``AUTO_MIN_STEPS`` Magnus steps; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, FloquetRequest, read_floquet, run_floquet
     from fkev_slepc.sweep.grid import configure
@@ -44,7 +44,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
     from fkev_slepc.solve.floquet_truncation import resolve_reduce
 
     try:
-        reduce = resolve_reduce(reduce, study.n_free)
+        reduce = resolve_reduce(reduce)
     except ValueError as err:
         bad.append(Problem(names["reduce"], str(err)))
     if sc.driver.acceleration != 0.0:

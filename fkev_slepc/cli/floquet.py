@@ -46,10 +46,10 @@ def add_parser(sub) -> None:
     p.add_argument("--resonance-order", type=int, default=None, metavar="N",
                    help="list the resonance candidates 2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of order n <= N that lie between two stable "
                    "grid speeds, where a band narrower than the spacing would not be seen (default 3; 0: none)")
-    p.add_argument("--reduce", default="default", metavar="auto|none|N",
+    p.add_argument("--reduce", default=None, metavar="auto|none|N",
                    help="frozen-mode reduction of each monodromy: auto (basis grown until max|μ| and the Floquet "
                    "frequencies change < 1e-3, truncation archived), none (full model), N modes per angle; default: "
-                   "auto from 24 free DOFs (docs/engine.md)")
+                   "auto where the full model needs >= 60,000 Magnus steps, else none (docs/engine.md)")
     p.add_argument("--probe-resonances", action="store_true",
                    help="solve one more monodromy at each of those candidates (a band found there is refined)")
     add_elements_argument(p)
@@ -81,7 +81,7 @@ def run(args) -> int:
                             rtol=EDGE_RTOL if args.rtol is None else args.rtol,
                             monodromy_tol=MONODROMY_TOL if args.monodromy_tol is None else args.monodromy_tol,
                             resonance_order=RESONANCE_ORDER if args.resonance_order is None else args.resonance_order,
-                            probe=args.probe_resonances, reduce=args.reduce,
+                            probe=args.probe_resonances, reduce=args.reduce or "default",
                             solver=args.solver, comm=comm, critical=not args.no_critical, names=NAMES,
                             command_line="fkev " + " ".join(sys.argv[1:]),
                             notify=None if args.json or args.quiet else _note)

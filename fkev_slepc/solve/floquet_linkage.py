@@ -49,7 +49,9 @@ import scipy.linalg as la
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.solve.floquet import Monodromy, monodromy
 from fkev_slepc.solve.floquet_reduce import compress, frozen_pool, reduced_coefficients
-from fkev_slepc.solve.floquet_truncation import AUTO_ANGLES, AUTO_MODES, REDUCE_TOL, Truncation, between, converge
+from fkev_slepc.solve.floquet_truncation import (
+    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge,
+)
 
 TWO_PI = 2.0 * np.pi
 
@@ -228,6 +230,13 @@ def _unwrapped_exponents(mono: Monodromy, c: _Coefficients, d, omega: float) -> 
     return mu[order], s[order]
 
 
+def full_min_steps(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0) -> int:
+    """The full model's least Magnus step count over a revolution, 2·2π·ρ(A) at ``start``."""
+    c = _coefficients(model, np.array([float(start)]), omega, case, damping)
+    A = _generator_samples(c, omega, _scaling(c))
+    return int(np.ceil(2.0 * TWO_PI * np.max(np.abs(la.eigvals(A[0])))))
+
+
 def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, damping: bool = True,
                         start: float = 0.0, order: int = 6, steps: int | None = None,
                         tol: float = 1e-10, samples: int = 16, interp_tol: float = 1e-12,
@@ -237,7 +246,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                         basis: np.ndarray | None = None) -> LinkageFloquet:
     """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
 
-    ``reduce``: None (the full model), ``"auto"`` (the convergence sequence of
+    ``reduce``: None (the full model), ``"default"`` (``"auto"`` where :func:`full_min_steps`
+    reaches ``AUTO_MIN_STEPS``, else None), ``"auto"`` (the convergence sequence of
     :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False).
@@ -247,6 +257,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     if not np.isfinite(omega) or omega == 0.0:
         raise ValueError(f"omega: the Floquet analysis needs a non-zero crank speed, got {omega!r}")
     model = model_or_scene if isinstance(model_or_scene, Model) else Model(model_or_scene, (case,))
+    if reduce == "default":
+        reduce = "auto" if full_min_steps(model, omega, case, damping, start) >= AUTO_MIN_STEPS else None
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
                     interp_tol=interp_tol)

@@ -48,7 +48,7 @@ THRESHOLDS = tuple(10.0 ** -k for k in range(1, 11))
 REDUCE_TOL = 1e-3  # |Δ max|μ|| and the relative frequency change that end the sequence
 AUTO_MODES = 4  # modes per angle of the first pool
 AUTO_ANGLES = 8  # pool angles over a revolution
-AUTO_ABOVE_DOFS = 24  # ``reduce="default"``: "auto" from this many free DOFs, else the full model
+AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: "auto" where the full model needs this many Magnus steps
 
 
 @dataclass(frozen=True)
@@ -68,17 +68,16 @@ class Truncation:
         return float(max(self.max_abs, self.frequency))
 
 
-def resolve_reduce(value, n_dof: int):
-    """None (the full model), "auto" or a number of modes per angle from what a user asked:
-    "default" ("auto" from ``AUTO_ABOVE_DOFS`` free DOFs: docs/engine.md measures why), "auto",
+def resolve_reduce(value):
+    """None (the full model), "default", "auto" or a number of modes per angle from what a user
+    asked: "default" (decided per speed by ``floquet_multipliers``: "auto" where the full model's
+    step count 2·2π·ρ(A) reaches ``AUTO_MIN_STEPS``, docs/engine.md measures why), "auto",
     "none"/None, or a whole number >= 1 (also as text). ValueError otherwise."""
     if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
         return None
     if isinstance(value, str):
         v = value.strip().lower()
-        if v == "default":
-            return "auto" if n_dof >= AUTO_ABOVE_DOFS else None
-        if v == "auto":
+        if v in ("default", "auto"):
             return v
         value = int(v) if v.isdigit() else value
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
