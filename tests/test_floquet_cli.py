@@ -321,7 +321,7 @@ def test_a_band_open_at_both_ends_of_the_speeds_examined(tmp_path):
     assert band["unstable_down_to_rad_s"] == band["unstable_up_to_rad_s"] == 800.0 and band["peak_max_abs_multiplier"] > 1.01
     text = fkev(*args, "--resume").stdout  # nothing left to solve: the same archive as text
     assert ", 1 speed 800 rad/s;" in text and "1 of 1 grid speed unstable" in text, text
-    assert "<= 800 (unstable at the lowest speed examined) to >= 800 (unstable at the highest speed examined) rad/s" in text
+    assert "<= 800 to >= 800 rad/s, unstable at the lowest and the highest speed examined" in text
     bad = fkev("floquet", BW, "--speeds", "800", "--resonance-order", "-1", "-o", tmp_path / "x.h5")
     assert bad.returncode == 2 and "--resonance-order" in bad.stderr and "Traceback" not in bad.stderr, bad.stderr
 

@@ -163,11 +163,13 @@ def _edges(b: dict, rtol: float) -> str:
     """A band's edges, to the digits ``rtol`` gives; one not located says why (open at the end of
     the speeds examined, or not refined)."""
     fmt = f".{max(4, int(np.ceil(-np.log10(rtol))) + 1)}g"
-    lo = (f"<= {b['unstable_down_to_rad_s']:g} (unstable at the lowest speed examined)" if b["lower_open"] else
-          "edge not located (a monodromy did not converge)" if b["lower_rad_s"] is None else format(b["lower_rad_s"], fmt))
-    hi = (f">= {b['unstable_up_to_rad_s']:g} (unstable at the highest speed examined)" if b["upper_open"] else
-          "edge not located (a monodromy did not converge)" if b["upper_rad_s"] is None else format(b["upper_rad_s"], fmt))
-    return f"{lo} to {hi} rad/s"
+    missing = "edge not located (a monodromy did not converge)"
+    lo = (f"<= {b['unstable_down_to_rad_s']:g}" if b["lower_open"] else
+          missing if b["lower_rad_s"] is None else format(b["lower_rad_s"], fmt))
+    hi = (f">= {b['unstable_up_to_rad_s']:g}" if b["upper_open"] else
+          missing if b["upper_rad_s"] is None else format(b["upper_rad_s"], fmt))
+    ends = [end for end, is_open in (("lowest", b["lower_open"]), ("highest", b["upper_open"])) if is_open]
+    return f"{lo} to {hi} rad/s" + (f", unstable at the {' and the '.join(ends)} speed examined" if ends else "")
 
 
 def _unstable_at(b: dict) -> str:

@@ -1,5 +1,5 @@
 """The cycle verdict over speed (``fkev floquet --plot``): the largest Floquet exponent per crank
-revolution, log max|μ|, with the unstable bands shaded and labelled, the frozen-time critical
+revolution, log max|μ|, with the unstable runs (bands) shaded and labelled, the frozen-time critical
 speeds beside them, and below it the share of crank angles the frozen-time verdict calls unstable."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ def speed_map(res) -> Figure:
     span, last = (np.ptp(w) if w.size > 1 else 1.0), -np.inf
     for i, b in enumerate(res.bands):
         lo, hi = (b.lower if np.isfinite(b.lower) else b.peak_speed), (b.upper if np.isfinite(b.upper) else b.peak_speed)
-        ax.axvspan(lo, hi, color="tab:red", alpha=0.2, lw=0, label="unstable bands" if i == 0 else None)
+        ax.axvspan(lo, hi, color="tab:red", alpha=0.2, lw=0, label="unstable runs (outer edges refined;\ninside, sampled at grid speeds only)" if i == 0 else None)
         if 0.5 * (lo + hi) - last > LABEL_GAP * span:  # crowded bands: labels in the text report and JSON only
             last = 0.5 * (lo + hi)
             ax.annotate(b.resonance or "?", (last, 1.0), xycoords=("data", "axes fraction"), xytext=(0, -10),
@@ -50,7 +50,7 @@ def speed_map(res) -> Figure:
     ax2.set_xlabel(SPEED_LABEL)
     ax2.grid(alpha=0.3)
     n = len(res.bands)
-    fig.suptitle(f"{res.title}: cycle (Floquet) verdict, case {res.case}; {n} unstable band{'s' if n != 1 else ''}",
+    fig.suptitle(f"{res.title}: cycle (Floquet) verdict, case {res.case}; {n} unstable run{'s' if n != 1 else ''}",
                  fontsize=10)
     return fig
 
