@@ -116,6 +116,17 @@ def test_fkev_floquet_archives_the_basis_and_truncation(tmp_path):
     assert a["basis_size"] >= 5 and a["truncation_converged"] == 1 and np.isfinite(a["truncation_max_abs"])
     assert n["basis_size"] == 0 and np.isnan(n["truncation_max_abs"])
     assert abs(a["max_abs_multiplier"] - n["max_abs_multiplier"]) <= 1e-3 * n["max_abs_multiplier"]
+    # the JSON (as_dict) and the text report show them too
+    from fkev_slepc.cli.floquet import lines
+    from fkev_slepc.sweep.floquet_run import read_floquet
+
+    oa, on = (read_floquet(tmp_path / f"{flag}.h5").as_dict() for flag in ("auto", "none"))
+    assert oa["basis_size"] == [int(a["basis_size"])] and oa["truncation_converged"] == [1]
+    assert oa["truncation_max_abs"] == [float(a["truncation_max_abs"])]
+    assert any(t.startswith(f"  model: 1 of 1 grid speed on a frozen-mode basis of {int(a['basis_size'])} vectors; "
+                            "truncation change of max|μ| ") for t in lines(oa)), lines(oa)
+    assert on["basis_size"] == [0] and on["truncation_max_abs"] == [None]
+    assert "  model: the full model at every grid speed (no frozen-mode reduction)" in lines(on)
     r = fkev("floquet", TM, "--speeds", "100", "--reduce", "half", "-o", tmp_path / "bad.h5")
     assert r.returncode != 0 and "--reduce" in r.stderr
 

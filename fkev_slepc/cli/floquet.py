@@ -131,7 +131,7 @@ def lines(o: dict) -> list[str]:
         res = f"{b['resonance']} = {b['predicted_rad_s']:.6g} rad/s" if b["resonance"] else "no resonance in range"
         out.append(f"    {_edges(b, o['edge_rtol'])}{_unstable_at(b)}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} "
                    f"at {b['peak_rad_s']:g} rad/s")
-    out += _resolution_lines(o) + _gap_lines(o)
+    out += _reduction_lines(o) + _resolution_lines(o) + _gap_lines(o)
     crit = o.get("frozen_time_critical")
     if crit:
         def show(v, a):
@@ -183,6 +183,20 @@ def _unstable_at(b: dict) -> str:
         return f" (unstable at the grid speed {w[0]:g})"
     shown = ", ".join(f"{v:g}" for v in w) if len(w) <= 6 else f"{w[0]:g}, {w[1]:g}, ..., {w[-1]:g} ({len(w)})"
     return f" (unstable at the grid speeds {shown}; between them not sampled)"
+
+
+def _reduction_lines(o: dict) -> list[str]:
+    """Which speeds were solved on a frozen-mode basis, its size and its measured truncation."""
+    size = [b or 0 for b in o.get("basis_size") or []]
+    red = [i for i, b in enumerate(size) if b > 0]
+    if not red:
+        return ["  model: the full model at every grid speed (no frozen-mode reduction)"] if size else []
+    pick = lambda key: [o[key][i] for i in red if o.get(key) and o[key][i] is not None]  # noqa: E731
+    stuck = sum(not c for c in pick("truncation_converged"))
+    return [f"  model: {len(red)} of {len(size)} grid {_plural(len(size), 'speed')} on a frozen-mode basis of "
+            f"{_span([size[i] for i in red], 'd')} vectors; truncation change of max|μ| {_span(pick('truncation_max_abs'), '.2g')}"
+            f", of the retained frequencies {_span(pick('truncation_frequency'), '.2g')} (relative)"
+            + (f"; {stuck} not converged (basis cap reached)" if stuck else "")]
 
 
 def _resolution_lines(o: dict) -> list[str]:

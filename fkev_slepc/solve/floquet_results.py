@@ -11,6 +11,8 @@ import numpy as np
 from fkev_slepc.solve.floquet_bands import Band, Gap
 from fkev_slepc.status import Status
 
+INTEGER_ROWS = ("basis_size", "truncation_converged")  # reduction rows given as integers in the JSON
+
 
 @dataclass(frozen=True)
 class FloquetResults:
@@ -32,6 +34,7 @@ class FloquetResults:
     resonance_order: int = 0  # candidates of order n <= this between stable speeds are the gaps
     gaps: tuple[Gap, ...] = ()  # resonance candidates between stable grid speeds (probed or not)
     samples: dict = field(default_factory=dict)  # purpose -> monodromies archived beside the grid
+    reduction: dict = field(default_factory=dict)  # /floquet/basis_size, truncation_* name -> per-speed values
 
     def grid_inside(self, band: Band) -> list[float]:
         """The grid speeds in ``band``, rad/s: all unstable (a band is a run of consecutive unstable
@@ -60,5 +63,7 @@ class FloquetResults:
             "frozen_time_unstable_fraction": [num(v) for v in self.frozen_unstable_fraction],
             "resonance_order": self.resonance_order, "resonance_gaps": [g.as_dict() for g in self.gaps],
             "samples_beside_grid": dict(self.samples),
+            **{k: [None if not np.isfinite(v) else (int(v) if k in INTEGER_ROWS else float(v)) for v in col]
+               for k, col in self.reduction.items()},
             **self.extras,
         }

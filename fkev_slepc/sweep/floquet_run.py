@@ -245,7 +245,9 @@ def read_floquet(path) -> FloquetResults:
         res = FloquetResults(path, _text(f.attrs.get("title", path.stem)), _text(g.attrs["analysed_case"]), f[P.SPEED][()],
                              f[P.MULTIPLIER.path][:, 0, :], f[P.MAX_ABS_MULTIPLIER.path][:, 0],
                              f[P.MULTIPLIER_ERROR.path][:, 0], np.asarray(f[P.F_STATUS.path][:, 0], np.uint8), bands,
-                             tol, float(g.attrs["rtol"]), frozen, resonance_order=order)
+                             tol, float(g.attrs["rtol"]), frozen, resonance_order=order,
+                             reduction={v.path.rsplit("/", 1)[1]: np.asarray(f[v.path][:, 0], float)
+                                        for v in REDUCTION_ROWS if v.path in f})
     samples = read_samples(path)
     gaps = unsampled(_read_grid(path, res.speed_rad_s), _mean_frequencies(path), order, tol)
     return replace(res, gaps=tuple(_probed(gap, samples.get(gap.resonance.speed), tol) for gap in gaps),
