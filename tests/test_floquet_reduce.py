@@ -127,6 +127,11 @@ def test_fkev_floquet_archives_the_basis_and_truncation(tmp_path):
                             "truncation change of max|μ| ") for t in lines(oa)), lines(oa)
     assert on["basis_size"] == [0] and on["truncation_max_abs"] == [None]
     assert "  model: the full model at every grid speed (no frozen-mode reduction)" in lines(on)
+    # a resume keeps full-model speeds whatever reduction is asked; a reduced archive asked for the full model is redone
+    for archive, flag, todo in (("none", "auto", 0), ("auto", "none", 1)):
+        r = fkev("floquet", TM, "--elements", "1", "--speeds", "100", "--angles", "0:360:90", "--no-critical",
+                 "--reduce", flag, "--resume", "-o", tmp_path / f"{archive}.h5")
+        assert r.returncode == 0 and f"floquet: {todo} of 1 speed(s) to solve" in r.stderr, r.stderr
     r = fkev("floquet", TM, "--speeds", "100", "--reduce", "half", "-o", tmp_path / "bad.h5")
     assert r.returncode != 0 and "--reduce" in r.stderr
 

@@ -176,11 +176,14 @@ def _settings(request: FloquetRequest) -> dict:
 
 
 def _settings_differ(part, request: FloquetRequest, n_index: int) -> bool:
-    """A resume redoes every speed when the archived Floquet settings or size differ."""
+    """A resume redoes every speed when the archived Floquet settings or size differ. Speeds solved on
+    the full model (``reduce`` None, as in archives written before the reduction existed) are kept
+    whatever reduction is asked now: no reduction is more accurate than the full model."""
     with h5py.File(part, "r") as f:
         g = f[P.FLOQUET.name]
         old = {k: g.attrs.get(k) for k in ("tol", "monodromy_tol")}
-        return f[P.F_INDEX].shape[0] != n_index or _text(g.attrs.get("reduce", "None")) != str(request.reduce) or any(
+        archived = _text(g.attrs.get("reduce", "None"))
+        return f[P.F_INDEX].shape[0] != n_index or archived not in ("None", str(request.reduce)) or any(
             old[k] is None or float(old[k]) != float(v) for k, v in _settings(request).items() if k in old)
 
 
