@@ -23,6 +23,7 @@ import h5py
 import numpy as np
 
 from fkev_slepc.archive import products as P
+from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.scene import Scene, SceneError
 from fkev_slepc.status import Status
@@ -172,6 +173,3 @@ def read_status(path) -> np.ndarray:
     with h5py.File(path, "r") as f:
         return np.asarray(f[P.R_STATUS.path][:, 0], np.uint8)
 
-
-def _text(v) -> str:
-    return v.decode("utf-8") if isinstance(v, bytes) else str(v)

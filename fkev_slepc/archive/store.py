@@ -116,7 +116,8 @@ def _set_attrs(f, attrs: dict) -> None:
         f.attrs[key] = value
 
 
-def _text(v) -> str:
+def text(v) -> str:
+    """An HDF5 string (bytes or str) as str."""
     return v.decode("utf-8") if isinstance(v, bytes) else str(v)
 
 
@@ -194,12 +195,12 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
     except OSError as exc:
         raise ArchiveMismatch(f"{src}: cannot be opened to resume ({exc})") from None
     with f:
-        if _text(f.attrs.get("format", "")) != FORMAT:
+        if text(f.attrs.get("format", "")) != FORMAT:
             raise ArchiveMismatch(f"{src}: not an fkev archive")
         for key, value in expect.items():
             have = f.attrs.get(key)
             if key == "scene_toml":
-                diff = scene_difference(_text(have) if have is not None else "", value)
+                diff = scene_difference(text(have) if have is not None else "", value)
                 if diff:
                     problems.append(f"the scene changed since the archive was written: {diff}")
             elif have is None or not np.array_equal(np.asarray(have), np.asarray(value)):
@@ -209,7 +210,7 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
             have = f[name][()]
             if have.shape != want[name].shape or not np.array_equal(have, want[name]):
                 problems.append(f"{flag}: archive has {_show(have)}, this run {_show(want[name])}")
-        cases = tuple(_text(c) for c in f[P.CASE][()])
+        cases = tuple(text(c) for c in f[P.CASE][()])
         if cases != tuple(grid.cases):
             problems.append(f"cases: archive has {','.join(cases)}, this run {','.join(grid.cases)}")
     if problems:
@@ -259,7 +260,7 @@ def _show(v) -> str:
     a = np.atleast_1d(np.asarray(v))
     if a.size > 6:
         return f"{a.size} values {a[0]!r}..{a[-1]!r}"
-    return ",".join(_text(x) if isinstance(x, bytes) else f"{x:g}" if np.isreal(x) and a.dtype.kind in "fiu"
+    return ",".join(text(x) if isinstance(x, bytes) else f"{x:g}" if np.isreal(x) and a.dtype.kind in "fiu"
                     else str(x) for x in a.tolist())
 
 

@@ -50,7 +50,7 @@ from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.solve.floquet import Monodromy, monodromy
 from fkev_slepc.solve.floquet_reduce import compress, frozen_pool, reduced_coefficients
 from fkev_slepc.solve.floquet_truncation import (
-    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge,
+    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge, resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -257,6 +257,10 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     if not np.isfinite(omega) or omega == 0.0:
         raise ValueError(f"omega: the Floquet analysis needs a non-zero crank speed, got {omega!r}")
     model = model_or_scene if isinstance(model_or_scene, Model) else Model(model_or_scene, (case,))
+    try:
+        reduce = resolve_reduce(reduce)
+    except ValueError as err:
+        raise ValueError(f"reduce: {err}") from None
     if reduce == "default":
         reduce = "auto" if full_min_steps(model, omega, case, damping, start) >= AUTO_MIN_STEPS else None
     if basis is None and reduce is not None:
@@ -269,9 +273,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
             res, trunc = converge(solve, pool, n, modes=min(AUTO_MODES, n - 1), tol=reduce_tol,
                                   max_basis=max_basis)
             return replace(res, truncation=trunc)
-        if isinstance(reduce, str) or int(reduce) < 1:
-            raise ValueError(f"reduce: 'auto' or a number of modes per angle >= 1, got {reduce!r}")
-        r = min(int(reduce), n - 1)
+        r = min(reduce, n - 1)
         res = solve(compress(pool(r), threshold))
         if not check_truncation:
             return res

@@ -32,13 +32,14 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.products_floquet import REDUCTION_ROWS
+from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.solve.floquet_bands import (
     DEFAULT_TOL, EDGE_RTOL, Band, Gap, SpeedPoint, brackets, bands_from, label, margin, refine_edges, unsampled,
 )
 from fkev_slepc.solve.floquet_results import FloquetResults
 from fkev_slepc.status import Status
-from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples, text as _text
+from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples
 from fkev_slepc.sweep.parallel import local
 from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
 from fkev_slepc.sweep.units import pending

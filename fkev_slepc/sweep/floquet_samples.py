@@ -22,6 +22,7 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.products_floquet import F_SAMPLE, SAMPLE_ROWS, SAMPLE_STATUS
+from fkev_slepc.archive.store import text
 from fkev_slepc.solve.floquet_bands import SpeedPoint
 from fkev_slepc.status import Status
 
@@ -129,7 +130,3 @@ class Sampler:
             raise SweepInterrupted(self.part, sum(self.solved.values()))
         return [self.known[float(w)] for w in speeds]
 
-
-def text(v) -> str:
-    """An HDF5 string as str."""
-    return v.decode("utf-8") if isinstance(v, bytes) else str(v)
