@@ -101,12 +101,6 @@ def compress(pool, threshold=1e-10):
     return U[:, s > threshold * s[0]]
 
 
-def corotated_basis(model, omega, case, r, angles, start=0.0, threshold=1e-10):
-    """V̂ (n, R): the lowest r undamped frozen modes at ``angles`` equispaced angles, co-rotated,
-    compressed at ``threshold`` (:func:`frozen_pool`, :func:`compress`)."""
-    return compress(frozen_pool(model, omega, case, r, angles, start), threshold)
-
-
 def reduced_coefficients(model, p, thetas, omega, damping, Vhat):
     """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring)."""
     kin = solve_kinematics(model.mechanism, thetas)
