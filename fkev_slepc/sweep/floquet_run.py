@@ -48,7 +48,7 @@ log = logging.getLogger(__name__)
 MONODROMY_TOL = 1e-10  # relative error of Φ asked of the integrator
 RESONANCE_ORDER = 3  # candidates n <= this between stable grid speeds are reported (and probed if asked)
 BAND_ATTRS = ("lower", "upper", "lower_open", "upper_open", "resonance", "predicted_speed", "peak_speed",
-              "peak_max_abs")
+              "peak_max_abs", "suppressing_damping")
 
 
 @dataclass(frozen=True)
@@ -238,11 +238,11 @@ def read_floquet(path) -> FloquetResults:
     path = Path(path)
     with h5py.File(path, "r") as f:
         g = f[P.FLOQUET.name]
-        cols = {v.source: f[v.path][()] for v in P.BAND_ROWS if v.source}
+        cols = {v.source: f[v.path][()] for v in P.BAND_ROWS if v.source and v.path in f}  # older: fewer rows
         n = f[P.F_BAND].shape[0]
         bands = tuple(Band(**{k: (_text(cols[k][i]) if k == "resonance" else
-                                  bool(cols[k][i]) if k.endswith("_open") else float(cols[k][i])) for k in BAND_ATTRS})
-                      for i in range(n))
+                                  bool(cols[k][i]) if k.endswith("_open") else float(cols[k][i]))
+                              for k in BAND_ATTRS if k in cols}) for i in range(n))
         st = np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8)
         frozen = np.mean(np.isin(st, [Status.UNSTABLE.code, Status.DIVERGENT.code]), axis=0)
         tol, order = float(g.attrs["tol"]), int(g.attrs.get("resonance_order", RESONANCE_ORDER))
