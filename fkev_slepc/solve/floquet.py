@@ -23,7 +23,7 @@ Public API (shapes with n the state size, k the number of θ values; θ in the c
 radians of crank angle for a linkage; exponents in 1/[θ])
 
 ``monodromy(generator, period=2π, *, forcing=None, order=6, steps=None, tol=1e-10,
-start=0.0, max_steps=2**16) -> Monodromy``
+start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps over MPI ranks)
     ``generator(theta)``: theta (k,) -> A (k, n, n), vectorised over θ.
     ``forcing(theta)``: theta (k,) -> b (k, n) or (k, n, m) for m load cases; optional.
 ``Monodromy`` (frozen dataclass)
@@ -124,8 +124,27 @@ def step_exponentials(generator, a: float, b: float, steps: int, *, forcing=None
         yield s0, la.expm(Om)
 
 
-def _product(generator, a, b, steps, forcing, order):
-    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps."""
+def _product(generator, a, b, steps, forcing, order, comm=None):
+    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps.
+
+    With an MPI ``comm`` of several ranks the steps are split into one contiguous segment per rank
+    (the same step length, segment k starting at a + h·(first step of k)); each rank multiplies its
+    own segment and the segment propagators are multiplied in order on every rank (exact up to
+    round-off: the same steps, grouped differently)."""
+    if comm is not None and comm.size > 1:
+        h = (b - a) / steps
+        counts = np.full(comm.size, steps // comm.size)
+        counts[: steps % comm.size] += 1
+        first = np.concatenate([[0], np.cumsum(counts)])
+        mine = None
+        if counts[comm.rank]:
+            lo, hi = first[comm.rank], first[comm.rank + 1]
+            mine = _product(generator, a + h * lo, a + h * hi, int(hi - lo), forcing, order)
+        total = None
+        for part in comm.allgather(mine):
+            if part is not None:
+                total = part if total is None else part @ total
+        return total
     total = None
     for _, E in step_exponentials(generator, a, b, steps, forcing=forcing, order=order):
         # pairwise (tree) products inside a block keep the Python loop at log2(block) levels;
@@ -190,14 +209,17 @@ def _split(total, n, m):
 
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
               steps: int | None = None, tol: float = 1e-10, start: float = 0.0,
-              max_steps: int = 2**16, min_steps: int = 16) -> Monodromy:
+              max_steps: int = 2**16, min_steps: int = 16, comm=None) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
     ``steps=None`` starts at ``min_steps`` (rounded up to a power of 2) and doubles until the estimated relative error of Φ <= ``tol``
     or ``max_steps`` is reached (then ``converged`` is False). The multiplier estimate
     ``error`` follows Φ's for simple multipliers (times their condition number) but only as its
-    square root at a defective one (a double multiplier ±1 on a transition curve)."""
+    square root at a defective one (a double multiplier ±1 on a transition curve).
+
+    ``comm``: an MPI communicator whose ranks share the steps of every product (collective: every
+    rank calls with the same arguments and gets the same result; see ``_product``)."""
     if not np.isfinite(period) or period <= 0.0:
         raise ValueError(f"period: must be a positive finite number, got {period!r}")
     if steps is not None and (int(steps) != steps or steps < 2 or steps % 2):
@@ -211,7 +233,7 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         m = 1 if fb.ndim == 2 else fb.shape[2]
 
     def run(N):
-        phi, part = _split(_product(generator, a, b, N, forcing, order), n, m)
+        phi, part = _split(_product(generator, a, b, N, forcing, order, comm), n, m)
         return phi, part
 
     scale = 2.0**order - 1.0

@@ -243,7 +243,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                         reduce: int | str | None = None, basis_angles: int = AUTO_ANGLES,
                         threshold: float = 1e-10, reduce_tol: float = REDUCE_TOL,
                         max_basis: int | None = None, check_truncation: bool = True,
-                        basis: np.ndarray | None = None) -> LinkageFloquet:
+                        basis: np.ndarray | None = None, comm=None) -> LinkageFloquet:
     """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
 
     ``reduce``: None (the full model), ``"default"`` (``"auto"`` where :func:`full_min_steps`
@@ -251,7 +251,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False).
-    ``basis``: an explicit co-rotated basis V̂ (n, R) instead."""
+    ``basis``: an explicit co-rotated basis V̂ (n, R) instead. ``comm``: an MPI communicator whose
+    ranks share every monodromy's steps (collective; one speed on several ranks)."""
     from fkev_slepc.model.operators import Model
 
     if not np.isfinite(omega) or omega == 0.0:
@@ -265,7 +266,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         reduce = "auto" if full_min_steps(model, omega, case, damping, start) >= AUTO_MIN_STEPS else None
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
-                    interp_tol=interp_tol)
+                    interp_tol=interp_tol, comm=comm)
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
         n = int(model.n_free)
@@ -285,7 +286,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     # step doubling (Magnus is exact for constant A, but the linkage's A turns with the links)
     rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
     mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=tol,
-                     min_steps=int(np.ceil(2.0 * TWO_PI * rho)))
+                     min_steps=int(np.ceil(2.0 * TWO_PI * rho)), comm=comm)
     mu, s = _unwrapped_exponents(mono, c, d, omega)
     return LinkageFloquet(float(omega), case, mu, s, mono, ierr, k, int(model.n_free),
                           None if basis is None else basis.shape[1])

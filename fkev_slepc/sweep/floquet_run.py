@@ -64,16 +64,17 @@ class FloquetRequest(ProductRequest):
     reduce: int | str | None = None  # frozen-mode reduction: None (full model), "auto" or r modes per angle
 
 
-def _evaluator(model, case: str, tol: float, reduce=None):
+def _evaluator(model, case: str, tol: float, reduce=None, comm=None):
     """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised). Reduced
     (``reduce``), the point's error adds the truncation change of max|μ| (so that it enters the verdict's
-    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures."""
+    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures. ``comm``: the
+    ranks that share each monodromy's steps (collective evaluation)."""
     from fkev_slepc.solve.floquet_linkage import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
     def evaluate(speed: float) -> tuple[SpeedPoint, str]:
         try:
-            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce)
+            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce, comm=comm)
         except recoverable_errors() as exc:
             return SpeedPoint(float(speed), np.zeros(0, complex), float("nan"), False), f"{type(exc).__name__}: {exc}"
         point, t = SpeedPoint.of(speed, res), res.truncation
@@ -126,26 +127,31 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     speeds = np.asarray(sc.driver.speeds, dtype=float)
     evaluate = evaluator(model, request.case, request.monodromy_tol) if evaluator else _evaluator(
         model, request.case, request.monodromy_tol, request.reduce)
+    todo = pending(status)
+    # fewer speeds than ranks: every rank works on each speed, its monodromy's steps split over them
+    split = evaluator is None and comm.size > 1 and 0 < int(todo.sum()) < comm.size
+    grid_evaluate = _evaluator(model, request.case, request.monodromy_tol, request.reduce, comm) if split else evaluate
 
     def solve(unit, mask):
         js, jc = unit
-        point, message = evaluate(speeds[js])
+        point, message = grid_evaluate(speeds[js])
         code = _status(point, message, request.tol)
         mu = np.full(n_index, P.CNAN)
         mu[: point.multipliers.size] = point.multipliers
         data = {P.MULTIPLIER.path: mu, P.MAX_ABS_MULTIPLIER.path: np.array(point.max_abs),
                 P.MULTIPLIER_ERROR.path: np.array(point.error)}
-        reduced = getattr(evaluate, "reduction", {}).get(float(speeds[js]))
+        reduced = getattr(grid_evaluate, "reduction", {}).get(float(speeds[js]))
         if reduced:
             data.update({v.path: np.array(reduced[v.source], dtype=v.dtype) for v in REDUCTION_ROWS})
         errors = [((js, jc), code, message or "monodromy did not reach its tolerance")] if code in (
             Status.FAILED.code, Status.NOT_CONVERGED.code) else []
         return Block(unit, mask, data, np.array(code, np.uint8), errors)
 
-    todo = pending(status)
     if notify is not None and comm.rank == 0:
-        notify(f"floquet: {int(todo.sum())} of {todo.size} speed(s) to solve")
-    solve_pending(part, out, P.FLOQUET, todo, solve, comm, n_unit_axes=2, notify=notify, label="speeds")
+        notify(f"floquet: {int(todo.sum())} of {todo.size} speed(s) to solve"
+               + (f", each monodromy split over {comm.size} ranks" if split else ""))
+    solve_pending(part, out, P.FLOQUET, todo, solve, comm, n_unit_axes=2, notify=notify, label="speeds",
+                  collective=split)
     grid = _read_grid(part, speeds) if comm.rank == 0 else None
     grid = comm.bcast(grid, root=0)
     mean = _mean_frequencies(part) if comm.rank == 0 else None
