@@ -205,17 +205,17 @@ def _read_grid(part, speeds) -> list[SpeedPoint]:
 
 
 def _mean_frequencies(part):
-    """speed -> ω̄ₖ (rad/s): the frozen sweep's sorted Im λ averaged over the converged crank
-    angles at each grid speed (case 0), interpolated linearly in speed."""
+    """speed -> ω̄ₖ (rad/s): the frozen sweep's sorted Im λ at each grid speed (case 0) averaged
+    over one revolution by :func:`fkev_slepc.solve.cycle_mean.cycle_mean` (angle-weighted, 0° and
+    360° counted once, unconverged angles left out), interpolated linearly in speed."""
+    from fkev_slepc.solve.cycle_mean import cycle_mean
     from fkev_slepc.status import CONVERGED, codes
 
     with h5py.File(part, "r") as f:
         freq = f[P.FREQUENCY.path][:, :, 0, :]  # (angle, speed, mode), Hz
         conv = np.isin(np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8), codes(CONVERGED))
-        speeds = f[P.SPEED][()]
-    w = 2.0 * np.pi * np.where(conv[..., None], freq, np.nan)
-    with np.errstate(invalid="ignore"):
-        mean = np.nanmean(w, axis=0)  # (speed, mode)
+        speeds, angles = f[P.SPEED][()], f[P.ANGLE][()]
+    mean = cycle_mean(angles, 2.0 * np.pi * np.where(conv[..., None], freq, np.nan), 360.0)  # (speed, mode)
 
     def at(speed: float):
         return [float(np.interp(speed, speeds[np.isfinite(col)], col[np.isfinite(col)]))
