@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.model.process_loads import process_load_vectors
 from fkev_slepc.solve.response_hb import HarmonicResponse, harmonic_balance
 from fkev_slepc.solve.response_shooting import ShootingResponse, shooting
 
@@ -53,7 +54,7 @@ class LinkageSystem:
             f = f - gy * lp.gravity  # lp.gravity: the load of 1 m/s² along -Y
         if gx:
             f = f - gx * x_gravity(self.model, theta)
-        return f
+        return f + process_load_vectors(self.model, theta)  # [[loads]], zeros without
 
 
 def x_gravity(model, theta) -> np.ndarray:
