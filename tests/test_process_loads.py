@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from builders import bahgat_willmert
+from builders import bahgat_willmert, cantilever
 from clitools import ROOT, problem_lines
 from clitools import fkev as run_fkev
 
@@ -19,23 +19,14 @@ from fkev_slepc.scene.process_loads import ProcessLoad
 
 SLIDER_TEXT = (ROOT / "runs" / "slider-crank.toml").read_text()  # in-line, r = 0.045 m, L = 0.15 m
 E, A, I, LENGTH = 2.07e11, 2e-4, 1.6667e-9, 0.2
-ARM = f'''title = "stiff arm"
-[[links]]
-name = "arm"
-length_m = {LENGTH}
-elements = 4
-youngs_modulus_pa = {E}
-density_kg_m3 = 7850.0
-area_m2 = {A}
-second_moment_m4 = {I}
-[[joints]]
-name = "O"
-connects = ["ground", "arm.root"]
-position_m = [0.0, 0.0]
-[driver]
-link = "arm"
-speeds_rad_s = [0.1]
-'''
+ARM = cantilever(LENGTH, dict(youngs_modulus=E, density=7850.0, area=A, second_moment=I), elements=4,
+                 speeds=(0.1,))  # links[0] "blade", four 0.05 m elements
+
+
+def on_arm(S, fx, fy, moment=0.0):
+    """ARM with a constant link-frame force and moment at S m from its root."""
+    return replace(ARM, process_loads=(ProcessLoad("p", f"blade:{S}", "blade", S, None, "link", (0.0,), (fx,),
+                                                   (fy,), (moment,)),))
 
 
 def load_item(at, fx, fy, moment=None, frame="ground", angles=(0.0,), name="p"):
@@ -68,15 +59,12 @@ def test_cli_refuses_a_bad_load_before_work(tmp_path):
 
 
 def test_units_convert_forces_moments_and_the_station():
-    """With [units] mm-N-t the station of ``at = "arm:70"`` is 70 mm and a moment in N mm."""
-    mm = (ARM.replace("length_m = 0.2", "length_m = 200").replace("area_m2 = 0.0002", "area_m2 = 200")
-          .replace("second_moment_m4 = 1.6667e-09", "second_moment_m4 = 1666.7")
-          .replace("youngs_modulus_pa = 207000000000.0", "youngs_modulus_pa = 207000")
-          .replace("density_kg_m3 = 7850.0", "density_kg_m3 = 7.85e-9"))
-    sc = parse_scene(mm + load_item("arm:70", [2], [3], moment=[1000.0]) + '\n[units]\nsystem = "mm-N-t"\n')
+    """With [units] length mm and force kN, ``at = "rod:0.07"`` is 0.07 mm, 2 kN 2000 N and a
+    moment of 1 kN mm 1 N m."""
+    units = '\n[units]\nlength = "mm"\nforce = "kN"\n'
+    sc = parse_scene(SLIDER_TEXT + load_item("rod:0.07", [2], [3], moment=[1.0]) + units)
     (pl,) = sc.process_loads
-    assert sc.links[0].length == pytest.approx(0.2) and pl.point == pytest.approx(0.07, rel=1e-15)
-    assert pl.fx == (2.0,) and pl.moment == (1.0,)
+    assert pl.point == pytest.approx(0.07e-3, rel=1e-15) and pl.fx == (2000.0,) and pl.moment == (1.0,)
 
 
 def test_guide_force_over_half_the_stroke_is_virtual_work():
@@ -117,8 +105,7 @@ def test_axial_force_jumps_at_a_load_inside_an_element():
     cantilever arm: N = F at every element end before S, 0 after (exact at the element ends),
     and the root bearing takes −F."""
     F = 300.0
-    mech = build_mechanism(parse_scene(ARM + load_item("arm:0.07", [F], [0], frame="link")))
-    jl = joint_loads(mech, np.radians([0.0, 33.0]), 0.0)
+    jl = joint_loads(build_mechanism(on_arm(0.07, F, 0.0)), np.radians([0.0, 33.0]), 0.0)
     s, N = jl.link_axial(0)
     np.testing.assert_allclose(s, [0, 0.05, 0.05, 0.1, 0.1, 0.15, 0.15, 0.2], atol=1e-15)
     np.testing.assert_allclose(N, np.tile([F, F, F, 0, 0, 0, 0, 0], (2, 1)), atol=1e-12 * F)
@@ -132,15 +119,15 @@ def test_elastic_response_of_a_stiff_arm_under_a_process_load_is_the_beam_formul
     and transverse F_y S²(3L − S)/(6EI) + M S(2L − S)/(2EI), to 1e-9 (Hermite elements are exact
     at the nodes for point loads)."""
     S, Fx, Fy, M = 0.07, 300.0, 40.0, 5.0
-    with_load = ARM + load_item("arm:0.07", [Fx], [Fy], moment=[M], frame="link")
+    mech = build_mechanism(ARM)
+    tip_node = int(np.argmax(mech.node_s))
 
-    def tip(text):
-        r = study_response(parse_scene(text), 0.1, "structure", [0.0, 90.0, 200.0], shoot=False)
-        d = r.node_displacement[:, int(np.argmax(build_mechanism(parse_scene(text)).node_s))]
-        th = np.radians(r.angle_deg)
+    def tip(scene):
+        r = study_response(scene, 0.1, "structure", [0.0, 90.0, 200.0], shoot=False)
+        d, th = r.node_displacement[:, tip_node], np.radians(r.angle_deg)
         return np.stack([np.cos(th) * d[:, 0] + np.sin(th) * d[:, 1], -np.sin(th) * d[:, 0] + np.cos(th) * d[:, 1]], -1)
 
-    dt = tip(with_load) - tip(ARM)
+    dt = tip(on_arm(S, Fx, Fy, M)) - tip(ARM)
     u = Fx * S / (E * A)
     v = Fy * S**2 * (3 * LENGTH - S) / (6 * E * I) + M * S * (2 * LENGTH - S) / (2 * E * I)
     assert np.abs(dt[:, 0] / u - 1).max() < 1e-9 and np.abs(dt[:, 1] / v - 1).max() < 1e-9
