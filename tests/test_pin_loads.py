@@ -86,6 +86,8 @@ def test_link_frame_pin_forces_json_csv_archive_and_polar_figure(tmp_path):
         scale = np.abs(f).max()
         assert np.abs(np.array(got["along_n"]) - along).max() <= 1e-12 * scale
         assert np.abs(np.array(got["normal_n"]) - normal).max() <= 1e-12 * scale
+    assert P["pin_peak_n"] == max(P["pin_magnitude_n"]) and P["pin_peak_crank_angle_deg"] == 0.0
+    assert A["peak_n"] == max(A["magnitude_n"]) and A["peak_crank_angle_deg"] in (0.0, 360.0)
     assert P["pin_magnitude_n"][0] > 2500.0 and abs(P["magnitude_n"][0]) < 1e-9  # TDC: pin loaded, guide not
     ds = xr.open_dataset(out, engine="h5netcdf")
     np.testing.assert_allclose(ds["pin_force_n"].sel(guide_joint="P", component="x").values, P["pin_fx_n"],

@@ -109,6 +109,13 @@ class JointLoads:
     def end_label(self, link: int, point: int) -> str:
         return f"{self.link_names[link]}.{POINT_NAMES[point]}"
 
+    def _peak(self, key: str, magnitude: np.ndarray) -> dict:
+        """``{key}_n`` and ``{key}_crank_angle_deg``: the largest value and where (None if none)."""
+        if not np.isfinite(magnitude).any():
+            return {f"{key}_n": None, f"{key}_crank_angle_deg": None}
+        k = int(np.nanargmax(magnitude))
+        return {f"{key}_n": float(magnitude[k]), f"{key}_crank_angle_deg": float(self.crank_angle_deg[k])}
+
     def as_dict(self) -> dict:
         """The JSON of ``fkev loads --json`` (lists over the crank angles; SI units)."""
         mag = self.joint_magnitude
@@ -120,14 +127,15 @@ class JointLoads:
                     self.guide_reaction[:, jj]).all() else "pin"),
                 "on": "ground reaction on the linkage" if self.joint_ground[jj] else self.end_label(lk, k),
                 "fx_n": _list(self.joint_force[:, jj, 0]), "fy_n": _list(self.joint_force[:, jj, 1]),
-                "magnitude_n": _list(mag[:, jj]),
+                "magnitude_n": _list(mag[:, jj]), **self._peak("peak", mag[:, jj]),
                 "in_link": {self.link_names[l2]: {"along_n": _list(self.bearing_along[:, l2, k2]),
                                                   "normal_n": _list(self.bearing_normal[:, l2, k2])}
                             for l2, k2 in self.attach[jj]},
             }
             if not np.isnan(self.pin_force[:, jj]).all():
                 joints[name].update(pin_fx_n=_list(self.pin_force[:, jj, 0]), pin_fy_n=_list(self.pin_force[:, jj, 1]),
-                                    pin_magnitude_n=_list(np.hypot(*self.pin_force[:, jj].T)))
+                                    pin_magnitude_n=_list(np.hypot(*self.pin_force[:, jj].T)),
+                                    **self._peak("pin_peak", np.hypot(*self.pin_force[:, jj].T)))
         ends = {}
         for jj, here in enumerate(self.attach):
             for lk, k in here:
