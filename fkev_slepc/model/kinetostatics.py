@@ -116,7 +116,7 @@ def solve_loads(mech: Mechanism, kin: Kinematics, plan=None) -> Loads:
         rhs = np.stack([mech.body_mass * acc_G[..., 0], mech.body_mass * acc_G[..., 1],
                         mech.body_inertia * acc_phi], axis=-1).reshape(n_ang, 3 * n_link)
         end_force, torque, guide = _solve(A, rhs, good, coef, reaction, len(mech.joint_names))
-        axial = _axial_right(mech, end_force, P_mid[part], P_mass[part], e_beam)
+        axial = axial_right(mech, end_force, P_mid[part], P_mass[part], e_beam)
         beam_acc = np.einsum("abc,abc->ab", P_beam[part], e_beam)
         results.append((end_force, torque, guide, axial, beam_acc))
     return Loads(*(tuple(r[i] for r in results) for i in range(5)))
@@ -140,7 +140,7 @@ def solve_external(mech: Mechanism, kin: Kinematics, link: np.ndarray, point: np
     return _solve(A, rhs.reshape(n_ang, 3 * n_link), kin.ok, coef, reaction, len(mech.joint_names))
 
 
-def _axial_right(mech: Mechanism, end_force, acc_mid, acc_mass, e_beam, nodal=None) -> np.ndarray:
+def axial_right(mech: Mechanism, end_force, acc_mid, acc_mass, e_beam, nodal=None) -> np.ndarray:
     """Axial force (tension > 0) just inside the right node of every element: the component
     along the beam of all forces on the part beyond the cut (joint forces, D'Alembert forces
     of the elements and particles there, and of a ternary branch starting there). ``nodal``:

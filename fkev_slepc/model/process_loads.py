@@ -21,7 +21,7 @@ import numpy as np
 
 from fkev_slepc.model.element_types import point_load
 from fkev_slepc.model.kinematics import Kinematics, _rotate, _unit, point_local
-from fkev_slepc.model.kinetostatics import _axial_right, solve_external
+from fkev_slepc.model.kinetostatics import axial_right, solve_external
 from fkev_slepc.model.mechanism import POINT_INDEX, Mechanism
 
 
@@ -116,7 +116,7 @@ def process_kinetostatics(mech: Mechanism, kin: Kinematics, points: ProcessPoint
     inside = (points.xi > 0.0) & (points.xi < 1.0)
     nodes = np.where(points.xi < 1.0, mech.elem_nodes[points.elem, 0], mech.elem_nodes[points.elem, 1])
     zero_el, zero_mass = np.zeros((n, n_el, 2)), np.zeros((n, mech.mass_nodes.size, 2))
-    F_r = _axial_right(mech, np.nan_to_num(end), zero_el, zero_mass, e_beam, (nodes, force))
+    F_r = axial_right(mech, np.nan_to_num(end), zero_el, zero_mass, e_beam, (nodes, force))
     coef = np.zeros((n, n_el, 3))
     coef[..., 0] = F_r
     along = np.einsum("anc,anc->an", force, e_beam[:, mech.elem_beam[points.elem]])
