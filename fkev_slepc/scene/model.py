@@ -181,6 +181,7 @@ class Scene:
     analysis: Analysis = field(default_factory=lambda: Analysis((0.0,), ("full",)))
     solver: Solver = field(default_factory=Solver)
     damping: Damping = field(default_factory=Damping)
+    process_loads: tuple = ()  # [[loads]]: scene/process_loads.py ProcessLoad items
     source_text: str = ""  # the TOML text, verbatim (archived)
     source: str = "<scene>"  # file name, for messages
 

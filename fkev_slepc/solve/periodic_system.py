@@ -40,6 +40,7 @@ from functools import cached_property
 import numpy as np
 
 from fkev_slepc.model.periodic import periodic_pieces
+from fkev_slepc.model.process_loads import process_load_vectors
 from fkev_slepc.solve.floquet import TrigInterpolant, state_matrix, to_dense
 from fkev_slepc.solve.floquet_reduce import reduced_coefficients
 
@@ -112,10 +113,12 @@ class PeriodicSystem:
         return c.M, c.C, c.K
 
     def load(self, theta) -> np.ndarray:
-        """f (len(θ), n_free): Ω² f₂(θ) plus gravity (g_x, g_y) (ground frame, m/s²)."""
+        """f (len(θ), n_free): Ω² f₂(θ) plus gravity (g_x, g_y) (ground frame, m/s²) plus the scene's
+        process loads ``[[loads]]`` (model/process_loads.py; zero without)."""
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         gx, gy = self.gravity  # LoadPieces: gravity of 1 m/s² along -X, -Y
-        return self.model.load_pieces(theta).total(self.omega, 0.0, -gy, -gx)
+        f = self.model.load_pieces(theta).total(self.omega, 0.0, -gy, -gx)
+        return f + process_load_vectors(self.model, theta)
 
     @cached_property
     def reference(self) -> Coefficients:
