@@ -146,7 +146,7 @@ def test_block_load_in_the_elastic_model_stretches_crank_and_rod_in_series():
     guide (zero load vector)."""
     from fkev_slepc.model.operators import Model
     from fkev_slepc.model.process_loads import process_load_vectors
-    from fkev_slepc.solve.response import LinkageSystem
+    from fkev_slepc.solve.periodic_system import PeriodicSystem
 
     F = 1000.0
     for fx, fy in ((F, 0.0), (0.0, F)):
@@ -155,7 +155,7 @@ def test_block_load_in_the_elastic_model_stretches_crank_and_rod_in_series():
         if fy:
             assert not f.any()
             continue
-        _, _, K = LinkageSystem(model, "structure", 0.0).coefficients(np.array([0.0]))
+        K = PeriodicSystem(model, 0.0, "structure").coefficients(np.array([0.0])).K
         q = np.linalg.solve(K[0], f[0])
         mech = model.mechanism
         block = q[mech.node_dofs[mech.point_node[1, 1], 0]]  # rod tip, along the guide
@@ -172,12 +172,12 @@ def test_consistent_point_load_of_both_element_types_is_exact_at_the_nodes(eleme
     from fkev_slepc.model.operators import Model
     from fkev_slepc.model.process_loads import process_load_vectors
     from fkev_slepc.solve.accuracy import with_element
-    from fkev_slepc.solve.response import LinkageSystem
+    from fkev_slepc.solve.periodic_system import PeriodicSystem
 
     S, Fx, Fy, M = 0.07, 300.0, 40.0, 5.0
     model = Model(with_element(on_arm(S, Fx, Fy, M), element), cases=("structure",))
     f = process_load_vectors(model, [0.0])
-    _, _, K = LinkageSystem(model, "structure", 0.0).coefficients(np.array([0.0]))
+    K = PeriodicSystem(model, 0.0, "structure").coefficients(np.array([0.0])).K
     q = np.linalg.solve(K[0], f[0])
     d = model.mechanism.node_dofs[np.argmax(model.mechanism.node_s)]
     u = Fx * S / (E * A)
