@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
-from fkev_slepc.plots.common import ANGLE_LABEL
+from fkev_slepc.plots.common import ANGLE_LABEL, fit_width
 
 
 def draw_loads(loads) -> Figure:
@@ -20,6 +21,7 @@ def draw_loads(loads) -> Figure:
         direction = np.unwrap(np.arctan2(f[:, 1], f[:, 0]))
         polar.plot(np.r_[direction, direction[:1]], np.r_[mag[:, jj], mag[:1, jj]], lw=1.4, label=name)
     polar.set_title("joint forces, ground frame: direction and |F| (N)", fontsize=10)
+    polar.yaxis.set_major_locator(MaxNLocator(4))  # radial labels climb diagonally: few enough not to touch
     polar.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, title="joint", title_fontsize=8)
     ax = fig.add_subplot(1, 2, 2)
     deg = loads.crank_angle_deg
@@ -28,8 +30,8 @@ def draw_loads(loads) -> Figure:
     ax.set_xlabel(ANGLE_LABEL)
     ax.set_ylabel("driving torque (N m)")
     ax.set_xlim(deg.min(), deg.max())
-    ax.set_title(f"Ω = {loads.speed:g} rad/s, α = {loads.accel:g} rad/s², g = ({loads.gravity[0]:g}, "
+    ax.set_title(fit_width(f"Ω = {loads.speed:g} rad/s, α = {loads.accel:g} rad/s², g = ({loads.gravity[0]:g}, "
                  f"{loads.gravity[1]:g}) m/s²\npower check max|τΩ − dE/dt| / max|τΩ| = {loads.power_residual:.1e}",
-                 fontsize=9)
+                           0.42 * fig.get_figwidth(), 9), fontsize=9)
     ax.grid(alpha=0.3)
     return fig
