@@ -11,6 +11,7 @@ tests/test_floquet_cli.py (tongues at Ω = 2ω₀/n crowd towards low speed: man
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -119,6 +120,9 @@ def test_floquet_speed_map_fits(floquet_maps, rng):
 
     res = floquet_maps[rng]
     assert len(res.bands) >= (1 if rng == "narrow" else 4)  # the wide range crowds its band labels
+    lo, hi = res.speed_rad_s[0], res.speed_rad_s[-1]  # fkev floquet also marks the frozen-time critical speeds
+    res = replace(res, extras={"frozen_time_critical": {"flutter_speed_rad_s": lo + 0.3 * (hi - lo),
+                                                        "divergence_speed_rad_s": lo + 0.8 * (hi - lo)}})
     fig = speed_map(res)
     assert_clean(fig, f"Floquet map {rng}")
     labels = {t.get_text() for t in fig.axes[0].texts}
@@ -151,3 +155,9 @@ def test_response_vs_speed_figure_fits(bench, rng):
     sp = bench.response_vs_speed(speeds, harmonics=8, angles_deg=np.arange(0, 360, 45.0))
     assert rng == "narrow" or len(sp.resonances) >= 5  # the wide range has resonance labels to place
     assert_clean(sp.plot(bands=[(speeds[0], speeds[1])]), f"response vs speed {rng}")
+
+
+def test_point_mode_shapes_figure_fits(bench):
+    """``fkev point`` / ``PointResult.plot``: the mode shapes of one frozen point, slider guide drawn."""
+    r = bench.point(30.0, 2000.0, "full", shapes=True, solver="dense")
+    assert_clean(r.plot(), "point mode shapes")

@@ -23,7 +23,7 @@ PREFERRED_ANGLE_DEG = 10.0  # the thesis's detailed-study position (Figs 3.10-3.
 ANGLE_LABEL = "crank angle θ (deg)"
 FREQ_LABEL = "natural frequency (Hz)"
 SPEED_LABEL = "crank speed Ω (rad/s)"
-CHAR_EM = 0.56  # mean character width in font sizes (DejaVu Sans text measures about 0.5): wraps with room to spare
+CHAR_EM = 0.53  # mean character width in font sizes (DejaVu Sans text measures about 0.5): wraps with room to spare
 ORDER_LABEL_GAP = 1.5  # crank-order labels at least this many font sizes apart (points)
 
 # One look per case in every figure; `no_tangential` is dashed because it lies on `full`.
