@@ -26,7 +26,8 @@ from fkev_slepc.plots.bands import band_campbell
 ROOT = Path(__file__).resolve().parents[1]
 RUNS = ROOT / "runs"
 SCENES = {"crank-rocker": RUNS / "bahgat-willmert-1976.toml", "slider-crank": RUNS / "slider-crank.toml"}
-RANGES = {"narrow": "500,505,510", "wide": "0:2000:400"}
+RANGES = {"narrow": "500,505,510", "wide": "0:2000:400"}  # rad/s; the slider-crank's in rpm (rpm axes drawn too)
+RANGES_RPM = {"narrow": "4775,4823,4870", "wide": "0:19000:3800"}
 ANGLES = "0,10,120,240"  # 10: the default angle of the one-angle kinds
 CASES = "structure,full,no_coriolis,no_pseudo_normal"  # param-speed needs structure, error-angle full
 
@@ -62,7 +63,8 @@ def archives(tmp_path_factory):
     for scene, path in SCENES.items():
         for rng, speeds in RANGES.items():
             out[scene, rng] = d / f"{scene}-{rng}.h5"
-            fkev("run", path, "-o", out[scene, rng], "--elements", 1, "--angles", ANGLES, "--speeds", speeds, "--cases", CASES,
+            grid = ("--speeds", speeds) if scene == "crank-rocker" else ("--speeds-rpm", RANGES_RPM[rng])
+            fkev("run", path, "-o", out[scene, rng], "--elements", 1, "--angles", ANGLES, *grid, "--cases", CASES,
                  "--modes", 3, "--mode-shapes", "--solver", "dense", "--quiet", check=False)
     return {k: load(v) for k, v in out.items()}
 
@@ -73,6 +75,8 @@ def archives(tmp_path_factory):
 def test_every_plot_kind_fits_on_narrow_and_wide_ranges(archives, kind, scene, rng):
     res = archives[scene, rng]
     assert res.speed_rad_s.size == (3 if rng == "narrow" else 6) and res.crank_angle_deg.size == 4
+    assert res.speeds_in_rpm == (scene == "slider-crank")
+    assert res.speed_rad_s.max() < 520 if rng == "narrow" else res.speed_rad_s.max() > 1980
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # e.g. a Campbell diagram of few speeds: said in its title
         assert_clean(plots.draw(res, kind), f"{kind} {scene} {rng}")
