@@ -131,6 +131,9 @@ def test_floquet_speed_map_fits(floquet_maps, rng):
     assert_clean(fig, f"Floquet map {rng}")
     labels = {t.get_text() for t in fig.axes[0].texts}
     assert labels and labels <= {b.resonance for b in res.bands}
+    # combination resonances have the longest labels: fewer fit, none overlaps
+    long = replace(res, bands=tuple(replace(b, resonance=f"(ω̄1+ω̄2)/{k + 1}") for k, b in enumerate(res.bands)))
+    assert_clean(speed_map(long), f"Floquet map {rng}, combination labels")
 
 
 # ------------------------------------------------------------------------- response and loads
