@@ -27,8 +27,13 @@ TOL_PX = 2.0  # pixels an extent may leave the figure, or two boxes may share
 MIN_AXES_IN = 1.0  # smallest readable data axes, inches (width and height)
 
 
-def _visible(artist) -> bool:
-    return artist is not None and artist.get_visible() and (not hasattr(artist, "get_text") or artist.get_text().strip())
+def _visible(artist, renderer=None) -> bool:
+    """Drawn: visible, with text if it is a text, and an annotation whose point is not clipped away."""
+    if artist is None or not artist.get_visible():
+        return False
+    if hasattr(artist, "get_text") and not artist.get_text().strip():
+        return False
+    return renderer is None or not hasattr(artist, "_check_xy") or artist._check_xy(renderer)
 
 
 def _tick_labels(axis) -> list:
@@ -60,7 +65,7 @@ def collect(fig, renderer) -> tuple[list, dict]:
     labels, ticks, seen = [], {}, set()
 
     def add(artist):
-        if _visible(artist) and id(artist) not in seen:  # the suptitle is also one of fig.texts
+        if _visible(artist, renderer) and id(artist) not in seen:  # the suptitle is also one of fig.texts
             seen.add(id(artist))
             labels.append((_name(artist), artist.get_window_extent(renderer)))
 
