@@ -16,7 +16,8 @@ from matplotlib.figure import Figure
 
 from fkev_slepc.archive.reader import SweepResults
 from fkev_slepc.design.margins import bands
-from fkev_slepc.plots.common import FREQ_LABEL, SPEED_LABEL, default_case, pick_modes, rpm_axis, set_title
+from fkev_slepc.plots.common import (FREQ_LABEL, SPEED_LABEL, default_case, label_orders, legend_outside, pick_modes,
+                                     rpm_axis, set_title)
 
 MIN_SPEEDS_TO_SHADE = 3
 MAX_ORDERS = 48  # default orders reach the highest band, up to this many lines
@@ -52,9 +53,6 @@ def band_campbell(res: SweepResults, case: str | None = None, modes=None, orders
     for k in range(1, orders + 1):
         ax.plot(span, k * span / (2 * math.pi), color="0.5", lw=0.8, ls="--",
                 label=f"crank orders n·Ω/2π, n = 1..{orders}" if k == 1 else "_order")
-        y = k * span[1] / (2 * math.pi)
-        if y <= 1.08 * top:
-            ax.annotate(f"{k}×", (span[1], y), fontsize=7, color="0.35", xytext=(2, 0), textcoords="offset points")
     if speed is not None:
         ax.axvline(speed, color="k", lw=1.0, ls=":", label=f"operating speed {speed:g} rad/s")
     ax.set_xlabel(SPEED_LABEL)
@@ -63,8 +61,9 @@ def band_campbell(res: SweepResults, case: str | None = None, modes=None, orders
     ax.set_ylabel(FREQ_LABEL)
     ax.set_ylim(0, 1.08 * top)
     ax.set_xlim(0, span[1])
+    label_orders(ax, span[1], orders, 1.08 * top, color="0.35")  # just right of the axes
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)  # beside the axes: never over data
+    legend_outside(ax, "below", fontsize=7, ncol=2)  # never over data, nor over the order labels on the right
     shade = "" if om.size >= MIN_SPEEDS_TO_SHADE else f"; {om.size} speed{'s' if om.size > 1 else ''} computed: bars only"
     set_title(fig, res, f"frequency bands over the crank cycle vs speed ({case}, {order} modes{shade})")
     return fig

@@ -23,6 +23,8 @@ PREFERRED_ANGLE_DEG = 10.0  # the thesis's detailed-study position (Figs 3.10-3.
 ANGLE_LABEL = "crank angle θ (deg)"
 FREQ_LABEL = "natural frequency (Hz)"
 SPEED_LABEL = "crank speed Ω (rad/s)"
+CHAR_EM = 0.53  # mean character width in font sizes (DejaVu Sans text measures about 0.5): wraps with room to spare
+ORDER_LABEL_GAP = 1.5  # crank-order labels at least this many font sizes apart (points)
 
 # One look per case in every figure; `no_tangential` is dashed because it lies on `full`.
 CASE_STYLE = {
@@ -147,8 +149,64 @@ def scene_heading(res: SweepResults) -> str:
 
 
 def set_title(fig: Figure, res: SweepResults, what: str) -> None:
-    """Two-line figure title: the scene, then what the figure shows."""
-    fig.suptitle(f"{scene_heading(res)}\n{what}", fontsize=11)
+    """Two-line figure title: the scene, then what the figure shows (wrapped to the figure)."""
+    suptitle(fig, f"{scene_heading(res)}\n{what}")
+
+
+def suptitle(fig: Figure, text: str, fontsize: float = 11):
+    """The figure's title, each line wrapped to the figure's width (:func:`fit_width`)."""
+    return fig.suptitle(fit_width(text, 0.97 * fig.get_figwidth(), fontsize), fontsize=fontsize)
+
+
+def fit_width(text: str, width_in: float, fontsize: float) -> str:
+    """``text`` with every line longer than ``width_in`` inches at ``fontsize`` points broken:
+    between clauses ("; ") first, then list items (", "), then words, so that a title's phrases
+    stay whole where they fit.
+
+    Examples
+    --------
+    >>> print(fit_width("stability map, case full; 3 unstable, 1 divergent of 63 points", 2.2, 10))
+    stability map, case full;
+    3 unstable, 1 divergent of
+    63 points
+    """
+    n = max(24, int(width_in * 72 / (CHAR_EM * fontsize)))
+    return "\n".join(_fit_line(line, n, ("; ", ", ", " ")) for line in text.split("\n"))
+
+
+def _fit_line(line: str, n: int, seps: tuple[str, ...]) -> str:
+    """``line`` broken at ``seps[0]`` into lines of at most ``n`` characters where it can,
+    pieces still too long broken at the next separator."""
+    if len(line) <= n or not seps:
+        return line
+    parts = line.split(seps[0])
+    end = seps[0].rstrip()  # kept at the end of a broken line ("; " -> ";")
+    out, cur = [], ""
+    for i, part in enumerate(parts):
+        piece = part + (end if i < len(parts) - 1 else "")
+        if cur and len(cur) + 1 + len(piece) > n:
+            out.append(cur)
+            cur = piece
+        else:
+            cur = f"{cur} {piece}" if cur else piece
+    out.append(cur)
+    return "\n".join(_fit_line(x, n, seps[1:]) for x in out)
+
+
+def label_orders(ax, x: float, orders: int, top: float, fontsize: float = 7, color: str = "0.4") -> None:
+    """Label the crank-order lines k·Ω/2π (Hz) at speed ``x`` with ``k×``: those below ``top``
+    (the y limit), every step-th (1, 2, 5, 10, ...) so that labels stand ORDER_LABEL_GAP font
+    sizes apart on axes about the figure's height less 1.4 in of titles and labels."""
+    if not (x > 0 and top > 0 and math.isfinite(x * top)):
+        return
+    spacing = x / (2 * math.pi) / top * max(ax.figure.get_figheight() - 1.4, 1.0) * 72  # points between lines
+    step = 1
+    while step * spacing < ORDER_LABEL_GAP * fontsize:
+        step = step * 5 // 2 if str(step)[0] == "2" else 2 * step  # 1, 2, 5, 10, 20, 50, ...
+    for k in [1] if step > orders else range(step, orders + 1, step):
+        if k * x / (2 * math.pi) <= top:
+            ax.annotate(f"{k}×", (x, k * x / (2 * math.pi)), fontsize=fontsize, color=color, xytext=(2, 0),
+                        textcoords="offset points", va="center")
 
 
 def edges(centers: np.ndarray) -> np.ndarray:

@@ -39,6 +39,7 @@ from fkev_slepc.plots.common import (
     pick_speed,
     set_title,
     speed_label,
+    suptitle,
 )
 from fkev_slepc.plots.maps import campbell, stability
 from fkev_slepc.plots.shapes import mode_shape
@@ -120,7 +121,7 @@ def freq_angle(
         what += f"; dots: {len(extra_angles)} extra angles solved where the MAC was ambiguous"
     if len(runs) > 1:  # the meshes differ by design: name the scene, list the meshes
         meshes = ", ".join(elements_tag(r) for r in runs)
-        fig.suptitle(f"{first.title}\n{what}; meshes: {meshes}", fontsize=11)
+        suptitle(fig, f"{first.title}\n{what}; meshes: {meshes}")
     else:
         set_title(fig, first, what)
     return fig

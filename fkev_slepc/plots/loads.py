@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
-from fkev_slepc.plots.common import ANGLE_LABEL
+from fkev_slepc.plots.common import ANGLE_LABEL, fit_width
 
 
 POLAR_FRAMES = ("ground", "link")
@@ -36,6 +37,7 @@ def draw_loads(loads, polar_frame: str = "ground") -> Figure:
         polar.plot(np.r_[direction, direction[:1]], np.r_[mag, mag[:1]], lw=1.4, label=label)
     polar.set_title("joint forces, ground frame: direction and |F| (N)" if polar_frame == "ground" else
                     "pin forces relative to each link (0°: root to tip), |F| (N)", fontsize=10)
+    polar.yaxis.set_major_locator(MaxNLocator(4))  # radial labels climb diagonally: few enough not to touch
     polar.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, title="joint", title_fontsize=8)
     ax = fig.add_subplot(1, 2, 2)
     deg = loads.crank_angle_deg
@@ -44,8 +46,8 @@ def draw_loads(loads, polar_frame: str = "ground") -> Figure:
     ax.set_xlabel(ANGLE_LABEL)
     ax.set_ylabel("driving torque (N m)")
     ax.set_xlim(deg.min(), deg.max())
-    ax.set_title(f"Ω = {loads.speed:g} rad/s, α = {loads.accel:g} rad/s², g = ({loads.gravity[0]:g}, "
+    ax.set_title(fit_width(f"Ω = {loads.speed:g} rad/s, α = {loads.accel:g} rad/s², g = ({loads.gravity[0]:g}, "
                  f"{loads.gravity[1]:g}) m/s²\npower check max|τΩ − dE/dt| / max|τΩ| = {loads.power_residual:.1e}",
-                 fontsize=9)
+                           0.42 * fig.get_figwidth(), 9), fontsize=9)
     ax.grid(alpha=0.3)
     return fig

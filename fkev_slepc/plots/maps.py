@@ -17,6 +17,7 @@ from fkev_slepc.plots.common import (
     SPEED_LABEL,
     default_case,
     edges,
+    label_orders,
     legend_outside,
     pick_angle,
     pick_cases,
@@ -59,7 +60,7 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
     finite = np.abs(zmin[np.isfinite(zmin)])
     vmax = max(float(finite.max()) if finite.size else 0.0, 10 * tol)
     norm = SymLogNorm(linthresh=tol, vmin=-vmax, vmax=vmax, base=10)
-    fig = Figure(figsize=(8.0, 4.6), layout="constrained")
+    fig = Figure(figsize=(8.0, 5.4), layout="constrained")
     ax = fig.subplots()
     speed_edges = edges(res.speed_rad_s)  # the computed range only (half cells at the ends)
     a_edges = edges(res.crank_angle_deg)
@@ -68,7 +69,7 @@ def stability(res: SweepResults, case: str | int | None = None) -> Figure:
         ax.pcolormesh(a_edges, speed_edges, np.where(div > 0, 1.0, np.nan).T, cmap="Greys", vmin=0, vmax=2.5,
                       shading="flat")
     mesh = ax.pcolormesh(a_edges, speed_edges, zmin.T, norm=norm, shading="flat", cmap="RdBu")
-    cb = fig.colorbar(mesh, ax=ax, label="min frozen-time damping ratio ζ of the reported modes")
+    cb = fig.colorbar(mesh, ax=ax, label="min frozen-time damping ratio ζ\nof the reported modes")
     cb.ax.axhline(-tol, color="k", lw=0.8)
     for status, marker, color, label in STATUS_MARKS:
         ia, i_s = np.nonzero(st == status.code)
@@ -172,8 +173,6 @@ def campbell(
     for k in range(1, orders + 1):
         ax.plot(span, k * span / (2 * np.pi), color="0.55", lw=0.8, ls="--", gid=f"order-{k}",
                 label=f"crank orders k·Ω/2π, k = 1..{orders}" if k == 1 else "_order")
-        ax.annotate(f"{k}×", (span[1], k * span[1] / (2 * np.pi)), fontsize=7, color="0.4",
-                    xytext=(2, 0), textcoords="offset points")
     if om.size < MIN_CAMPBELL_SPEEDS:  # straight lines between 2 speeds: their crossings would be guesses
         cross_om = []
         note += f"; only {om.size} speed(s): lines join the computed speeds, crossings not marked"
@@ -188,6 +187,7 @@ def campbell(
     ax.set_ylabel(FREQ_LABEL)
     ax.set_ylim(0, 1.08 * fmax)
     ax.set_xlim(0, om.max() * 1.04 if om.max() > 0 else 1)
+    label_orders(ax, span[1], orders, 1.08 * fmax)
     ax.grid(alpha=0.3)
     legend_outside(ax, fontsize=7)
     names = ", ".join(res.cases[c] for c in c_idx)

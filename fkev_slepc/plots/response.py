@@ -8,7 +8,10 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from fkev_slepc.plots.common import ANGLE_LABEL, SPEED_LABEL
+from fkev_slepc.plots.common import ANGLE_LABEL, SPEED_LABEL, fit_width, suptitle
+
+AXES_SHARE = 0.85  # of a one-axes figure's width: the axes (beside the y label)
+RESONANCE_GAP_PT = 11  # resonance labels (7 pt, rotated) closer than this share one label
 
 
 def magnification(res, scale=None) -> float:
@@ -45,8 +48,8 @@ def draw_deflected(res, angles=None, scale=None) -> Figure:
     for ax, a in zip(np.atleast_1d(axes), idx):
         _draw(ax, res, a, scale)
         ax.set_title(f"θ = {res.angle_deg[a]:g}°", fontsize=9)
-    fig.suptitle(f"{res.title}: Ω = {res.speed:g} rad/s, case {res.case}; elastic deflections × {scale:g} "
-                 "(grey: rigid-body position)", fontsize=9)
+    suptitle(fig, f"{res.title}: Ω = {res.speed:g} rad/s, case {res.case}; elastic deflections × {scale:g} "
+                  "(grey: rigid-body position)", 9)
     return fig
 
 
@@ -83,7 +86,7 @@ def draw_stations(res) -> Figure:
         ax.plot(res.angle_deg, y[:, k], lw=1.4, label=f"{res.link_names[st.link]} @ {st.s:g} m")
     ax.set_xlabel(ANGLE_LABEL)
     ax.set_ylabel(label)
-    ax.set_title(f"{res.title}: Ω = {res.speed:g} rad/s, case {res.case}", fontsize=9)
+    ax.set_title(fit_width(f"{res.title}: Ω = {res.speed:g} rad/s, case {res.case}", AXES_SHARE * fig.get_figwidth(), 9), fontsize=9)
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     return fig
@@ -101,14 +104,36 @@ def draw_speed_response(sp, bands=()) -> Figure:
         ax.semilogy(sp.speeds, np.maximum(y[:, k], 1e-300), lw=1.4, marker=".", label=lab)
     for r in sp.resonances:
         ax.axvline(r["speed_rad_s"], color="0.5", ls="--", lw=0.8)
-        ax.text(r["speed_rad_s"], 1.0, f" {r['order']}Ω=ω̄{r['mode']}", transform=ax.get_xaxis_transform(),
-                rotation=90, va="top", fontsize=7, color="0.4")
+    per_pt = 1.1 * np.ptp(sp.speeds) / (72 * max(fig.get_figwidth() - 1.3, 1.0))  # rad/s per point (about)
+    for x, text in resonance_labels(sp.resonances, RESONANCE_GAP_PT * per_pt):
+        ax.text(x, 1.0, f" {text}", transform=ax.get_xaxis_transform(), rotation=90, va="top", fontsize=7, color="0.4")
     for lo, hi in bands:
         ax.axvspan(lo, hi, color="tab:red", alpha=0.15, lw=0)
     ax.set_xlabel(SPEED_LABEL)
     ax.set_ylabel(label)
-    ax.set_title(f"{sp.title}: peak response over the cycle vs speed, case {sp.case} (dashed: forced resonances "
-                 "n·Ω = cycle-mean frozen ω̄ₖ; shaded: Floquet-unstable)", fontsize=8)
+    ax.set_title(fit_width(f"{sp.title}: peak response over the cycle vs speed, case {sp.case}\n(dashed: forced "
+                           "resonances n·Ω = cycle-mean frozen ω̄ₖ; shaded: Floquet-unstable)", AXES_SHARE * fig.get_figwidth(), 8),
+                 fontsize=8)
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3, which="both")
     return fig
+
+
+def resonance_labels(resonances, gap: float) -> list[tuple[float, str]]:
+    """(speed, text) of the forced-resonance labels: ``nΩ=ω̄k`` at each resonance speed, those
+    less than ``gap`` (rad/s) after the previous label joined to it ("5Ω=ω̄3, 1Ω=ω̄1").
+
+    Examples
+    --------
+    >>> resonance_labels([{"speed_rad_s": 100.0, "order": 2, "mode": 1}, {"speed_rad_s": 103.0, "order": 5, "mode": 2},
+    ...                   {"speed_rad_s": 150.0, "order": 1, "mode": 1}], gap=10.0)
+    [(100.0, '2Ω=ω̄1, 5Ω=ω̄2'), (150.0, '1Ω=ω̄1')]
+    """
+    out: list[tuple[float, str]] = []
+    for r in sorted(resonances, key=lambda r: r["speed_rad_s"]):
+        text = f"{r['order']}Ω=ω̄{r['mode']}"
+        if out and r["speed_rad_s"] - out[-1][0] < gap:
+            out[-1] = (out[-1][0], f"{out[-1][1]}, {text}")
+        else:
+            out.append((float(r["speed_rad_s"]), text))
+    return out

@@ -30,6 +30,7 @@ from fkev_slepc.plots.common import (
     pick_speed,
     scene_heading,
     speed_label,
+    suptitle,
 )
 from fkev_slepc.archive.reader import ArchiveError, NodeDofMap, SweepResults
 from fkev_slepc.scene import SceneError, parse_scene
@@ -251,7 +252,7 @@ def shapes_figure(mesh: NodeDofMap, xy: np.ndarray, lines, mode_idx: Sequence[in
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"{heading} (peak drawn displacement {AMPLITUDE:.0%} of the linkage's extent)", fontsize=11)
+    suptitle(fig, f"{heading} (peak drawn displacement {AMPLITUDE:.0%} of the linkage's extent)")
     return fig
 
 
