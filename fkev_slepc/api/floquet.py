@@ -24,6 +24,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
     messages name the arguments (the CLI passes its flags). ``reduce``: the frozen-mode reduction
     of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" where the full model
     needs ``AUTO_MIN_STEPS`` Magnus steps; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
+    from fkev_slepc.api.loads import full_turn_problem
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, FloquetRequest, read_floquet, run_floquet
     from fkev_slepc.sweep.grid import configure
@@ -50,6 +51,9 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
     if sc.driver.acceleration != 0.0:
         bad.append(Problem("driver.acceleration_rad_s2", "the Floquet analysis needs a constant crank speed "
                            f"(got {sc.driver.acceleration:g} rad/s²)"))
+    turn = full_turn_problem(sc)
+    if turn is not None:
+        bad.append(turn)
     if bad:
         raise SceneError(sc.source, bad)
     scene = configure(sc, angles=angles_deg, speeds=speeds_rad_s, cases=[case], names=names)

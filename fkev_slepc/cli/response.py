@@ -10,19 +10,20 @@ import sys
 import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
-from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_elements_argument, angles_and_gravity, apply_element, load_checked, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
-         "harmonics": "--harmonics", "stations": "--station"}
+         "harmonics": "--harmonics", "stations": "--station", "elements": "--elements"}
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "response", help="steady periodic elastic response: deflection and stress over the cycle",
         description="The periodic solution of M(θ)q̈ + C(θ)q̇ + K(θ)q = f(θ) at a constant crank speed, with the "
-        "exact periodic coefficients and the rigid-body inertia loads (and gravity), by harmonic balance, cross-"
-        "checked by shooting on the monodromy, whose Floquet multipliers say whether the response attracts.")
+        "exact periodic coefficients and the rigid-body inertia loads (and gravity), by harmonic balance (one static "
+        "solve for a lone rotating link); with --shooting cross-checked by shooting on the monodromy, whose Floquet "
+        "multipliers say whether the response attracts.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
     p.add_argument("--speeds", metavar="SPEC", help="response vs speed instead: peak of every station at these "
@@ -36,7 +37,10 @@ def add_parser(sub) -> None:
     p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
                    "until the estimated error is below --tol)")
     p.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (default 1e-8)")
-    p.add_argument("--no-shooting", action="store_true", help="skip the monodromy (no multipliers, no cross-check)")
+    shooting = p.add_mutually_exclusive_group()
+    shooting.add_argument("--shooting", action="store_true", help="also shoot on the monodromy: the Floquet "
+                          "multipliers (does the response attract?) and a second method's cross-check")
+    shooting.add_argument("--no-shooting", action="store_true", help="no monodromy (the default; kept for scripts)")
     add_elements_argument(p)
     p.add_argument("--element", choices=("thesis", "cubic"), help="element type (default: the scene's)")
     p.add_argument("--output", "-o", metavar="PATH.h5", help="archive the response (HDF5, xarray-readable); with "
@@ -89,10 +93,11 @@ def run(args) -> int:
             return _vs_speed(args, scene, angles, gravity, stations)
         speed = max(scene.driver.speeds, key=abs) if args.speed is None else args.speed
         res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
-                             harmonics=args.harmonics, tol=args.tol, shoot=not args.no_shooting, stations=stations,
+                             harmonics=args.harmonics, tol=args.tol, shoot=args.shooting, stations=stations,
                              names=FLAGS)
     except SceneError as err:
         return report_scene_error(err)
+    missed = not res.hb_error <= args.tol  # NaN (not estimated) misses too
     if args.output:
         res.save(args.output, {"command_line": " ".join(sys.argv)})
     if args.plot:
@@ -107,6 +112,10 @@ def run(args) -> int:
         print()
     else:
         _print(d)
+    if missed:
+        _note(f"fkev response: the harmonic balance's error estimate {res.hb_error:.2g} misses --tol {args.tol:g} "
+              f"at {res.harmonics} harmonics: raise --harmonics (or leave it out: doubled until --tol)")
+        return EXIT_NOT_CONVERGED
     return EXIT_OK
 
 
@@ -155,7 +164,7 @@ def _vs_speed(args, scene, angles, gravity, stations) -> int:
     from fkev_slepc.sweep.session import RunRefused
 
     options = dict(angles_deg=angles, gravity_m_s2=gravity, harmonics=args.harmonics, tol=args.tol,
-                   shoot=not args.no_shooting, stations=stations, names={**FLAGS, "speeds_rad_s": "--speeds"})
+                   shoot=args.shooting, stations=stations, names={**FLAGS, "speeds_rad_s": "--speeds"})
     comm = world() if args.output else None
     rank0 = comm is None or comm.rank == 0
     try:
@@ -202,7 +211,7 @@ def _archived_exit(args) -> int:
     """EXIT_NOT_CONVERGED when a speed of the archive failed or missed its tolerance (named on stderr)."""
     if not args.output:
         return EXIT_OK
-    from fkev_slepc.status import EXIT_NOT_CONVERGED, RETRYABLE, Status, codes
+    from fkev_slepc.status import RETRYABLE, Status, codes
     from fkev_slepc.api.response_archive import read_status
 
     st = read_status(args.output)

@@ -35,6 +35,9 @@ start=0.0, max_steps=2**16) -> Monodromy``
     ``order``, ``period``, ``start``, ``converged`` (error <= tol, always True for fixed steps);
     ``particular`` (n,) or (n, m): x(start + P) from x(start) = 0 under the forcing (None
     without forcing), with ``particular_error`` its relative step-doubling estimate.
+``exponential_monodromy(A, period=2π, start=0.0) -> (Monodromy, λ, X)``
+    the monodromy exp(P A) of a constant generator from its eigen-decomposition (``steps`` 1,
+    ``order`` 0: exact up to the eigenvalues' round-off, which ``error`` bounds).
 ``periodic_initial_state(mono) -> x0``
     x0 = (I - Φ)⁻¹ x_p of the P-periodic response (raises if 1 is a multiplier to round-off).
 ``trajectory(generator, x0, thetas, *, forcing=None, order=6, steps) -> x (len(thetas), n[, m])``
@@ -244,6 +247,22 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
                      order=order, error=err, phi_error=phi_err,
                      converged=bool(steps is not None or phi_err <= tol), particular=part,
                      particular_error=part_err)
+
+
+def exponential_monodromy(A: np.ndarray, period: float = 2.0 * np.pi, start: float = 0.0):
+    """(Monodromy, λ, X) of a constant generator A (n, n): Φ = exp(P A) = X diag(e^{Pλ}) X⁻¹ from
+    the eigen-decomposition A X = X diag(λ), so μ = e^{Pλ} to the eigenvalues' accuracy (a norm
+    of A in the thousands costs expm its digits, the eigenvalues keep them). ``error``: the
+    first-order bound P |μ| ε ‖A‖₂ κ(λ) with κ the eigenvalue condition numbers."""
+    lam, Y, X = la.eig(A, left=True, right=True)
+    mu = np.exp(period * lam)
+    phi = np.real((X * mu) @ np.linalg.inv(X))
+    kappa = np.linalg.norm(Y, axis=0) * np.linalg.norm(X, axis=0) / np.abs(np.sum(Y.conj() * X, axis=0))
+    err = float(np.max(period * np.abs(mu) * np.finfo(float).eps * np.linalg.norm(A, 2) * kappa))
+    order_ = np.argsort(-np.abs(mu), kind="stable")
+    mono = Monodromy(phi=phi, multipliers=mu[order_], period=float(period), start=float(start), steps=1, order=0,
+                     error=err, phi_error=err / max(float(np.max(np.abs(mu))), 1e-300), converged=True)
+    return mono, lam, X
 
 
 def periodic_initial_state(mono: Monodromy) -> np.ndarray:
