@@ -41,3 +41,21 @@ def test_harmonics_are_checked_before_the_balance():
     assert big.returncode == 2 and "unknowns" in big.stderr and "Traceback" not in big.stderr
     two = run_fkev(*base, "--harmonics", "2")
     assert two.returncode == 3 and "misses --tol" in two.stderr
+
+
+def test_speeds_in_rpm_are_the_same_speeds():
+    """--speed-rpm (response, loads) and --speeds-rpm (response, floquet, design) as point/run/margins:
+    1432.39... rpm is 150 rad/s exactly; a bad rpm value is named by its own flag."""
+    import json
+
+    rpm = 150.0 * 30.0 / __import__("math").pi
+    base = ("response", BENCH, "--elements", "1", "--angles", "0:180:90", "--harmonics", "64", "--json")
+    a, b = (json.loads(run_fkev(*base, *s).stdout) for s in (("--speed", "150"), ("--speed-rpm", repr(rpm))))
+    assert abs(b["speed_rad_s"] - 150.0) < 1e-12 and a["stations"] == b["stations"]
+    la, lb = (run_fkev("loads", BENCH, "--angles", "0,90", *s).stdout for s in (("--speed", "150"),
+                                                                              ("--speed-rpm", repr(rpm))))
+    assert la.splitlines()[1:] == lb.splitlines()[1:]
+    for cmd in ("floquet", "design", "response"):
+        extra = ("--set", "links[0].length_m=0.15,0.16") if cmd == "design" else ()
+        r = run_fkev(cmd, BENCH, *extra, "--speeds-rpm=-5")
+        assert r.returncode == 2 and "--speeds-rpm" in r.stderr, (cmd, r.stderr)
