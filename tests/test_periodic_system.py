@@ -135,3 +135,18 @@ def test_lone_rotating_beam_is_one_static_solve():
     assert res.monodromy.steps == 1 and np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-10
     four_bar = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1))
     assert PeriodicSystem(four_bar, 500.0).link_frame() is None
+
+
+def test_floquet_progress_reports_every_magnus_run():
+    """The progress callback of a Floquet speed sees every Magnus run of the step doubling, the last
+    one complete at the monodromy's step count; the run's line names the speed and the steps."""
+    from fkev_slepc.sweep.progress import Progress
+
+    calls = []
+    model = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1), ("full",))
+    res = floquet_multipliers(model, 500.0, "full", progress=lambda done, steps: calls.append((done, steps)))
+    runs = sorted({s for _, s in calls})
+    assert runs[-1] == res.monodromy.steps and all(b == 2 * a for a, b in zip(runs, runs[1:]))
+    assert all(0 < d <= s for d, s in calls) and calls[-1] == (res.monodromy.steps, res.monodromy.steps)
+    line = Progress.line(512, 2048, 2.0, "fkev floquet: 500 rad/s, run of 2048 Magnus steps", "steps")
+    assert line == "fkev floquet: 500 rad/s, run of 2048 Magnus steps: 512/2048 steps (25%), 256.0 steps/s, ETA 00:00:06"

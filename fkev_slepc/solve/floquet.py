@@ -131,10 +131,13 @@ def step_exponentials(generator, a: float, b: float, steps: int, *, forcing=None
         yield s0, la.expm(Om)
 
 
-def _product(generator, a, b, steps, forcing, order):
-    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps."""
+def _product(generator, a, b, steps, forcing, order, progress=None):
+    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps
+    (``progress(steps done, steps)`` after each block)."""
     total = None
-    for _, E in step_exponentials(generator, a, b, steps, forcing=forcing, order=order):
+    for s0, E in step_exponentials(generator, a, b, steps, forcing=forcing, order=order):
+        if progress is not None:
+            progress(s0 + E.shape[0], steps)
         # pairwise (tree) products inside a block keep the Python loop at log2(block) levels;
         # later steps multiply from the left
         while E.shape[0] > 1:
@@ -197,14 +200,15 @@ def _split(total, n, m):
 
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
               steps: int | None = None, tol: float = 1e-10, start: float = 0.0,
-              max_steps: int = 2**16, min_steps: int = 16) -> Monodromy:
+              max_steps: int = 2**16, min_steps: int = 16, progress=None) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
     ``steps=None`` starts at ``min_steps`` (rounded up to a power of 2) and doubles until the estimated relative error of Φ <= ``tol``
     or ``max_steps`` is reached (then ``converged`` is False). The multiplier estimate
     ``error`` follows Φ's for simple multipliers (times their condition number) but only as its
-    square root at a defective one (a double multiplier ±1 on a transition curve)."""
+    square root at a defective one (a double multiplier ±1 on a transition curve).
+    ``progress(steps done, steps)``: called after each block of step exponentials of every run."""
     if not np.isfinite(period) or period <= 0.0:
         raise ValueError(f"period: must be a positive finite number, got {period!r}")
     if steps is not None and (int(steps) != steps or steps < 2 or steps % 2):
@@ -218,7 +222,7 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         m = 1 if fb.ndim == 2 else fb.shape[2]
 
     def run(N):
-        phi, part = _split(_product(generator, a, b, N, forcing, order), n, m)
+        phi, part = _split(_product(generator, a, b, N, forcing, order, progress), n, m)
         return phi, part
 
     scale = 2.0**order - 1.0

@@ -128,7 +128,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                         reduce: int | str | None = None, basis_angles: int = AUTO_ANGLES,
                         threshold: float = 1e-10, reduce_tol: float = REDUCE_TOL,
                         max_basis: int | None = None, check_truncation: bool = True,
-                        basis: np.ndarray | None = None) -> LinkageFloquet:
+                        basis: np.ndarray | None = None, progress=None) -> LinkageFloquet:
     """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
 
     ``reduce``: None (the full model), ``"default"`` (``"auto"`` where :func:`full_min_steps`
@@ -136,7 +136,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False).
-    ``basis``: an explicit co-rotated basis V̂ (n, R) instead."""
+    ``basis``: an explicit co-rotated basis V̂ (n, R) instead. ``progress(steps done, steps)``:
+    called by the Magnus integrator after each block of steps (:func:`monodromy`)."""
     from fkev_slepc.model.operators import Model
 
     if not np.isfinite(omega) or omega == 0.0:
@@ -150,7 +151,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         reduce = "auto" if full_min_steps(model, omega, case, damping, start) >= AUTO_MIN_STEPS else None
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
-                    interp_tol=interp_tol)
+                    interp_tol=interp_tol, progress=progress)
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
         n = int(model.n_free)
@@ -177,7 +178,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         # step doubling (Magnus is exact for constant A, but the linkage's A turns with the links)
         rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
         mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=tol,
-                         min_steps=int(np.ceil(2.0 * TWO_PI * rho)))
+                         min_steps=int(np.ceil(2.0 * TWO_PI * rho)), progress=progress)
         mu, X = la.eig(mono.phi)
     c = system.coefficients(np.array([system.start]))
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)

@@ -175,7 +175,8 @@ class PeriodicSystem:
         """The generator's trigonometric interpolant, samples doubled until its relative error at
         the midpoints is <= ``tol`` or ``max_samples`` are held (see the module docstring)."""
         k = max(4, 2 * (int(samples) // 2))
-        S = self.generator(TWO_PI * np.arange(k) / k)
+        # the scaling's reference angles are the first samples when as many: computed once
+        S = self.generator_of(self.reference) if k == SCALING_ANGLES else self.generator(TWO_PI * np.arange(k) / k)
         while True:
             tau_mid = TWO_PI * (np.arange(k) + 0.5) / k
             mid = self.generator(tau_mid)
