@@ -101,3 +101,52 @@ def test_response_gravity_turns_with_the_scene():
     assert np.abs(d1 - d0).max() <= 1e-10 * d0.max()
     gx = study_response(scene, w, "full", a, gravity_m_s2=(g, 0.0), **opts)
     assert np.abs(gx.stations.moment - r0.stations.moment).max() > 0.01 * np.abs(r0.stations.moment).max()
+
+
+def _lone_beam(elements, slenderness=70.0):
+    from dataclasses import replace
+
+    base = with_elements(load_scene(RUNS / "rotating-cantilever.toml"), elements)
+    lk = base.links[0]
+    lk = replace(lk, second_moment=lk.area * (lk.length / slenderness) ** 2)
+    return replace(base, links=(lk,)), lk
+
+
+def test_lone_rotating_beam_is_one_static_solve():
+    """Issue 24 item 3: the lone rotating beam (L/r = 70) is constant in its own frame, so its periodic
+    response is one static solve (harmonics 0 and 1 of the frame rotation in global DOFs, exactly) and
+    its monodromy one exponential. At λ = 2 the tip stretch is tan(kL)/k − L to the thesis element's
+    h² accuracy (measured 6.6e-8 at 32 elements), with no transverse response; a four-bar is not
+    constant in its link frames and keeps the harmonic balance."""
+    from fkev_slepc.api.response import study_response
+
+    errors = []
+    for n in (16, 32):
+        scene, lk = _lone_beam(n)
+        w = 2.0 / np.sqrt(lk.density * lk.area * lk.length**4 / (lk.youngs_modulus * lk.second_moment))
+        k = w * np.sqrt(lk.density / lk.youngs_modulus)
+        r = study_response(scene, w, "full", [0.0, 90.0, 200.0])
+        assert r.harmonics == 1 and r.hb_error < 1e-13
+        tip = r.stations.axial[:, -1]
+        errors.append(np.abs(tip / (np.tan(k * lk.length) / k - lk.length) - 1).max())
+        assert np.abs(r.stations.transverse).max() < 1e-12 * np.abs(tip).max()
+    assert errors[1] < 1e-7 and 3.5 < errors[0] / errors[1] < 4.5  # h²
+    res = floquet_multipliers(Model(scene), w, "full")
+    assert res.monodromy.steps == 1 and np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-10
+    four_bar = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1))
+    assert PeriodicSystem(four_bar, 500.0).link_frame() is None
+
+
+def test_floquet_progress_reports_every_magnus_run():
+    """The progress callback of a Floquet speed sees every Magnus run of the step doubling, the last
+    one complete at the monodromy's step count; the run's line names the speed and the steps."""
+    from fkev_slepc.sweep.progress import Progress
+
+    calls = []
+    model = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1), ("full",))
+    res = floquet_multipliers(model, 500.0, "full", progress=lambda done, steps: calls.append((done, steps)))
+    runs = sorted({s for _, s in calls})
+    assert runs[-1] == res.monodromy.steps and all(b == 2 * a for a, b in zip(runs, runs[1:]))
+    assert all(0 < d <= s for d, s in calls) and calls[-1] == (res.monodromy.steps, res.monodromy.steps)
+    line = Progress.line(512, 2048, 2.0, "fkev floquet: 500 rad/s, run of 2048 Magnus steps", "steps")
+    assert line == "fkev floquet: 500 rad/s, run of 2048 Magnus steps: 512/2048 steps (25%), 256.0 steps/s, ETA 00:00:06"

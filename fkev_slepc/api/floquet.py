@@ -16,14 +16,17 @@ API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "an
              "monodromy_tol": "monodromy_tol", "output": "output", "resonance_order": "resonance_order", "reduce": "reduce"}
 
 
-def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_deg=None, resume: bool = False,
+def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_rpm=None, angles_deg=None,
+                  resume: bool = False,
                   force: bool = False, tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL, monodromy_tol: float = 1e-10,
                   resonance_order: int = 3, probe: bool = False, solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
                   command_line: str = "", notify=None, progress: bool = False, reduce="default"):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
-    messages name the arguments (the CLI passes its flags). ``reduce``: the frozen-mode reduction
+    messages name the arguments (the CLI passes its flags); ``speeds_rpm`` the speeds in rev/min
+    instead of ``speeds_rad_s``. ``reduce``: the frozen-mode reduction
     of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" where the full model
     needs ``AUTO_MIN_STEPS`` Magnus steps; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
+    from fkev_slepc.api.loads import full_turn_problem
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, FloquetRequest, read_floquet, run_floquet
     from fkev_slepc.sweep.grid import configure
@@ -50,9 +53,12 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
     if sc.driver.acceleration != 0.0:
         bad.append(Problem("driver.acceleration_rad_s2", "the Floquet analysis needs a constant crank speed "
                            f"(got {sc.driver.acceleration:g} rad/s²)"))
+    turn = full_turn_problem(sc)
+    if turn is not None:
+        bad.append(turn)
     if bad:
         raise SceneError(sc.source, bad)
-    scene = configure(sc, angles=angles_deg, speeds=speeds_rad_s, cases=[case], names=names)
+    scene = configure(sc, angles=angles_deg, speeds=speeds_rad_s, speeds_rpm=speeds_rpm, cases=[case], names=names)
     speeds = np.asarray(scene.driver.speeds, dtype=float)
     if not np.all(speeds > 0):
         raise SceneError(sc.source, [Problem(names["speeds"], "Floquet speeds must be > 0 rad/s (at rest the frozen "

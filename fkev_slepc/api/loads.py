@@ -10,6 +10,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from fkev_slepc.model.joint_loads import POINT_NAMES, JointLoads, joint_loads
+from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 LOADS_FORMAT = "fkev-loads"
@@ -111,8 +113,6 @@ def operating_point_problems(speed_rad_s, accel_rad_s2, gravity_m_s2, names=None
 
 def checked_angles(scene: Scene, mech, angles_deg, name="angles_deg") -> np.ndarray:
     """The crank angles (deg; default the scene's), refused where not finite or not assemblable."""
-    from fkev_slepc.model.kinematics import solve_kinematics
-
     a = np.atleast_1d(np.asarray(scene.analysis.crank_angles_deg if angles_deg is None else angles_deg, float))
     if a.size == 0 or not np.isfinite(a).all():
         raise SceneError(scene.source, [Problem(name, f"must be finite crank angles, deg (got {list(a)})")])
@@ -122,6 +122,24 @@ def checked_angles(scene: Scene, mech, angles_deg, name="angles_deg") -> np.ndar
         raise SceneError(scene.source, [Problem(name, f"the linkage cannot be assembled at {shown} deg "
                                                       f"({int((~ok).sum())} of {a.size} angles)")])
     return a
+
+
+FULL_TURN_STEP_DEG = 0.25  # the crank angles at which a full revolution is checked before a periodic analysis
+
+
+def full_turn_problem(scene: Scene, mech=None) -> Problem | None:
+    """None where the linkage assembles at every crank angle of a revolution (every
+    ``FULL_TURN_STEP_DEG``), else the Problem naming the scene's driver: the periodic analyses
+    (``fkev floquet``, ``fkev response``) need a crank that turns fully, refused before any work."""
+    a = np.arange(0.0, 360.0, FULL_TURN_STEP_DEG)
+    ok = solve_kinematics(build_mechanism(scene) if mech is None else mech, np.radians(a)).ok
+    if ok.all():
+        return None
+    edges = np.flatnonzero(np.diff(np.r_[True, ok, True].astype(int)))  # starts and ends of the failed runs
+    spans = ", ".join(f"{a[i]:g}-{a[j - 1]:g}" for i, j in zip(edges[0::2], edges[1::2]))
+    return Problem("driver.link", f"the crank cannot turn fully: the linkage cannot be assembled at crank angles "
+                                  f"{spans} deg; the periodic analyses need a full revolution (check the link lengths "
+                                  "against Grashof's condition, or use fkev run/point over the angles it reaches)")
 
 
 def study_loads(scene: Scene, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None,

@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError, with_elements
+from fkev_slepc.scene.units import RAD_S_PER_RPM
 from fkev_slepc.sweep.grid import modes_problem  # noqa: F401 (re-exported to the subcommands)
 
 
@@ -148,3 +149,26 @@ def angles_and_gravity(args, bad: list) -> tuple:
         except ValueError:
             gravity = args.gravity
     return angles, gravity
+
+
+def add_speed_arguments(p: argparse.ArgumentParser, default: str = "the scene's highest") -> None:
+    """``--speed W`` (rad/s) or ``--speed-rpm RPM`` (rev/min), one of them (as ``fkev point``)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--speed", type=float, metavar="W", help=f"crank speed, rad/s (default: {default})")
+    g.add_argument("--speed-rpm", type=float, metavar="RPM", help="crank speed, rev/min")
+
+
+def chosen_speed(args, scene: Scene, flags: dict) -> float:
+    """The crank speed in rad/s: ``--speed``, ``--speed-rpm`` converted (then ``flags`` names
+    ``--speed-rpm`` for the speed in messages) or the scene's highest."""
+    if args.speed_rpm is not None:
+        flags["speed_rad_s"] = "--speed-rpm"
+        return args.speed_rpm * RAD_S_PER_RPM
+    return max(scene.driver.speeds, key=abs) if args.speed is None else args.speed
+
+
+def add_speeds_arguments(p: argparse.ArgumentParser, help_rad_s: str) -> None:
+    """``--speeds SPEC`` (rad/s) or ``--speeds-rpm SPEC`` (rev/min), one of them (as ``fkev run``)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--speeds", metavar="START:STOP:STEP|a,b,c", help=help_rad_s)
+    g.add_argument("--speeds-rpm", metavar="START:STOP:STEP|a,b,c", help="crank speeds, rev/min (as --speeds)")

@@ -12,6 +12,7 @@ import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
+from .common import add_speeds_arguments
 
 
 def add_parser(sub) -> None:
@@ -26,8 +27,7 @@ def add_parser(sub) -> None:
                    help="a design key and its values (STOP included when on the grid); repeatable (a grid)")
     p.add_argument("-o", "--output", type=Path, help="archive path (default <scene dir>/out/<stem>-design.h5)")
     p.add_argument("--angles", metavar="START:STOP:STEP|a,b,c", help="crank angles, deg; default the scene's")
-    p.add_argument("--speeds", metavar="START:STOP:STEP|a,b,c",
-                   help="crank speeds, rad/s; default the scene's (the printed cycle minima are at the top one)")
+    add_speeds_arguments(p, "crank speeds, rad/s; default the scene's (the printed cycle minima are at the top one)")
     p.add_argument("--cases", metavar="c1,c2,...", help="case names or Table 3.1 numbers, or 'all'")
     p.add_argument("--modes", type=int, metavar="N", help="modes per point (default the scene's)")
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
@@ -65,7 +65,7 @@ def run(args) -> int:
     output = args.output or Path(args.scene).parent / "out" / f"{Path(args.scene).stem}-design.h5"
     try:
         grid = design_grid(parse_sets(args.sets), "--set")
-        scene = configure(load_scene(args.scene), angles=args.angles, speeds=args.speeds, cases=args.cases,
+        scene = configure(load_scene(args.scene), angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm, cases=args.cases,
                           modes=args.modes, names=CLI_NAMES)
         notify = None if args.quiet else (lambda m: print(f"fkev design: {m}", file=sys.stderr, flush=True))
         run_design(scene, grid, output, comm, resume=args.resume, force=args.force, solver=args.solver,

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
-from .common import add_elements_argument, load_checked
+from .common import add_elements_argument, add_speeds_arguments, load_checked
 
 NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles", "cases": "--case",
          "modes": "--modes", "element": "--element", "rel_error": "--rel-error", "tol": "--tol", "rtol": "--rtol",
@@ -34,7 +34,7 @@ def add_parser(sub) -> None:
         "--rtol, each labelled with its resonance 2ω̄ₖ/n or (ω̄ⱼ ± ω̄ₖ)/n of the cycle-mean frozen frequencies, "
         "beside the frozen-time verdicts of the same speeds. Archived (HDF5 /floquet, resumable over MPI ranks).")
     p.add_argument("scene", help="scene file (TOML)")
-    p.add_argument("--speeds", metavar="START:STOP:STEP|a,b,c", help="crank speeds > 0, rad/s (default the scene's)")
+    add_speeds_arguments(p, "crank speeds > 0, rad/s (default the scene's)")
     p.add_argument("--case", default="full", help="case name or Table 3.1 number (default full)")
     p.add_argument("--angles", metavar="START:STOP:STEP|a,b,c",
                    help="crank angles of the frozen sweep (cycle-mean frequencies, frozen verdicts; default the scene's)")
@@ -76,7 +76,8 @@ def run(args) -> int:
     rank0 = comm.rank == 0
     try:
         study = Study(load_checked(args.scene, args.elements, check_angles=False), Path(args.scene))
-        res = study_floquet(study, args.speeds, args.case, args.output, angles_deg=args.angles, resume=args.resume,
+        res = study_floquet(study, args.speeds, args.case, args.output, speeds_rpm=args.speeds_rpm,
+                            angles_deg=args.angles, resume=args.resume,
                             force=args.force, tol=DEFAULT_TOL if args.tol is None else args.tol,
                             rtol=EDGE_RTOL if args.rtol is None else args.rtol,
                             monodromy_tol=MONODROMY_TOL if args.monodromy_tol is None else args.monodromy_tol,

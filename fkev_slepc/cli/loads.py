@@ -12,7 +12,9 @@ import numpy as np
 
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
-from .common import add_elements_argument, angles_and_gravity, load_checked, report_scene_error
+from .common import (
+    add_elements_argument, add_speed_arguments, angles_and_gravity, chosen_speed, load_checked, report_scene_error,
+)
 
 FLAGS = {"speed_rad_s": "--speed", "accel_rad_s2": "--accel", "gravity_m_s2": "--gravity",
          "angles_deg": "--angles"}
@@ -28,7 +30,7 @@ def add_parser(sub) -> None:
         "Ground joints report the bearing reaction on the linkage; a moving pin the force on the first link end "
         "its connects names.")
     p.add_argument("scene", help="scene file (TOML)")
-    p.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
+    add_speed_arguments(p)
     p.add_argument("--accel", type=float, metavar="A", help="crank acceleration, rad/s² (default: the scene's)")
     p.add_argument("--gravity", metavar="GX,GY", help="gravity in the ground frame, m/s² (default: the scene's "
                    "analysis.gravity_m_s2, else none), e.g. 0,-9.81")
@@ -59,8 +61,9 @@ def run(args) -> int:
     try:
         angles, gravity = _parse(args)
         scene = load_checked(args.scene, args.elements, check_angles=angles is None)
-        speed = max(scene.driver.speeds, key=abs) if args.speed is None else args.speed
-        loads = study_loads(scene, speed, angles, args.accel, gravity, names=FLAGS)
+        flags = dict(FLAGS)
+        speed = chosen_speed(args, scene, flags)
+        loads = study_loads(scene, speed, angles, args.accel, gravity, names=flags)
     except SceneError as err:
         return report_scene_error(err)
     if args.output:

@@ -10,23 +10,27 @@ import sys
 import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
-from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
-from .common import add_elements_argument, angles_and_gravity, apply_element, load_checked, report_scene_error
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
+from .common import (
+    add_elements_argument, add_speed_arguments, add_speeds_arguments, angles_and_gravity, apply_element, chosen_speed,
+    load_checked, report_scene_error,
+)
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
-         "harmonics": "--harmonics", "stations": "--station"}
+         "harmonics": "--harmonics", "stations": "--station", "elements": "--elements"}
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "response", help="steady periodic elastic response: deflection and stress over the cycle",
         description="The periodic solution of M(θ)q̈ + C(θ)q̇ + K(θ)q = f(θ) at a constant crank speed, with the "
-        "exact periodic coefficients and the rigid-body inertia loads (gravity and the scene's [[loads]] too), by harmonic balance, cross-"
-        "checked by shooting on the monodromy, whose Floquet multipliers say whether the response attracts.")
+        "exact periodic coefficients and the rigid-body inertia loads (gravity and the scene's [[loads]] too), by "
+        "harmonic balance (one static solve for a lone rotating link); with --shooting cross-checked by shooting on "
+        "the monodromy, whose Floquet multipliers say whether the response attracts.")
     p.add_argument("scene", help="scene file (TOML)")
-    p.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
-    p.add_argument("--speeds", metavar="SPEC", help="response vs speed instead: peak of every station at these "
-                   "speeds (START:STOP:STEP or a,b,c, rad/s), forced resonances n·Ω = ω̄ₖ marked")
+    add_speed_arguments(p)
+    add_speeds_arguments(p, "response vs speed instead: peak of every station at these speeds (START:STOP:STEP "
+                         "or a,b,c, rad/s), forced resonances n·Ω = ω̄ₖ marked")
     p.add_argument("--case", help="case name or Table 3.1 number (default: full)")
     p.add_argument("--gravity", metavar="GX,GY", help="gravity in the ground frame, m/s² (default: the scene's "
                    "analysis.gravity_m_s2, else none)")
@@ -36,7 +40,10 @@ def add_parser(sub) -> None:
     p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
                    "until the estimated error is below --tol)")
     p.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (default 1e-8)")
-    p.add_argument("--no-shooting", action="store_true", help="skip the monodromy (no multipliers, no cross-check)")
+    shooting = p.add_mutually_exclusive_group()
+    shooting.add_argument("--shooting", action="store_true", help="also shoot on the monodromy: the Floquet "
+                          "multipliers (does the response attract?) and a second method's cross-check")
+    shooting.add_argument("--no-shooting", action="store_true", help="no monodromy (the default; kept for scripts)")
     add_elements_argument(p)
     p.add_argument("--element", choices=("thesis", "cubic"), help="element type (default: the scene's)")
     p.add_argument("--output", "-o", metavar="PATH.h5", help="archive the response (HDF5, xarray-readable); with "
@@ -55,7 +62,7 @@ def add_parser(sub) -> None:
 
 
 def _parse(args):
-    from fkev_slepc.sweep.grid import parse_angles
+    from fkev_slepc.sweep.grid import parse_angles, parse_speeds_rpm
 
     bad, stations = [], None
     angles, gravity = angles_and_gravity(args, bad)
@@ -67,11 +74,12 @@ def _parse(args):
                 stations.setdefault(link, []).extend(float(v) for v in values.split(","))
             except ValueError:
                 bad.append(Problem("--station", f"expected LINK:S1,S2,... in m (got {text!r})"))
-    if args.speeds is not None:
-        try:
-            args.speed_list = parse_angles(args.speeds)
-        except ValueError as err:
-            bad.append(Problem("--speeds", str(err)))
+    for flag, text, parse in (("--speeds", args.speeds, parse_angles), ("--speeds-rpm", args.speeds_rpm, parse_speeds_rpm)):
+        if text is not None:
+            try:
+                args.speed_list, args.speeds_flag = parse(text), flag
+            except ValueError as err:
+                bad.append(Problem(flag, str(err)))
     if not (np.isfinite(args.tol) and 0 < args.tol < 1):
         bad.append(Problem("--tol", f"must be in (0, 1) (got {args.tol})"))
     if bad:
@@ -85,14 +93,16 @@ def run(args) -> int:
     try:
         angles, gravity, stations = _parse(args)
         scene = apply_element(load_checked(args.scene, args.elements, check_angles=False), args.element)
-        if args.speeds is not None:
+        if args.speeds is not None or args.speeds_rpm is not None:
             return _vs_speed(args, scene, angles, gravity, stations)
-        speed = max(scene.driver.speeds, key=abs) if args.speed is None else args.speed
+        flags = dict(FLAGS)
+        speed = chosen_speed(args, scene, flags)
         res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
-                             harmonics=args.harmonics, tol=args.tol, shoot=not args.no_shooting, stations=stations,
-                             names=FLAGS)
+                             harmonics=args.harmonics, tol=args.tol, shoot=args.shooting, stations=stations,
+                             names=flags)
     except SceneError as err:
         return report_scene_error(err)
+    missed = not res.hb_error <= args.tol  # NaN (not estimated) misses too
     if args.output:
         res.save(args.output, {"command_line": " ".join(sys.argv)})
     if args.plot:
@@ -107,6 +117,10 @@ def run(args) -> int:
         print()
     else:
         _print(d)
+    if missed:
+        _note(f"fkev response: the harmonic balance's error estimate {res.hb_error:.2g} misses --tol {args.tol:g} "
+              f"at {res.harmonics} harmonics: raise --harmonics (or leave it out: doubled until --tol)")
+        return EXIT_NOT_CONVERGED
     return EXIT_OK
 
 
@@ -155,7 +169,7 @@ def _vs_speed(args, scene, angles, gravity, stations) -> int:
     from fkev_slepc.sweep.session import RunRefused
 
     options = dict(angles_deg=angles, gravity_m_s2=gravity, harmonics=args.harmonics, tol=args.tol,
-                   shoot=not args.no_shooting, stations=stations, names={**FLAGS, "speeds_rad_s": "--speeds"})
+                   shoot=args.shooting, stations=stations, names={**FLAGS, "speeds_rad_s": args.speeds_flag})
     comm = world() if args.output else None
     rank0 = comm is None or comm.rank == 0
     try:
@@ -202,7 +216,7 @@ def _archived_exit(args) -> int:
     """EXIT_NOT_CONVERGED when a speed of the archive failed or missed its tolerance (named on stderr)."""
     if not args.output:
         return EXIT_OK
-    from fkev_slepc.status import EXIT_NOT_CONVERGED, RETRYABLE, Status, codes
+    from fkev_slepc.status import RETRYABLE, Status, codes
     from fkev_slepc.api.response_archive import read_status
 
     st = read_status(args.output)

@@ -10,7 +10,7 @@ frozen frequencies averaged over exactly one crank revolution, weighted by angle
 ``frozen_frequencies(model, theta, omega, case, n_modes) -> (len(θ), n_modes)``
     the lowest ``n_modes`` frozen frequencies Im λ (rad/s) of the case's QEP at each crank angle
     (Rayleigh damping and the Coriolis term included: the eigenvalues of the frozen sweep), by
-    the dense state matrix :func:`fkev_slepc.solve.floquet.state_matrix`.
+    the dense linearisation [[0, I], [-K, -C]] x = λ [[I, 0], [0, M]] x.
 ``cycle_mean_frequencies(model, omega, case, n_modes, n_angles=24) -> (n_modes,)``
     the two together at ``n_angles`` equispaced angles.
 
@@ -21,8 +21,7 @@ and the forced resonances of ``fkev response --speeds``.
 from __future__ import annotations
 
 import numpy as np
-
-from fkev_slepc.solve.floquet import state_matrix
+import scipy.linalg as la
 
 
 def angle_weights(angles, period: float = 360.0) -> tuple[np.ndarray, np.ndarray]:
@@ -53,7 +52,7 @@ def cycle_mean(angles, values, period: float = 360.0) -> np.ndarray:
             continue
         rows = np.flatnonzero(masks)
         idx, w = angle_weights(angles[rows], period)
-        out[cols] = w @ flat[rows[idx]][:, cols]
+        out[cols] = np.sum(w[:, None] * flat[rows[idx]][:, cols], axis=0)  # not BLAS: the same sum on any thread count
     return out.reshape(v.shape[1:])
 
 
@@ -63,10 +62,14 @@ def frozen_frequencies(model, theta, omega: float, case: str, n_modes: int) -> n
     stack = model.piece_stack(theta)
     qeps = [model.qep(model.pieces_at(stack, i), omega, case) for i in range(theta.size)]
     n = model.n_free
-    M = np.stack([q.mass.toarray() for q in qeps])
-    C = np.stack([q.damping.toarray() if q.damping is not None else np.zeros((n, n)) for q in qeps])
-    K = np.stack([q.stiffness.toarray() for q in qeps])
-    lam = np.linalg.eigvals(state_matrix(M, C, K))
+    Z, I = np.zeros((n, n)), np.eye(n)
+
+    def eig(q):  # [[0, I], [-K, -C]] x = λ [[I, 0], [0, M]] x (LAPACK ggev: the same digits on any thread count)
+        C = q.damping.toarray() if q.damping is not None else Z
+        return la.eigvals(np.block([[Z, I], [-q.stiffness.toarray(), -C]]), np.block([[I, Z], [Z, q.mass.toarray()]]))
+
+    lam = np.stack([eig(q) for q in qeps])
+    lam = np.where(np.isfinite(lam), lam, 0.0)
     im = np.where(lam.imag > 1e-9 * np.abs(lam).max(axis=1, keepdims=True), lam.imag, np.inf)
     w = np.sort(im, axis=1)[:, :n_modes]
     return np.where(np.isfinite(w), w, np.nan)

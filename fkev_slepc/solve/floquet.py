@@ -35,6 +35,9 @@ start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps
     ``order``, ``period``, ``start``, ``converged`` (error <= tol, always True for fixed steps);
     ``particular`` (n,) or (n, m): x(start + P) from x(start) = 0 under the forcing (None
     without forcing), with ``particular_error`` its relative step-doubling estimate.
+``exponential_monodromy(A, period=2π, start=0.0) -> (Monodromy, λ, X)``
+    the monodromy exp(P A) of a constant generator from its eigen-decomposition (``steps`` 1,
+    ``order`` 0: exact up to the eigenvalues' round-off, which ``error`` bounds).
 ``periodic_initial_state(mono) -> x0``
     x0 = (I - Φ)⁻¹ x_p of the P-periodic response (raises if 1 is a multiplier to round-off).
 ``trajectory(generator, x0, thetas, *, forcing=None, order=6, steps) -> x (len(thetas), n[, m])``
@@ -128,8 +131,9 @@ def step_exponentials(generator, a: float, b: float, steps: int, *, forcing=None
         yield s0, la.expm(Om)
 
 
-def _product(generator, a, b, steps, forcing, order, comm=None):
-    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps.
+def _product(generator, a, b, steps, forcing, order, comm=None, progress=None):
+    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps
+    (``progress(steps done, steps)`` after each block).
 
     With an MPI ``comm`` of several ranks the steps are split into one contiguous segment per rank
     (the same step length, segment k starting at a + h·(first step of k)); each rank multiplies its
@@ -143,14 +147,17 @@ def _product(generator, a, b, steps, forcing, order, comm=None):
         mine = None
         if counts[comm.rank]:
             lo, hi = first[comm.rank], first[comm.rank + 1]
-            mine = _product(generator, a + h * lo, a + h * hi, int(hi - lo), forcing, order)
+            mine = _product(generator, a + h * lo, a + h * hi, int(hi - lo), forcing, order,
+                            progress=progress if comm.rank == 0 else None)
         total = None
         for part in comm.allgather(mine):
             if part is not None:
                 total = part if total is None else part @ total
         return total
     total = None
-    for _, E in step_exponentials(generator, a, b, steps, forcing=forcing, order=order):
+    for s0, E in step_exponentials(generator, a, b, steps, forcing=forcing, order=order):
+        if progress is not None:
+            progress(s0 + E.shape[0], steps)
         # pairwise (tree) products inside a block keep the Python loop at log2(block) levels;
         # later steps multiply from the left
         while E.shape[0] > 1:
@@ -213,7 +220,7 @@ def _split(total, n, m):
 
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
               steps: int | None = None, tol: float = 1e-10, start: float = 0.0,
-              max_steps: int = 2**16, min_steps: int = 16, comm=None) -> Monodromy:
+              max_steps: int = 2**16, min_steps: int = 16, comm=None, progress=None) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
@@ -223,7 +230,8 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
     square root at a defective one (a double multiplier ±1 on a transition curve).
 
     ``comm``: an MPI communicator whose ranks share the steps of every product (collective: every
-    rank calls with the same arguments and gets the same result; see ``_product``)."""
+    rank calls with the same arguments and gets the same result; see ``_product``).
+    ``progress(steps done, steps)``: called after each block of step exponentials of every run."""
     if not np.isfinite(period) or period <= 0.0:
         raise ValueError(f"period: must be a positive finite number, got {period!r}")
     if steps is not None and (int(steps) != steps or steps < 2 or steps % 2):
@@ -237,7 +245,7 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         m = 1 if fb.ndim == 2 else fb.shape[2]
 
     def run(N):
-        phi, part = _split(_product(generator, a, b, N, forcing, order, comm), n, m)
+        phi, part = _split(_product(generator, a, b, N, forcing, order, comm, progress), n, m)
         return phi, part
 
     scale = 2.0**order - 1.0
@@ -266,6 +274,22 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
                      order=order, error=err, phi_error=phi_err,
                      converged=bool(steps is not None or phi_err <= tol), particular=part,
                      particular_error=part_err)
+
+
+def exponential_monodromy(A: np.ndarray, period: float = 2.0 * np.pi, start: float = 0.0):
+    """(Monodromy, λ, X) of a constant generator A (n, n): Φ = exp(P A) = X diag(e^{Pλ}) X⁻¹ from
+    the eigen-decomposition A X = X diag(λ), so μ = e^{Pλ} to the eigenvalues' accuracy (a norm
+    of A in the thousands costs expm its digits, the eigenvalues keep them). ``error``: the
+    first-order bound P |μ| ε ‖A‖₂ κ(λ) with κ the eigenvalue condition numbers."""
+    lam, Y, X = la.eig(A, left=True, right=True)
+    mu = np.exp(period * lam)
+    phi = np.real((X * mu) @ np.linalg.inv(X))
+    kappa = np.linalg.norm(Y, axis=0) * np.linalg.norm(X, axis=0) / np.abs(np.sum(Y.conj() * X, axis=0))
+    err = float(np.max(period * np.abs(mu) * np.finfo(float).eps * np.linalg.norm(A, 2) * kappa))
+    order_ = np.argsort(-np.abs(mu), kind="stable")
+    mono = Monodromy(phi=phi, multipliers=mu[order_], period=float(period), start=float(start), steps=1, order=0,
+                     error=err, phi_error=err / max(float(np.max(np.abs(mu))), 1e-300), converged=True)
+    return mono, lam, X
 
 
 def periodic_initial_state(mono: Monodromy) -> np.ndarray:

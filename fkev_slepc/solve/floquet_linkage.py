@@ -15,6 +15,9 @@ How:
 2. Lagrangian cases (``LAGRANGIAN_CASES``) are integrated in canonical coordinates (q, p),
    p = M q̇ + Ω N₁ q, where A is Hamiltonian when undamped: each Magnus step is then exactly
    symplectic, so |μ| = 1 holds to round-off wherever the exact system is stable, and det Φ = 1.
+   A lone rotating link is integrated in its own frame, where the generator is constant
+   (:meth:`PeriodicSystem.link_frame`); wherever the samples agree to round-off the monodromy is
+   one exponential, exp(2π A) (two Magnus steps and one for the error estimate: exact).
    ``no_coriolis`` and ``no_tangential`` drop one half of a Lagrangian term and are not
    Hamiltonian; they use the state (q, q̇). Both are scaled DOF by DOF (q̂ᵢ = dᵢqᵢ,
    p̂ᵢ = pᵢ/dᵢ, dᵢ = (Mᵢᵢ Kᵢᵢ)^¼), which keeps the canonical structure; the scaling is fixed
@@ -47,9 +50,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as la
 
-from fkev_slepc.solve.floquet import Monodromy, TrigInterpolant, monodromy, to_dense
+from fkev_slepc.solve.floquet import Monodromy, TrigInterpolant, exponential_monodromy, monodromy, to_dense
 from fkev_slepc.solve.floquet_reduce import compress, frozen_pool
-from fkev_slepc.solve.periodic_system import Coefficients, PeriodicSystem
+from fkev_slepc.solve.periodic_system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.solve.floquet_truncation import (
     AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge, resolve_reduce,
 )
@@ -93,11 +96,10 @@ class LinkageFloquet:
         return self.monodromy.error + self.interp_multiplier_error
 
 
-def _unwrapped_exponents(mono: Monodromy, c: Coefficients, d, omega: float) -> np.ndarray:
+def _unwrapped_exponents(mu, X, c: Coefficients, d, omega: float) -> np.ndarray:
     """log(μ)|Ω|/2π with Im shifted by a multiple of |Ω| to the mode's frequency (Rayleigh
     quotient of the eigenvector's q part, the Floquet solution's shape at the start angle, on the
     frozen stiffness and mass there)."""
-    mu, X = la.eig(mono.phi)
     n = c.M.shape[1]
     q = X[:n] / d[:, None]
     Mb, Kb = c.M[0], c.K[0]
@@ -126,7 +128,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                         reduce: int | str | None = None, basis_angles: int = AUTO_ANGLES,
                         threshold: float = 1e-10, reduce_tol: float = REDUCE_TOL,
                         max_basis: int | None = None, check_truncation: bool = True,
-                        basis: np.ndarray | None = None, comm=None) -> LinkageFloquet:
+                        basis: np.ndarray | None = None, comm=None, progress=None) -> LinkageFloquet:
     """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
 
     ``reduce``: None (the full model), ``"default"`` (``"auto"`` where :func:`full_min_steps`
@@ -135,7 +137,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False).
     ``basis``: an explicit co-rotated basis V̂ (n, R) instead. ``comm``: an MPI communicator whose
-    ranks share every monodromy's steps (collective; one speed on several ranks)."""
+    ranks share every monodromy's steps (collective; one speed on several ranks).
+    ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`)."""
     from fkev_slepc.model.operators import Model
 
     if not np.isfinite(omega) or omega == 0.0:
@@ -149,7 +152,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         reduce = "auto" if full_min_steps(model, omega, case, damping, start) >= AUTO_MIN_STEPS else None
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
-                    interp_tol=interp_tol, comm=comm)
+                    interp_tol=interp_tol, comm=comm, progress=progress)
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
         n = int(model.n_free)
@@ -165,15 +168,21 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         return replace(res, truncation=between(ref, res, r, reduce_tol, [
             (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
     system = PeriodicSystem(model, omega, case, damping=damping, basis=basis, start=start)
+    system = system.link_frame() or system  # a lone rotating link: constant in its own frame
     interp = system.interpolant(samples, interp_tol)
     gen = interp.generator
-    # the step must resolve the fastest oscillation: h·ρ(A) <= 1 on the coarse half of the
-    # step doubling (Magnus is exact for constant A, but the linkage's A turns with the links)
-    rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
-    mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=tol,
-                     min_steps=int(np.ceil(2.0 * TWO_PI * rho)), comm=comm)
+    if spread(gen.S) <= CONSTANT_TOL:  # constant A: Φ = exp(2π A), by its eigenvalues
+        mono, lam, X = exponential_monodromy(gen.S[0], TWO_PI, system.start)
+        mu = np.exp(TWO_PI * lam)
+    else:
+        # the step must resolve the fastest oscillation: h·ρ(A) <= 1 on the coarse half of the
+        # step doubling (Magnus is exact for constant A, but the linkage's A turns with the links)
+        rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
+        mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=tol,
+                         min_steps=int(np.ceil(2.0 * TWO_PI * rho)), comm=comm, progress=progress)
+        mu, X = la.eig(mono.phi)
     c = system.coefficients(np.array([system.start]))
-    mu, s = _unwrapped_exponents(mono, c, system.dof_scaling, omega)
+    mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|
     bound = TWO_PI * interp.error * interp.peak * mono.max_abs
     return LinkageFloquet(float(omega), case, mu, s, mono, interp.error, interp.samples, int(model.n_free),

@@ -28,6 +28,15 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
     the exact generator at the midpoints to ``tol`` (relative to max|A|); ``error`` the last
     measured value (the midpoints then join the samples).
 
+``link_frame() -> PeriodicSystem | None``
+    the same system in co-rotating link-frame coordinates q = W(θ) q̂ (every node translation in
+    its link's frame: :mod:`fkev_slepc.solve.floquet_reduce` with the whole space as basis, an
+    exact change of variables) where its generator is constant to round-off (``CONSTANT_TOL`` at
+    ``CONSTANT_ANGLES`` angles): a lone rotating link. None otherwise. Then the monodromy is one
+    exponential and the periodic response one static solve (issue 24 item 3).
+``frame(θ) -> W (len(θ), n, n)``: that change of variables at crank angles θ.
+``spread(X) -> float``: the relative spread of a stack over its first axis (0: constant).
+
 The crank angle runs θ = start + sign(Ω)·τ, τ ∈ [0, 2π] the angle the generator and the
 interpolant take (a negative Ω turns the crank backwards).
 """
@@ -42,10 +51,13 @@ import numpy as np
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.model.process_loads import process_load_vectors
 from fkev_slepc.solve.floquet import TrigInterpolant, state_matrix, to_dense
-from fkev_slepc.solve.floquet_reduce import reduced_coefficients
+from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.solve.floquet_reduce import corotated_pairs, reduced_coefficients, rotate_rows
 
 TWO_PI = 2.0 * np.pi
 SCALING_ANGLES = 16  # angles whose mean diagonals fix the DOF scaling of the generator
+CONSTANT_ANGLES = 5  # angles at which a link-frame generator (and load) is tested for constancy
+CONSTANT_TOL = 1e-13  # relative spread (max|X(θ) - X(θ₀)| / max|X|) that counts as constant
 
 
 @dataclass(frozen=True)
@@ -166,7 +178,8 @@ class PeriodicSystem:
         """The generator's trigonometric interpolant, samples doubled until its relative error at
         the midpoints is <= ``tol`` or ``max_samples`` are held (see the module docstring)."""
         k = max(4, 2 * (int(samples) // 2))
-        S = self.generator(TWO_PI * np.arange(k) / k)
+        # the scaling's reference angles are the first samples when as many: computed once
+        S = self.generator_of(self.reference) if k == SCALING_ANGLES else self.generator(TWO_PI * np.arange(k) / k)
         while True:
             tau_mid = TWO_PI * (np.arange(k) + 0.5) / k
             mid = self.generator(tau_mid)
@@ -176,3 +189,27 @@ class PeriodicSystem:
             S, k = both, 2 * k
             if err <= tol or k >= max_samples:
                 return Interpolated(TrigInterpolant(0.0, S), err, k)
+
+    def frame(self, theta) -> np.ndarray:
+        """W (len(θ), n, n): q = W q̂ with each free node translation in its link's frame."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        mech = self.model.mechanism
+        pairs = corotated_pairs(mech)
+        phi = solve_kinematics(mech, theta).phi[:, pairs[2]]
+        eye = np.eye(int(self.model.n_free))
+        return np.stack([rotate_rows(eye, pairs, p) for p in phi])
+
+    def link_frame(self) -> "PeriodicSystem | None":
+        """This system in link-frame coordinates where its generator is constant, else None."""
+        if self.basis is not None or len(self.model.mechanism.link_names) != 1:
+            return None
+        frame = PeriodicSystem(self.model, self.omega, self.case, damping=self.damping, gravity=self.gravity,
+                               basis=np.eye(int(self.model.n_free)), start=self.start)
+        tau = TWO_PI * np.arange(CONSTANT_ANGLES) / CONSTANT_ANGLES
+        return frame if spread(frame.generator(tau)) <= CONSTANT_TOL else None
+
+
+def spread(X: np.ndarray) -> float:
+    """max |X_j - X_0| / max |X| over the first axis (0 for a constant stack)."""
+    X = np.asarray(X, dtype=float)
+    return float(np.max(np.abs(X - X[:1])) / max(np.max(np.abs(X)), 1e-300))

@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.solve.response_hb import HarmonicResponse, harmonic_balance
+from fkev_slepc.solve.periodic_system import CONSTANT_ANGLES, CONSTANT_TOL, spread
+from fkev_slepc.solve.response_hb import HarmonicResponse, harmonic_balance, harmonics_of
 from fkev_slepc.solve.response_shooting import ShootingResponse, shooting
 
 
@@ -56,19 +57,46 @@ class PeriodicResponse:
 
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,
-                      shoot: bool = True, shooting_tol: float = 1e-11) -> PeriodicResponse:
+                      shoot: bool = False, shooting_tol: float = 1e-11) -> PeriodicResponse:
     """Harmonic balance (and, with ``shoot``, shooting at the same angles) of ``system``
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
-    :class:`~fkev_slepc.solve.periodic_system.PeriodicSystem`).
+    :class:`~fkev_slepc.solve.periodic_system.PeriodicSystem`). Where the system and its load are
+    constant in the link frame (:func:`static_response`) the harmonic balance is that one static
+    solve, whatever ``harmonics``.
 
     Raises ``response_shooting.ResonanceError`` where (I − Φ) is singular to working precision."""
     sh = None
     if shoot:  # first: it refuses an exact resonance before the collocation solves a singular system
         sh = shooting(system.mck, system.load, omega, np.zeros(1), tol=shooting_tol)
-    hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol)
+    hb = static_response(system)
+    if hb is None:
+        hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol)
     if sh is not None:
         sh = _resample(sh, hb.theta, system, omega)
     return PeriodicResponse(float(omega), case, hb, sh)
+
+
+def static_response(system) -> HarmonicResponse | None:
+    """The periodic response of a system whose coefficients and load are constant in the link frame
+    (a lone rotating link without gravity: ``system.link_frame()``), else None: in link-frame
+    coordinates q = W(θ)q̂ the response is the constant q̂ of one static solve K̂ q̂ = Wᵀf (harmonic
+    balance at zero harmonics); in the global DOFs it has the harmonics 0 and 1 of W(θ) exactly.
+    ``error``: the larger spread of the link-frame generator and load over the angles tested."""
+    frame = system.link_frame() if hasattr(system, "link_frame") else None
+    if frame is None:
+        return None
+    th = frame.angle(2.0 * np.pi * np.arange(CONSTANT_ANGLES) / CONSTANT_ANGLES)
+    f_hat = np.einsum("kij,ki->kj", frame.frame(th), system.load(th))
+    if spread(f_hat) > CONSTANT_TOL:
+        return None
+    K = frame.coefficients(th[:1]).K[0]
+    q_hat = np.linalg.solve(K, f_hat[0])
+    theta = 2.0 * np.pi * np.arange(3) / 3
+    q = frame.frame(theta) @ q_hat
+    c = harmonics_of(q)
+    dq = np.real(1j * np.exp(1j * theta)[:, None] * c[1][None, :])
+    err = max(spread(frame.generator(frame.angle(th))), spread(f_hat))
+    return HarmonicResponse(theta, q, dq, c, err, float(1.0 / np.linalg.cond(K, 1)))
 
 
 def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:

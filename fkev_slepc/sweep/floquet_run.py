@@ -42,6 +42,7 @@ from fkev_slepc.status import Status
 from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples
 from fkev_slepc.sweep.parallel import local
 from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
+from fkev_slepc.sweep.progress import Progress
 from fkev_slepc.sweep.units import pending
 
 log = logging.getLogger(__name__)
@@ -64,19 +65,24 @@ class FloquetRequest(ProductRequest):
     reduce: int | str | None = None  # frozen-mode reduction: None (full model), "auto" or r modes per angle
 
 
-def _evaluator(model, case: str, tol: float, reduce=None, comm=None):
+def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False, comm=None):
     """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised). Reduced
     (``reduce``), the point's error adds the truncation change of max|μ| (so that it enters the verdict's
-    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures. ``comm``: the
+    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures. With
+    ``progress`` each speed's Magnus runs are reported on stderr (:class:`_SpeedProgress`). ``comm``: the
     ranks that share each monodromy's steps (collective evaluation)."""
     from fkev_slepc.solve.floquet_linkage import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
     def evaluate(speed: float) -> tuple[SpeedPoint, str]:
+        report = _SpeedProgress(float(speed)) if progress else None
         try:
-            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce, comm=comm)
+            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce, comm=comm, progress=report)
         except recoverable_errors() as exc:
             return SpeedPoint(float(speed), np.zeros(0, complex), float("nan"), False), f"{type(exc).__name__}: {exc}"
+        finally:
+            if report is not None:
+                report.close()
         point, t = SpeedPoint.of(speed, res), res.truncation
         if t is not None:
             evaluate.reduction[float(speed)] = {"basis": res.basis, "max_abs": t.max_abs, "converged": t.converged,
@@ -86,6 +92,31 @@ def _evaluator(model, case: str, tol: float, reduce=None, comm=None):
 
     evaluate.reduction = {}
     return evaluate
+
+
+class _SpeedProgress:
+    """A progress line per Magnus run of one speed (steps done / steps of the run, rate, ETA of the run;
+    the step count doubles until the monodromy reaches its tolerance) once the speed has taken
+    ``QUIET_S`` seconds: sweep/progress.Progress (a tqdm bar on a terminal, else a line every 10 s)."""
+
+    QUIET_S = 5.0  # a speed solved faster says nothing
+
+    def __init__(self, speed: float):
+        self.speed, self.bar, self.steps, self.t0 = speed, None, None, time.monotonic()
+
+    def __call__(self, done: int, steps: int) -> None:
+        if time.monotonic() - self.t0 < self.QUIET_S:
+            return
+        if steps != self.steps:
+            self.close()
+            self.bar, self.steps = Progress(steps, label=f"fkev floquet: {self.speed:g} rad/s, run of {steps} Magnus "
+                                            "steps", unit="steps"), steps
+        self.bar(done, steps)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
 
 
 def _engine_available() -> None:
@@ -126,11 +157,12 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
                                 request.resume, comm, same=lambda p: not _settings_differ(p, request, n_index))
     speeds = np.asarray(sc.driver.speeds, dtype=float)
     evaluate = evaluator(model, request.case, request.monodromy_tol) if evaluator else _evaluator(
-        model, request.case, request.monodromy_tol, request.reduce)
+        model, request.case, request.monodromy_tol, request.reduce, progress=notify is not None)
     todo = pending(status)
     # fewer speeds than ranks: every rank works on each speed, its monodromy's steps split over them
     split = evaluator is None and comm.size > 1 and 0 < int(todo.sum()) < comm.size
-    grid_evaluate = _evaluator(model, request.case, request.monodromy_tol, request.reduce, comm) if split else evaluate
+    grid_evaluate = _evaluator(model, request.case, request.monodromy_tol, request.reduce,
+                               progress=notify is not None and comm.rank == 0, comm=comm) if split else evaluate
 
     def solve(unit, mask):
         js, jc = unit

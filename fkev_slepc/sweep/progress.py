@@ -16,8 +16,8 @@ class Progress:
     Called as ``progress(done, total)`` by :meth:`fkev_slepc.sweep.runner.Sweep.run`.
     """
 
-    def __init__(self, total: int, every: float = 10.0, stream=None):
-        self.total, self.every = total, every
+    def __init__(self, total: int, every: float = 10.0, stream=None, label: str = "fkev run", unit: str = "points"):
+        self.total, self.every, self.label, self.unit = total, every, label, unit
         self.stream = stream or sys.stderr
         self.t0 = self._last = time.monotonic()
         self.bar = None
@@ -25,7 +25,8 @@ class Progress:
             try:
                 from tqdm import tqdm
 
-                self.bar = tqdm(total=total, unit="pt", file=self.stream, dynamic_ncols=True)
+                self.bar = tqdm(total=total, unit="pt" if unit == "points" else unit, file=self.stream,
+                                dynamic_ncols=True, desc=None if label == "fkev run" else label)
             except ImportError:  # pragma: no cover - tqdm is part of the stack
                 self.bar = None
         self.done = 0
@@ -37,10 +38,10 @@ class Progress:
         self.done = done
         if self.bar is None and (now - self._last >= self.every or done >= total):
             self._last = now
-            print(self.line(done, total, now - self.t0), file=self.stream, flush=True)
+            print(self.line(done, total, now - self.t0, self.label, self.unit), file=self.stream, flush=True)
 
     @staticmethod
-    def line(done: int, total: int, elapsed: float) -> str:
+    def line(done: int, total: int, elapsed: float, label: str = "fkev run", unit: str = "points") -> str:
         """One progress line.
 
         Examples
@@ -52,7 +53,7 @@ class Progress:
         eta = (total - done) / rate if rate > 0 else float("nan")
         eta_s = time.strftime("%H:%M:%S", time.gmtime(eta)) if np.isfinite(eta) else "?"
         pct = 100.0 * done / total if total else 100.0
-        return f"fkev run: {done}/{total} points ({pct:.0f}%), {rate:.1f} points/s, ETA {eta_s}"
+        return f"{label}: {done}/{total} {unit} ({pct:.0f}%), {rate:.1f} {unit}/s, ETA {eta_s}"
 
     def close(self) -> None:
         if self.bar is not None:
