@@ -135,13 +135,8 @@ def build_mechanism(scene: Scene) -> Mechanism:
     else:
         fixed[3 * mesh.point_node[driver, 0] + 2] = True  # driven crank: clamped root (§9.3)
 
-    keep = (rep == np.arange(rep.size)) & ~fixed
-    free_index = -np.ones(rep.size, dtype=int)
-    free_index[keep] = np.arange(int(keep.sum()))
-    dof_of_raw = np.where(fixed | fixed[rep], -1, free_index[rep])
-    node_dofs = dof_of_raw.reshape(n_node, 3)
+    node_dofs, n_free = number_dofs(rep, fixed, n_node)
     elem_dofs = np.concatenate([node_dofs[mesh.elem_nodes[:, 0]], node_dofs[mesh.elem_nodes[:, 1]]], axis=1)
-    n_free = int(keep.sum())
     # Internal DOFs of higher-order elements (element_types.py) follow every nodal DOF.
     n_el = mesh.elem_link.size
     n_int = element_type(scene.analysis.element).n_internal
@@ -177,6 +172,16 @@ def build_mechanism(scene: Scene) -> Mechanism:
         mass_link=m_link, mass_local=m_local, mass_value=m_val, mass_inertia=m_inertia, mass_nodes=m_node,
         mass_dofs=mass_dofs, body_mass=body[0], body_centroid=body[1], body_inertia=body[2],
     )  # fmt: skip
+
+
+def number_dofs(rep: np.ndarray, fixed: np.ndarray, n_node: int) -> tuple[np.ndarray, int]:
+    """Free DOF numbers (n_node, 3) (-1: fixed) and their count, from the raw DOFs 3·node + c:
+    ``rep`` the raw DOF each one is merged into (itself if none), ``fixed`` the constrained ones."""
+    keep = (rep == np.arange(rep.size)) & ~fixed
+    free_index = -np.ones(rep.size, dtype=int)
+    free_index[keep] = np.arange(int(keep.sum()))
+    dof_of_raw = np.where(fixed | fixed[rep], -1, free_index[rep])
+    return dof_of_raw.reshape(n_node, 3), int(keep.sum())
 
 
 def _particles(scene: Scene, index, mesh, attach):
