@@ -50,6 +50,11 @@ class Mechanism:
     elem_rho_a: np.ndarray  # mass per unit length
     elem_ea: np.ndarray
     elem_ei: np.ndarray
+    # out-of-plane bending and torsion (NaN where the scene gives no out-of-plane data)
+    elem_ei_out: np.ndarray  # E I_out, bending about the in-plane axis normal to the link
+    elem_gj: np.ndarray  # G J, St-Venant torsion
+    elem_rho_ip: np.ndarray  # ρ I_p, torsional rotary inertia per unit length
+    elem_piece: tuple  # the scene Segment of every element (its section and material name)
     elem_dofs: np.ndarray  # (n_el, n_dof): nodal (u1 v1 φ1 u2 v2 φ2), then internal (element_types)
     n_free: int
     # joints
@@ -164,7 +169,8 @@ def build_mechanism(scene: Scene) -> Mechanism:
         node_link=mesh.node_link, node_s=mesh.node_s, node_local=mesh.node_local,
         node_dofs=node_dofs, node_axis=axis, elem_link=mesh.elem_link, elem_beam=mesh.elem_beam,
         elem_nodes=mesh.elem_nodes, elem_length=mesh.elem_length, elem_s0=mesh.elem_s0,
-        elem_rho_a=mesh.elem_rho_a, elem_ea=mesh.elem_ea, elem_ei=mesh.elem_ei, elem_dofs=elem_dofs,
+        elem_rho_a=mesh.elem_rho_a, elem_ea=mesh.elem_ea, elem_ei=mesh.elem_ei, elem_ei_out=mesh.elem_ei_out,
+        elem_gj=mesh.elem_gj, elem_rho_ip=mesh.elem_rho_ip, elem_piece=mesh.elem_piece, elem_dofs=elem_dofs,
         n_free=n_free, joint_names=tuple(j.name for j in scene.joints), joint_ground=joint_ground,
         joint_guide=guide, joint_guide_point=guide_point, attach=tuple(attach), link_points=mesh.link_points,
         point_node=mesh.point_node,
