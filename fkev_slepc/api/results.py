@@ -62,6 +62,7 @@ class PointResult:
     accuracy: dict | None = None  # with rel_error: the planned element and mesh, and its estimate
     max_pair_error: float = float("nan")  # the engine's acceptance threshold on each reported pair's error
     damping_tol: float = float("nan")  # a mode with damping ratio < -damping_tol is unstable (analysis.damping_tol)
+    plane: str = "in"  # "in": the in-plane problem; "out": bending out of the plane and torsion (theory §19)
 
     @property
     def theta_rad(self) -> float:
@@ -122,6 +123,8 @@ class PointResult:
         >>> s.relative_frequency.round(6), s.method
         (array([0.5, 0.5, 0.5, 0.5]), 'adjoint')
         """
+        if self.plane != "in":
+            raise ValueError(f"sensitivities are in plane only (this point is plane {self.plane!r})")
         from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
 
         from fkev_slepc.model.operators import Model
@@ -177,7 +180,7 @@ class PointResult:
             return None if not np.isfinite(v) else float(v) + 0.0  # + 0.0: no -0.0 (an exact zero Re λ)
 
         out = {"scene": self.title, "angle_deg": self.angle_deg, "speed_rad_s": self.speed_rad_s,
-               "case": self.case, "n_free": self.n_free, "kind": self.kind, "solver": self.solver,
+               "case": self.case, "plane": self.plane, "n_free": self.n_free, "kind": self.kind, "solver": self.solver,
                "frequency_hz": [num(v) for v in self.frequency_hz],
                "eigenvalue": [[num(z.real), num(z.imag)] for z in self.eigenvalues],
                "residual": [num(v) for v in self.pair_error],

@@ -133,7 +133,7 @@ class Study(RunningSpeed):
 
     def point(self, angle_deg: float, speed_rad_s: float, case="full", modes: int | None = None,
               solver: str | None = None, shapes: bool = False, *, cross_check: bool = False,
-              rel_error: float | None = None) -> PointResult:
+              rel_error: float | None = None, plane: str = "in") -> PointResult:
         """Solve one operating point: crank angle (deg), constant crank speed (rad/s), case.
 
         Parameters
@@ -153,6 +153,10 @@ class Study(RunningSpeed):
         rel_error : float, optional
             Re-mesh so that the frequencies are within this relative error (default the scene's
             ``analysis.rel_error``; docs/accuracy.md); the plan is :attr:`PointResult.accuracy`.
+        plane : {"in", "out"}
+            The in-plane problem (default) or the out-of-plane one (bending out of the plane and
+            torsion, docs/theory.md §19; needs every link's out-of-plane section data; no
+            ``shapes``, ``rel_error`` or sensitivities yet).
 
         Raises
         ------
@@ -175,10 +179,11 @@ class Study(RunningSpeed):
         """
         from fkev_slepc.api.point import solve_point
 
-        return solve_point(self.pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error)
+        return solve_point(self.pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error,
+                           plane)
 
     def critical(self, case="full", angle_deg: float | None = None, max_speed_rad_s: float | None = None,
-                 modes: int | None = None, solver: str | None = None):
+                 modes: int | None = None, solver: str | None = None, plane: str = "in"):
         """Divergence (buckling) and flutter onset speeds of ``case``: the code path of ``fkev critical``.
 
         Divergence: the lowest Ω at which K(Ω) = K₀ + Ω²K₂ is singular, an eigenproblem in Ω²;
@@ -196,6 +201,9 @@ class Study(RunningSpeed):
             divergence speed, else ``DEFAULT_MAX_FACTOR`` x the scene's top speed).
         modes, solver
             Modes whose damping is watched and the engine (default the scene's).
+        plane : {"in", "out"}
+            The in-plane problem (default) or the out-of-plane one (docs/theory.md §19): its
+            divergence is the weak-axis buckling of a compressed link; it has no flutter.
 
         Returns
         -------
@@ -214,7 +222,7 @@ class Study(RunningSpeed):
         """
         from fkev_slepc.api.point import critical_scan
 
-        return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver)
+        return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver, plane)
 
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
