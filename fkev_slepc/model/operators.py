@@ -101,6 +101,16 @@ class Model:
         self.pattern = Pattern(mech.elem_dofs, mech.n_free)
         self.terms = {t for t in terms_used(self.cases) if self._terms(t)}
 
+    @property
+    def lumped(self) -> tuple:
+        """The lumped-mass diagonal ((dofs, values), ...), added to M in this order: masses on the
+        translations and rotary inertias on Φ in plane, masses on w out of plane."""
+        return self._lumped
+
+    def case_terms(self, case: str):
+        """The motion terms ``case`` keeps in this model's plane (Table 3.1; §19.6 out of plane)."""
+        return self._case(case, 0.0)[0]
+
     @cached_property
     def kinetostatic_plan(self):
         """The kinetostatic unknowns of the mechanism (angle-independent; kinetostatics.unknowns)."""
