@@ -117,3 +117,25 @@ def test_bad_out_of_plane_arguments_are_named(capsys, tmp_path):
         st.point(10, 0, "full", plane="z")
     with pytest.raises(SceneError, match="shapes: out-of-plane mode shapes are not available yet"):
         st.point(10, 0, "full", plane="out", shapes=True)
+
+
+def test_fkev_critical_plane_out_weak_axis_buckling_of_the_flat_rod(capsys):
+    """``fkev critical --plane out`` at bottom dead centre: the rod, compressed by the carriage's
+    and its own inertia, buckles about its weak axis when its mean compression reaches an Euler
+    load between the clamped-pinned (2.046 π²EI_out/L²) and clamped-clamped (4 π²EI_out/L²) ones
+    (the slider clamps one end, the crank's torsion nearly clamps the other); no flutter out of plane."""
+    from fkev_slepc.model.operators import Model
+
+    try:
+        code = main(["critical", str(FLAT), "--plane", "out", "--angle", "180", "--json"])
+    except SystemExit as exc:
+        code = exc.code
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["plane"] == "out" and out["n_free"] == 27 and out["flutter_speed_rad_s"] is None
+    w = out["divergence_speed_rad_s"]
+    model = Model(load(FLAT).scene, plane="out")
+    c = model.angle_state(np.radians([180.0])).axial[0][0]  # per Ω²: F(ξ) = c₀ + c₁ξ + c₂ξ²
+    rod = model.mechanism.elem_link == 1
+    mean = -np.mean(c[rod, 0] + c[rod, 1] / 2 + c[rod, 2] / 3) * w**2
+    ei, L = 2.07e11 * 0.020 * 0.008**3 / 12, 0.16
+    assert 2.046 * np.pi**2 * ei / L**2 < mean < 4 * np.pi**2 * ei / L**2
