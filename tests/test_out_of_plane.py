@@ -305,3 +305,53 @@ def test_bad_out_of_plane_input_is_named():
         Model(scene, plane="out", section=Section(np.array([1.0]), np.array([-1.0]), np.array([1.0])))
     with pytest.raises(ValueError, match="out-of-plane section data"):
         Model(scene, plane="out")
+
+
+def test_compliant_bearings_against_independent_assembly():
+    """Bahgat–Willmert at rest with a compliant joint A (crank and coupler share w only; their
+    rotations tied by k_t about the crank's axis and k_b across it) and a compliant ground bearing
+    O2 (the follower's rotations tied to ground): the Model equals a grillage assembled here with
+    the springs (1/2)k_t(Δθ·e)² + (1/2)k_b(Δθ·e⊥)²; very stiff bearings give the rigid joints."""
+    E, rho = 2.07e11, 7760.0
+    scene = bahgat_willmert(elements=(1, 2, 2), cases=("structure",))
+    sec = rect_section(scene, E, rho)
+    k = {"A": (300.0, 800.0), "O2": (500.0, 2000.0)}
+    model = Model(scene, plane="out", section=sec, bearings=k)
+    theta = np.radians(37.0)
+    phi = model.kinematics(theta).phi[0]
+    m = build_mechanism(scene)
+    # nodes: O1=0, A on the crank=1, coupler mid=2, B=3, follower mid=4, O2=5, A on the coupler=6
+    elems = [(0, 1, 0), (6, 2, 1), (2, 3, 1), (5, 4, 2), (4, 3, 2)]
+    dof = {n: np.arange(3 * n, 3 * n + 3) for n in range(7)}
+    dof[6] = np.array([3, 18, 19])  # shares w with node 1, own rotations
+    n = 20
+    M, K = np.zeros((n, n)), np.zeros((n, n))
+    for e, (a, b, lk) in enumerate(elems):
+        Me, Ke = textbook(m.elem_length[e], sec.ei_out[e], sec.gj[e], m.elem_rho_a[e], sec.rho_ip[e], phi[lk])
+        idx = np.r_[dof[a], dof[b]]
+        M[np.ix_(idx, idx)] += Me
+        K[np.ix_(idx, idx)] += Ke
+
+    def spring(rot_a, rot_b, kt, kb, angle):
+        e, en = np.array([np.cos(angle), np.sin(angle)]), np.array([-np.sin(angle), np.cos(angle)])
+        D = kt * np.outer(e, e) + kb * np.outer(en, en)
+        for ra, rb, sign in ((rot_a, rot_a, 1), (rot_b, rot_b, 1), (rot_a, rot_b, -1), (rot_b, rot_a, -1)):
+            if ra is not None and rb is not None:
+                K[np.ix_(ra, rb)] += sign * D
+
+    spring(dof[1][1:], dof[6][1:], *k["A"], phi[0])  # in the crank's axes (the joint's first link)
+    spring(dof[5][1:], None, *k["O2"], phi[2])  # the follower to ground
+    free = np.r_[3:15, 16, 17, 18, 19]  # O1 clamped; O2's w fixed, its rotations on the spring
+    want = eig(M, K, free)
+    assert model.n_free == free.size
+    got = spectrum(model, 37.0, 0.0, "structure", 6).frequency_hz * 2 * np.pi
+    np.testing.assert_allclose(got, want[:6], rtol=1e-10)
+    rigid = spectrum(Model(scene, plane="out", section=sec), 37.0, 0.0, "structure", 4).frequency_hz
+    stiff = spectrum(Model(scene, plane="out", section=sec, bearings={"A": (1e9, 1e9), "O2": (1e9, 1e9)}),
+                     37.0, 0.0, "structure", 4).frequency_hz
+    np.testing.assert_allclose(stiff, rigid, rtol=1e-5)
+    assert np.all(got[:4] / (2 * np.pi) < rigid)  # compliance lowers every frequency
+    with pytest.raises(ValueError, match="bearings.A: two stiffnesses .* .got -1"):
+        Model(scene, plane="out", section=sec, bearings={"A": -1})
+    with pytest.raises(ValueError, match="bearings: unknown joint 'Q'"):
+        Model(scene, plane="out", section=sec, bearings={"Q": (1.0, 1.0)})

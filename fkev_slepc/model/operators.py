@@ -77,9 +77,14 @@ class Model:
         Coriolis or tangential term; the normal term is the twist's propeller moment).
     section : out_of_plane.Section, optional
         Out-of-plane section data per element (default: the mechanism's, from the scene).
+    bearings : dict, optional
+        Out of plane: {joint name: (k_t, k_b)}, compliant joints whose links' rotations about the
+        in-plane axes are tied by springs (N m/rad, about and across the first link's axis, §19.8)
+        instead of shared.
     """
 
-    def __init__(self, scene: Scene, cases: tuple[str, ...] | None = None, plane: str = "in", section=None):
+    def __init__(self, scene: Scene, cases: tuple[str, ...] | None = None, plane: str = "in", section=None,
+                 bearings: dict | None = None):
         if plane not in PLANES:
             raise ValueError(f"plane must be one of {', '.join(PLANES)} (got {plane!r})")
         self.scene = scene
@@ -87,18 +92,24 @@ class Model:
         mech = build_mechanism(scene)
         self.cases = tuple(cases or scene.analysis.cases)
         self.element = et = element_type(scene.analysis.element)
+        self.bearings = None
+        if bearings and plane == "in":
+            raise ValueError("bearings: compliant joints act out of plane only (plane 'out')")
         if plane == "in":
             self.stacks = element_stacks(mech, et)
             # lumped masses and rotary inertias on the mass diagonal, added in this order
             self._lumped = ((mech.mass_dofs[:, :2], mech.mass_value[:, None]), (mech.mass_dofs[:, 2], mech.mass_inertia))
         else:
             section = oop.section_of(mech, section)
-            mech = oop.out_of_plane_mechanism(mech)
+            names = set(bearings or ())
+            oop_mech = oop.out_of_plane_mechanism(mech, {i for i, n in enumerate(mech.joint_names) if n in names})
+            self.bearings = oop.bearings(mech, oop_mech, bearings)
+            mech = oop_mech
             self.stacks = oop.out_of_plane_stacks(mech, section)
             self._lumped = oop.lumped(mech)
         self.mechanism = mech
         self.n_free = mech.n_free
-        self.pattern = Pattern(mech.elem_dofs, mech.n_free)
+        self.pattern = Pattern(mech.elem_dofs, mech.n_free, None if self.bearings is None else self.bearings.dofs)
         self.terms = {t for t in terms_used(self.cases) if self._terms(t)}
 
     @property
@@ -133,8 +144,19 @@ class Model:
         """Every piece the model's cases need at crank angles ``theta`` (rad): CSR data
         (n_θ, nnz) on :attr:`pattern` (NaN rows where ``ok`` is False). Computed in blocks of
         angles whose temporaries stay near :data:`BLOCK_FLOATS` floats each."""
-        return self._by_blocks(theta, lambda state: assemble_pieces(
-            self.stacks, self.pattern, state, self.terms, self._lumped, self.scene.damping))
+        def build(state):
+            stack = assemble_pieces(self.stacks, self.pattern, state, self.terms, self._lumped, self.scene.damping)
+            bearing = self.bearing_data(state)
+            return stack if bearing is None else dataclasses.replace(stack, structural=stack.structural + bearing)
+
+        return self._by_blocks(theta, build)
+
+    def bearing_data(self, state: AngleState) -> np.ndarray | None:
+        """The compliant bearings' stiffness (n_θ, nnz) at the angles of ``state`` (None without any;
+        part of K_s, not of its Rayleigh damping β K_s)."""
+        if self.bearings is None:
+            return None
+        return self.pattern.scatter_extra(self.bearings.stack(state.kinematics.phi))
 
     def load_pieces(self, theta) -> LoadPieces:
         """The rigid-body inertia loads at crank angles ``theta`` (rad; model/loads.py): vectors
@@ -161,8 +183,8 @@ class Model:
         if not stack.ok[i]:
             raise AssemblyError.at(stack.theta[i])
         mech = self.mechanism
-        staged = StagedStiffness(self.stacks.strain, self.stacks.strain_weight, stack.state.T[i], mech.elem_dofs,
-                                 mech.n_free, self._gather)
+        staged = None if self.bearings is not None else StagedStiffness(  # bearings are not in the strains
+            self.stacks.strain, self.stacks.strain_weight, stack.state.T[i], mech.elem_dofs, mech.n_free, self._gather)
         row = (lambda a: None if a is None else a[i])  # noqa: E731
         pair = (lambda a: None if a is None else (a[0][i], a[1][i]))  # noqa: E731
         return OperatorPieces(float(stack.theta[i]), stack.mass[i], stack.structural[i], row(stack.coriolis),

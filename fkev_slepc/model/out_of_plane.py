@@ -132,19 +132,26 @@ class OutOfPlaneElement:
 
 
 # -- the mechanism out of plane ---------------------------------------------------------------
-def out_of_plane_mechanism(mech: Mechanism) -> Mechanism:
+def _grounded(mech: Mechanism, jj: int) -> bool:
+    """A ground bearing or a slider's guide: joint ``jj`` holds its link points to ground."""
+    return not (np.isnan(mech.joint_ground[jj, 0]) and np.isnan(mech.joint_guide[jj, 0]))
+
+
+def out_of_plane_mechanism(mech: Mechanism, compliant=frozenset()) -> Mechanism:
     """``mech`` with its DOFs numbered out of plane (§19.8): per node (θ_X, θ_Y, w); a revolute pin
     shares all three between the links it joins; ground bearings, prismatic joints (the slider
-    block in its guide) and hence the driver's root fix all three. Lumped masses sit on w
-    (``mass_dofs`` column 2); ``node_axis`` is the ground X everywhere (no slider node frames).
-    Geometry, rigid motion and kinetostatics are those of ``mech``."""
+    block in its guide) and hence the driver's root fix all three. The joints of index in
+    ``compliant`` share (or fix) w only: their rotations are tied by :class:`Bearings` springs.
+    Lumped masses sit on w (``mass_dofs`` column 2); ``node_axis`` is the ground X everywhere (no
+    slider node frames). Geometry, rigid motion and kinetostatics are those of ``mech``."""
     n_node = mech.node_link.size
     rep = np.arange(3 * n_node)
     fixed = np.zeros(3 * n_node, dtype=bool)
     for jj, here in enumerate(mech.attach):
-        raw = 3 * np.array([mech.point_node[lk, k] for lk, k in here])[:, None] + np.arange(3)
+        comps = [2] if jj in compliant else [0, 1, 2]
+        raw = 3 * np.array([mech.point_node[lk, k] for lk, k in here])[:, None] + np.array(comps)
         rep[raw] = raw[0]
-        if not (np.isnan(mech.joint_ground[jj, 0]) and np.isnan(mech.joint_guide[jj, 0])):
+        if _grounded(mech, jj):
             fixed[raw] = True
     node_dofs, n_free = number_dofs(rep, fixed, n_node)
     elem_dofs = np.concatenate([node_dofs[mech.elem_nodes[:, 0]], node_dofs[mech.elem_nodes[:, 1]]], axis=1)
@@ -152,6 +159,51 @@ def out_of_plane_mechanism(mech: Mechanism) -> Mechanism:
     mass_dofs[:, 2] = node_dofs[mech.mass_nodes, 2]
     return dataclasses.replace(mech, node_dofs=node_dofs, elem_dofs=elem_dofs, n_free=n_free, mass_dofs=mass_dofs,
                                node_axis=np.tile([1.0, 0.0], (n_node, 1)))
+
+
+@dataclass(frozen=True)
+class Bearings:
+    """Rotational springs of compliant joints out of plane (§19.8): each of the joint's link points
+    (after the first; every one at a ground joint) is tied to the first's rotations (to ground) by
+    k_t about the first link's axis e and k_b about e⊥, (1/2)Δθᵀ Rᵀ diag(k_t, k_b) R Δθ."""
+
+    dofs: np.ndarray  # (n_b, 6): (θ_X, θ_Y, -1) of the two sides (-1: ground)
+    link: np.ndarray  # (n_b,) the link whose axes the spring uses
+    local: np.ndarray  # (n_b, 6, 6) in those axes (ψ, β, w per side)
+
+    def stack(self, link_phi: np.ndarray) -> np.ndarray:
+        """The springs in ground DOFs, (n_θ, n_b, 6, 6), for the link angles (n_θ, n_link)."""
+        phi = link_phi[:, self.link]
+        T = el.rotation(phi.ravel()).reshape(phi.shape + (6, 6))
+        return el.to_global(self.local, T)
+
+
+def bearings(mech: Mechanism, oop_mech: Mechanism, stiffness: dict) -> Bearings | None:
+    """The :class:`Bearings` of ``stiffness`` {joint name: (k_t, k_b)} (N m/rad, > 0) on the
+    out-of-plane numbering ``oop_mech`` (None without any); ValueError naming a bad joint or value."""
+    if not stiffness:
+        return None
+    dofs, link, local = [], [], []
+    for name, k in stiffness.items():
+        if name not in mech.joint_names:
+            raise ValueError(f"bearings: unknown joint {name!r}; known: {', '.join(mech.joint_names)}")
+        kt, kb = (np.broadcast_to(np.asarray(k, dtype=float), (2,)) if np.ndim(k) <= 1 else (np.nan,) * 2)
+        if not (np.isfinite(kt) and np.isfinite(kb) and kt > 0 and kb > 0):
+            raise ValueError(f"bearings.{name}: two stiffnesses (about the link, across it) finite and > 0, "
+                             f"N m/rad (got {k!r})")
+        jj = mech.joint_names.index(name)
+        here = mech.attach[jj]
+        nodes = [int(mech.point_node[lk, kk]) for lk, kk in here]
+        D = np.zeros((6, 6))
+        D[[0, 1], [0, 1]] = D[[3, 4], [3, 4]] = (kt, kb)
+        D[[0, 1], [3, 4]] = D[[3, 4], [0, 1]] = (-kt, -kb)
+        sides = [(n, -1) for n in nodes] if _grounded(mech, jj) else [(n, nodes[0]) for n in nodes[1:]]
+        for a, b in sides:
+            rot = lambda n: oop_mech.node_dofs[n, :2] if n >= 0 else np.array([-1, -1])  # noqa: E731
+            dofs.append(np.r_[rot(a), -1, rot(b), -1])
+            link.append(here[0][0])
+            local.append(D)
+    return Bearings(np.array(dofs, dtype=int), np.array(link, dtype=int), np.array(local))
 
 
 def lumped(mech: Mechanism) -> tuple:

@@ -130,6 +130,8 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
         damping_k = pat.scatter(g(-dp * ((a_d * m + b_d * ks) @ E)))
         if mech.mass_value.size and a_d:
             damping_k = _lumped_frame_damping(pat, damping_k, mech, state.kinematics, a_d)
+    bearing = model.bearing_data(state)  # compliant joints out of plane: a potential, not damped (§19.8)
+    stiff = stiff if bearing is None else stiff + bearing
     return PeriodicPieces(thetas, case, mass, gyro, stiff, speed, coupling, potential, damping, damping_k)
 
 
