@@ -139,3 +139,35 @@ def test_fkev_critical_plane_out_weak_axis_buckling_of_the_flat_rod(capsys):
     mean = -np.mean(c[rod, 0] + c[rod, 1] / 2 + c[rod, 2] / 3) * w**2
     ei, L = 2.07e11 * 0.020 * 0.008**3 / 12, 0.16
     assert 2.046 * np.pi**2 * ei / L**2 < mean < 4 * np.pi**2 * ei / L**2
+
+
+def test_scene_bearing_stiffness_is_the_model_bearing(tmp_path, capsys):
+    """``bearing_stiffness_nm_rad = [k_t, k_b]`` on a joint is ``Model(..., bearings=...)``, in the
+    scene's units (N mm/rad under mm-N-t); a bad value is one problem naming the key."""
+    from fkev_slepc.model.operators import Model
+    from builders import frequencies
+
+    base = with_out_of_plane(BW, BW_OUT, tmp_path)
+    text = base.read_text().replace('name = "A"\n', 'name = "A"\nbearing_stiffness_nm_rad = [300.0, 800.0]\n')
+    path = tmp_path / "bearing.toml"
+    path.write_text(text)
+    st = load(path)
+    got = st.point(37, 0, "structure", plane="out").frequency_hz
+    rigid = load(base).point(37, 0, "structure", plane="out").frequency_hz
+    model = Model(load(base).scene, plane="out", bearings={"A": (300.0, 800.0)})
+    np.testing.assert_allclose(got, frequencies(model, 37, 0, "structure").frequency_hz, rtol=1e-12)
+    assert np.all(got < rigid)
+    assert st.scene.joints[1].bearing_stiffness == (300.0, 800.0)
+    mm = tmp_path / "mm.toml"
+    mm.write_text(text.replace("[300.0, 800.0]", "[3e5, 8e5]") + '\n[units]\nsystem = "mm-N-t"\n')
+    from fkev_slepc.scene import load_scene
+
+    assert load_scene(mm).joints[1].bearing_stiffness == pytest.approx((300.0, 800.0), rel=1e-12)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("[300.0, 800.0]", "[0.0, 800.0]"))
+    try:
+        code = main(["check", str(bad)])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and "joints[1].bearing_stiffness_nm_rad: must be two stiffnesses > 0, N m/rad" in err

@@ -80,7 +80,7 @@ class Model:
     bearings : dict, optional
         Out of plane: {joint name: (k_t, k_b)}, compliant joints whose links' rotations about the
         in-plane axes are tied by springs (N m/rad, about and across the first link's axis, §19.8)
-        instead of shared.
+        instead of shared (default: the scene's joints' ``bearing_stiffness_nm_rad``).
     """
 
     def __init__(self, scene: Scene, cases: tuple[str, ...] | None = None, plane: str = "in", section=None,
@@ -101,7 +101,9 @@ class Model:
             self._lumped = ((mech.mass_dofs[:, :2], mech.mass_value[:, None]), (mech.mass_dofs[:, 2], mech.mass_inertia))
         else:
             section = oop.section_of(mech, section)
-            names = set(bearings or ())
+            if bearings is None:  # the scene's compliant joints
+                bearings = {j.name: j.bearing_stiffness for j in scene.joints if j.bearing_stiffness is not None}
+            names = set(bearings)
             oop_mech = oop.out_of_plane_mechanism(mech, {i for i, n in enumerate(mech.joint_names) if n in names})
             self.bearings = oop.bearings(mech, oop_mech, bearings)
             mech = oop_mech

@@ -145,6 +145,8 @@ class Joint:
     assembly: str = "left"  # dyad branch: left/right of the ray P->Q; slider: ahead/behind
     guide_angle: float = 0.0  # prismatic: direction of the guide from +x (rad)
     slider_mass: float = 0.0  # prismatic: mass of the slider block (kg)
+    # out of plane: rotational stiffness (about, across the first link's axis), N m/rad; None: rigid
+    bearing_stiffness: tuple[float, float] | None = None
 
     @property
     def prismatic(self) -> bool:

@@ -33,7 +33,7 @@ OPTIONAL = parts.OPTIONAL  # optional section keys (TOML key -> Link/Segment fie
 BUCKLING_KEY = "buckling_length_factor"
 LINK_DEFAULT_KEYS = (*LINK_PROPERTIES, "elements", shapes.SECTION_KEY, *OPTIONAL, materials.MATERIAL_KEY, BUCKLING_KEY)
 LINK_KEYS = ("name", *LINK_DEFAULT_KEYS, "segments", *parts.TERNARY_KEYS)
-JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISMATIC_KEYS)
+JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISMATIC_KEYS, "bearing_stiffness_nm_rad")
 JOINT_TYPES = ("revolute", "prismatic")
 ASSEMBLIES = ("left", "right")
 DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
@@ -175,9 +175,13 @@ def read_joints(r: Reader, doc, link_names: list[str] | None, ternary: set[str] 
                     ends = None
                 else:
                     used[end] = (name, path)
+        bearing = r.point(item, "bearing_stiffness_nm_rad", path, default=None)  # out of plane (theory §19.8)
+        if bearing is not None and min(bearing) <= 0:
+            r.add(join(path, "bearing_stiffness_nm_rad"), f"must be two stiffnesses > 0, N m/rad (got {show(list(bearing))})")
+        bearing_ok = "bearing_stiffness_nm_rad" not in item or (bearing is not None and min(bearing) > 0)
         ok = None not in (name, jtype, assembly, ends) and (position is not None or not grounded)
-        ok = ok and prismatic_ok
-        out.append(Joint(name, jtype, tuple(ends), position, assembly, angle, slider_mass) if ok else None)
+        ok = ok and prismatic_ok and bearing_ok
+        out.append(Joint(name, jtype, tuple(ends), position, assembly, angle, slider_mass, bearing) if ok else None)
     return out, list(names)
 
 

@@ -55,6 +55,7 @@ DIMENSIONS = {
     "fibre_distance_out_of_plane_m": (1, 0, 0), "shear_modulus_pa": (-2, 1, 0), "yield_pa": (-2, 1, 0),
     "ultimate_pa": (-2, 1, 0), "endurance_pa": (-2, 1, 0),
     "mass_kg": (0, 0, 1), "slider_mass_kg": (0, 0, 1), "inertia_kg_m2": (2, 0, 1),
+    "bearing_stiffness_nm_rad": (1, 1, 0),
 }
 CONVERTED_SECTIONS = ("materials", "link_defaults", "links", "joints", "masses")  # where dimensional keys live
 
