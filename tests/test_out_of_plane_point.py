@@ -115,8 +115,8 @@ def test_bad_out_of_plane_arguments_are_named(capsys, tmp_path):
     st = load(with_out_of_plane(BW, BW_OUT, tmp_path))
     with pytest.raises(SceneError, match="plane: must be one of in, out .got 'z'"):
         st.point(10, 0, "full", plane="z")
-    with pytest.raises(SceneError, match="shapes: out-of-plane mode shapes are not available yet"):
-        st.point(10, 0, "full", plane="out", shapes=True)
+    with pytest.raises(SceneError, match="rel_error: the accuracy plan is in plane only"):
+        st.point(10, 0, "full", plane="out", rel_error=1e-3)
 
 
 def test_fkev_critical_plane_out_weak_axis_buckling_of_the_flat_rod(capsys):
@@ -171,3 +171,35 @@ def test_scene_bearing_stiffness_is_the_model_bearing(tmp_path, capsys):
         code = exc.code
     err = capsys.readouterr().err
     assert code == 2 and "joints[1].bearing_stiffness_nm_rad: must be two stiffnesses > 0, N m/rad" in err
+
+
+def test_out_of_plane_mode_shapes(tmp_path):
+    """shapes=True out of plane: (w, θ_X, θ_Y) per node. The slider-crank's rod is clamped by the
+    slider (w = θ = 0 there); the rotating cantilever's first flapwise mode grows to the tip with
+    the sign convention w' = -β (β = θ_Y for a link along X); the figure has one axes per mode
+    and its twin (the twist)."""
+    from builders import cantilever, rect_strip
+    from fkev_slepc.api.study import Study
+
+    r = load(FLAT).point(90, 0, "structure", modes=2, plane="out", shapes=True)
+    m = r.mode_shape(1)
+    assert m.plane == "out" and m.displacement.shape == (r.mesh.node_link.size, 3)
+    tip = np.flatnonzero(r.mesh.node_link == 1)[np.argmax(r.mesh.node_s[r.mesh.node_link == 1])]
+    assert np.all(m.displacement[tip] == 0)  # the slider's node
+    fig = r.plot()
+    assert len(fig.axes) == 4  # 2 modes, each with its twist axis
+
+    props = rect_strip(0.01, 0.002)
+    E, rho = props["youngs_modulus"], props["density"]
+    scene = cantilever(1.0, props, 8, cases=("structure",))
+    from dataclasses import replace
+    from fkev_slepc.scene import Link
+
+    links = tuple(Link(**{**lk.__dict__, "second_moment_out": 0.01 * 0.002**3 / 12, "torsion_constant": 1e-9,
+                          "shear_modulus": 8e10, "polar_moment": 1.7e-10}) for lk in scene.links)
+    st = Study(replace(scene, links=links), None)
+    c = st.point(0, 0, "structure", modes=1, plane="out", shapes=True).mode_shape(1)
+    w, th_y = c.displacement[:, 0].real, c.displacement[:, 2].real
+    order = np.argsort(c.node_xy[:, 0])
+    assert np.all(np.diff(np.abs(w[order])) > 0)  # grows from the root to the tip
+    assert np.sign(th_y[order[-1]]) == -np.sign(w[order[-1]])  # w' = -θ_Y

@@ -155,8 +155,9 @@ class Study(RunningSpeed):
             ``analysis.rel_error``; docs/accuracy.md); the plan is :attr:`PointResult.accuracy`.
         plane : {"in", "out"}
             The in-plane problem (default) or the out-of-plane one (bending out of the plane and
-            torsion, docs/theory.md §19; needs every link's out-of-plane section data; no
-            ``shapes``, ``rel_error`` or sensitivities yet).
+            torsion, docs/theory.md §19; needs every link's out-of-plane section data; mode shapes
+            as (w, θ_X, θ_Y) per node, drawn as w along the links with the twist marked; no
+            ``rel_error`` or sensitivities yet).
 
         Raises
         ------
