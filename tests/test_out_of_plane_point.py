@@ -203,3 +203,35 @@ def test_out_of_plane_mode_shapes(tmp_path):
     order = np.argsort(c.node_xy[:, 0])
     assert np.all(np.diff(np.abs(w[order])) > 0)  # grows from the root to the tip
     assert np.sign(th_y[order[-1]]) == -np.sign(w[order[-1]])  # w' = -θ_Y
+
+
+def test_fkev_run_plane_out_archive(tmp_path):
+    """``fkev run --plane out``: one plane per archive (root attribute plane, default output
+    <stem>-out.h5), its frequencies those of ``Study.point(plane="out")``; mode shapes drawn out of
+    plane; a resume with the other plane is refused naming the attribute; in-plane archives say in."""
+    import shutil
+
+    from clitools import fkev
+    from fkev_slepc import open as open_archive
+
+    scene = tmp_path / FLAT.name
+    shutil.copy(FLAT, scene)
+    grid = ("--angles", "0,90", "--speeds-rpm", "1200", "--quiet")
+    r = fkev("run", scene, "--plane", "out", "--mode-shapes", *grid)
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "out" / "flat-rod-slider-crank-out.h5"
+    res = open_archive(out)
+    assert res.plane == "out" and res.attrs["n_free"] == 27
+    f = res.frequency()[:, 0, 0, :]
+    for a, angle in enumerate((0.0, 90.0)):
+        want = load(scene).point(angle, 1200 * np.pi / 30, "full", plane="out").frequency_hz
+        np.testing.assert_allclose(f[a], want, rtol=1e-9)
+    from fkev_slepc.plots.shapes import mode_shape
+
+    assert len(mode_shape(res, angle=90, modes=[1, 2]).axes) == 4
+    r = fkev("run", scene, "-o", out, "--resume", *grid)
+    assert r.returncode == 2 and "plane: archive has out, this run in" in r.stderr + r.stdout
+    r = fkev("run", scene, "-o", tmp_path / "in.h5", *grid)
+    assert r.returncode == 0 and open_archive(tmp_path / "in.h5").plane == "in"
+    r = fkev("run", BW, "--plane", "out", "-o", tmp_path / "x.h5", *grid)
+    assert r.returncode == 2 and "--plane: out-of-plane analysis needs" in r.stderr

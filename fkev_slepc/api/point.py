@@ -33,7 +33,7 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
     case, n_modes = point_arguments(sc, case, modes, angle_deg=angle_deg, speed_rad_s=speed_rad_s,
                                     need_angle=True, need_speed=True)
     if plane != "in":
-        _out_of_plane_arguments(sc, plane, rel_error)
+        out_of_plane_arguments(sc, plane, rel_error)
     model = pool.model(case, plane)
     modes_fit(sc, n_modes, model.n_free, modes is not None)
     theta = float(np.radians(angle_deg))
@@ -69,7 +69,7 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
         np.asarray(model.node_positions(theta)), model.scene, diff, plan, engine.max_pair_error, an.damping_tol, plane)
 
 
-def _out_of_plane_arguments(sc: Scene, plane, rel_error) -> None:
+def out_of_plane_arguments(sc: Scene, plane, rel_error) -> None:
     """SceneError naming every argument the out-of-plane point cannot take (docs/theory.md §19)."""
     from fkev_slepc.model.mechanism import build_mechanism
     from fkev_slepc.model.operators import PLANES
@@ -114,7 +114,7 @@ def critical_scan(pool, case, angle_deg, max_speed_rad_s, modes, solver, plane="
     sc = pool.scene
     case, n_modes = point_arguments(sc, case, modes, angle_deg=angle_deg, max_speed_rad_s=max_speed_rad_s)
     if plane != "in":
-        _out_of_plane_arguments(sc, plane, None)
+        out_of_plane_arguments(sc, plane, None)
     model = pool.model(case, plane)
     modes_fit(sc, n_modes, model.n_free, modes is not None)
     angles = sc.analysis.crank_angles_deg if angle_deg is None else (float(angle_deg),)

@@ -228,7 +228,8 @@ class Study(RunningSpeed):
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
               retry_failed: bool = False, cross_check: bool = False, progress: bool = False,
-              force: bool = False, element: str | None = None, rel_error: float | None = None) -> SweepResults:
+              force: bool = False, element: str | None = None, rel_error: float | None = None,
+              plane: str = "in") -> SweepResults:
         """Sweep crank angle x speed x case into an HDF5 archive: the code path of ``fkev run``.
 
         Parameters
@@ -256,6 +257,9 @@ class Study(RunningSpeed):
             default the scene's ``analysis.rel_error``): before the sweep the element and the
             elements per link are chosen at a few sample points of the grid, and the plan is
             archived as the root attribute ``accuracy`` (docs/accuracy.md §3).
+        plane : {"in", "out"}
+            The in-plane problem (default) or the out-of-plane one (docs/theory.md §19; one plane
+            per archive, root attribute ``plane``; default output ``<scene stem>-out.h5``).
 
         Returns
         -------
@@ -287,13 +291,17 @@ class Study(RunningSpeed):
 
         scene = configure(self.scene, angles=angles_deg, speeds=speeds_rad_s, cases=cases, modes=modes,
                           mode_shapes=mode_shapes, element=element, rel_error=rel_error)
+        if plane != "in":
+            from fkev_slepc.api.point import out_of_plane_arguments
+
+            out_of_plane_arguments(scene, plane, rel_error)
         if output is None:
             if self.path is None:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
-            output = default_output(self.path)
+            output = default_output(self.path, plane)
         scene, plan = mesh_for_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
-                               cross_check=cross_check, force=force, accuracy=plan)
+                               cross_check=cross_check, force=force, accuracy=plan, plane=plane)
         outcome = run_sweep(request, comm, notify=log.info, progress=progress)
         return open(outcome.output)
 

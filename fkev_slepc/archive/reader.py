@@ -201,6 +201,11 @@ class SweepResults:
         f = self.frequency(order=order)
         return percent_error(f[:, :, self.case_index(case), :], f[:, :, self.case_index("full"), :])
 
+    @property
+    def plane(self) -> str:
+        """``in`` or ``out`` (root attribute ``plane``; archives written before it: ``in``)."""
+        return str(self.attrs.get("plane", "in"))
+
     def elements_per_link(self) -> tuple[int, ...]:
         """Elements per link (root attribute ``elements``; else counted from the mesh)."""
         el = self.attrs.get("elements")

@@ -14,8 +14,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from fkev_slepc.archive.reader import NodeDofMap
-from fkev_slepc.plots.common import mode_grid
-from fkev_slepc.plots.shapes import align_phase, node_displacement
+from fkev_slepc.plots.common import align_phase, mode_grid, node_displacement
 
 
 def link_axes(mesh: NodeDofMap, node_xy: np.ndarray) -> np.ndarray:
