@@ -79,3 +79,34 @@ def test_bahgat_willmert_out_of_plane_monodromy_is_symplectic():
     assert abs(np.linalg.det(res.monodromy.phi) - 1.0) < 1e-8
     i, j = fq.match_multipliers(mu, 1.0 / mu.conj())
     assert np.max(np.abs(mu[i] - 1.0 / mu[j].conj())) < 1e-8
+
+
+def test_fkev_floquet_plane_out(tmp_path):
+    """``fkev floquet --plane out``: the out-of-plane frozen sweep and monodromies in one archive
+    (``<stem>-out-floquet.h5``, root attribute plane), the same multipliers as
+    ``floquet_multipliers`` on ``Model(scene, plane="out")``; no frozen flutter out of plane."""
+    import json
+    from pathlib import Path
+
+    from clitools import fkev
+    from fkev_slepc import open as open_archive
+    from fkev_slepc.scene import load_scene
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "runs/bahgat-willmert-1976.toml").read_text().replace(
+        "[link_defaults]\n", "[link_defaults]\nsecond_moment_out_of_plane_m4 = 5.42e-10\n"
+        "torsion_constant_m4 = 1.826e-9\nshear_modulus_pa = 7.96e10\n", 1)
+    scene = tmp_path / "bw.toml"
+    scene.write_text(text)
+    r = fkev("floquet", scene, "--plane", "out", "--speeds", "300", "--angles", "0,180", "--elements", "1",
+             "--reduce", "none", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["frozen_time_critical"]["flutter_speed_rad_s"] is None
+    archive = tmp_path / "out" / "bw-out-floquet.h5"
+    assert open_archive(archive).plane == "out"
+    from fkev_slepc.scene.edit import replace_values
+
+    sc = replace_values(load_scene(scene), {f"links[{i}].elements": 1 for i in range(3)})
+    want = np.max(np.abs(floquet_multipliers(Model(sc, ("full",), plane="out"), 300.0, "full", tol=1e-10).multipliers))
+    assert out["speed_rad_s"] == [300.0] and abs(out["max_abs_multiplier"][0] - want) < 1e-8

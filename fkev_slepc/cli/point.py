@@ -102,8 +102,9 @@ def _print_table(o: dict, scene: str = "SCENE") -> None:
              if o["pairs_accepted"] else "pairs NOT accepted: the frequencies are not trustworthy")
     print(f"accuracy: {pairs}; frozen-time stability: {growing(o['unstable_modes'])}")
     if o["speed_rad_s"] != 0 and o["plane"] != "in":
-        print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; fkev floquet is in plane only (out of "
-              "plane: solve.floquet_linkage.floquet_multipliers on Model(scene, plane='out'), docs/theory.md §19.9)")
+        print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; whether vibration grows over a crank "
+              f"revolution is the Floquet verdict: fkev floquet {scene} --plane out --speeds {o['speed_rad_s']:g} "
+              f"--case {o['case']}")
     elif o["speed_rad_s"] != 0:
         print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; whether vibration grows over a crank "
               f"revolution is the Floquet verdict: fkev floquet {scene} --speeds {o['speed_rad_s']:g} --case {o['case']}")
