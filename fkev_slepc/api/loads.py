@@ -30,9 +30,7 @@ class LoadsResult(JointLoads):
         from fkev_slepc.archive.labelled import write_labelled
 
         ends = [(lk, k) for here in self.attach for lk, k in here]
-        ef = np.stack([self.end_force[:, lk, k] for lk, k in ends], axis=1)
-        ea = np.stack([self.end_along[:, lk, k] for lk, k in ends], axis=1)
-        en = np.stack([self.end_normal[:, lk, k] for lk, k in ends], axis=1)
+        ef, ea, en = (_at(x, ends) for x in (self.end_force, self.end_along, self.end_normal))
         guides = [j for j in range(len(self.joint_names)) if not np.isnan(self.guide_reaction[:, j]).all()]
         coords = {
             "crank_angle_deg": (self.crank_angle_deg, "deg", "crank angle"),
@@ -60,20 +58,41 @@ class LoadsResult(JointLoads):
             "element_link": (("element",), self.elem_link, "1", "link index of the element (scene order)"),
             "element_s_m": (("element", "element_end"), self.elem_s, "m", "station along the element's beam"),
         }
+        variables["bearing_force_along_n"] = (("crank_angle_deg", "link_end"), _at(self.bearing_along, ends), "N",
+                                              "the pin's force on the link point along the link (root to tip); at a "
+                                              "slider the wrist pin's")
+        variables["bearing_force_normal_n"] = (("crank_angle_deg", "link_end"), _at(self.bearing_normal, ends), "N",
+                                               "the pin's force on the link point along the link's left normal")
         if guides:
             coords["guide_joint"] = ([self.joint_names[j] for j in guides], "1", "prismatic joints")
             variables["guide_reaction_n"] = (("crank_angle_deg", "guide_joint"), self.guide_reaction[:, guides],
                                              "N", "guide reaction along the guide's left normal")
+            variables["pin_force_n"] = (("crank_angle_deg", "guide_joint", "component"), self.pin_force[:, guides],
+                                        "N", "wrist-pin force: the link end's force on the slider block")
+        if self.process_names:
+            coords["process_load"] = (list(self.process_names), "1", "[[loads]] names")
+            variables["process_force_n"] = (("crank_angle_deg", "process_load", "component"), self.process_force,
+                                            "N", "process load force, ground frame")
+            variables["process_moment_n_m"] = (("crank_angle_deg", "process_load"), self.process_moment, "N m",
+                                               "process load moment")
+        variables["process_power_w"] = (("crank_angle_deg",), self.process_power, "W",
+                                        "power of the process loads (sum of F.v + M.omega)")
         meta = {"title": self.title, "scene_toml": self.scene_text, "speed_rad_s": self.speed,
                 "acceleration_rad_s2": self.accel, "gravity_m_s2": self.gravity.tolist(),
                 "link_names": list(self.link_names), "power_residual": self.power_residual, **(attrs or {})}
         return write_labelled(path, LOADS_FORMAT, coords, variables, meta)
 
-    def plot(self):
-        """Joint-force polar plot and driving torque vs crank angle (a matplotlib Figure)."""
+    def plot(self, polar: str = "ground"):
+        """Joint-force polar plot and driving torque vs crank angle (a matplotlib Figure);
+        ``polar="link"``: every pin's force on each link it joins, relative to that link."""
         from fkev_slepc.plots.loads import draw_loads
 
-        return draw_loads(self)
+        return draw_loads(self, polar)
+
+
+def _at(x: np.ndarray, ends) -> np.ndarray:
+    """Per-link-point data (n, n_link, 3, ...) at the (link, point) pairs ``ends``: (n, n_end, ...)."""
+    return np.stack([x[:, lk, k] for lk, k in ends], axis=1)
 
 
 def operating_point_problems(speed_rad_s, accel_rad_s2, gravity_m_s2, names=None) -> list[Problem]:

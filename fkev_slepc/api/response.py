@@ -168,7 +168,8 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     from fkev_slepc.model.kinematics import point_local
     from fkev_slepc.model.operators import Model
     from fkev_slepc.scene.cases import case_name
-    from fkev_slepc.solve.response import LinkageSystem, periodic_response
+    from fkev_slepc.solve.periodic_system import PeriodicSystem
+    from fkev_slepc.solve.response import periodic_response
     from fkev_slepc.solve.response_shooting import ResonanceError
 
     names = names or {}
@@ -194,7 +195,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     full_turn = checked_angles(scene, mech, np.arange(0.0, 360.0, 1.0), names.get("angles_deg", "angles_deg"))
     del full_turn  # the periodic response needs a crank that turns fully (refused above otherwise)
     chosen = chosen_stations(scene, mech, stations, names)
-    system = LinkageSystem(model, case, float(speed_rad_s), gravity)
+    system = PeriodicSystem(model, float(speed_rad_s), case, gravity=gravity)
     try:
         r = periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot)
     except ResonanceError as err:

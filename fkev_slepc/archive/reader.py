@@ -22,8 +22,7 @@ from typing import Iterable
 import numpy as np
 
 from fkev_slepc.archive import products as P
-from fkev_slepc.archive.products import FORMAT as ARCHIVE_FORMAT
-from fkev_slepc.archive.products import SUPPORTED_VERSIONS
+from fkev_slepc.archive.products import FORMAT as ARCHIVE_FORMAT, SUPPORTED_VERSIONS
 from fkev_slepc.archive.scene_text import scene_title
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.solve.modes import percent_error
@@ -91,9 +90,15 @@ class SweepResults:
     has_mode_shapes: bool
     node_xy: np.ndarray | None  # (n_angle, n_node, 2) undeformed node positions, m
     attrs: dict = field(default_factory=dict)  # every root attribute, decoded
+    plane = property(lambda self: str(self.attrs.get("plane", "in")))  # in/out (docs/theory.md §19); absent: in
     status_flags: dict = field(default_factory=dict)  # status value -> name (CF flag_values/flag_meanings)
 
     # ---------------------------------------------------------------- selection by labels
+    @property
+    def default_case(self) -> str:
+        """``full`` if the archive has it, else its first case (what figures and margins show by default)."""
+        return "full" if "full" in self.cases else self.cases[0]
+
     def angle_index(self, angle_deg: float, tol: float = 1e-6) -> int:
         """Index of crank angle ``angle_deg`` (deg, compared modulo 360)."""
         d = np.abs((self.crank_angle_deg - angle_deg + 180.0) % 360.0 - 180.0)
@@ -200,11 +205,6 @@ class SweepResults:
         """Signed % error of ``case`` against ``full``, (angle, speed, mode) (docs/theory.md §12)."""
         f = self.frequency(order=order)
         return percent_error(f[:, :, self.case_index(case), :], f[:, :, self.case_index("full"), :])
-
-    @property
-    def plane(self) -> str:
-        """``in`` or ``out`` (root attribute ``plane``; archives written before it: ``in``)."""
-        return str(self.attrs.get("plane", "in"))
 
     def elements_per_link(self) -> tuple[int, ...]:
         """Elements per link (root attribute ``elements``; else counted from the mesh)."""
