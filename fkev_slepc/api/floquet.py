@@ -13,19 +13,21 @@ from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
 
 API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "angles_deg", "cases": "case",
              "modes": "modes", "element": "element", "rel_error": "rel_error", "tol": "tol", "rtol": "rtol",
-             "monodromy_tol": "monodromy_tol", "output": "output", "resonance_order": "resonance_order", "reduce": "reduce"}
+             "monodromy_tol": "monodromy_tol", "output": "output", "resonance_order": "resonance_order", "reduce": "reduce",
+             "plane": "plane"}
 
 
 def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_rpm=None, angles_deg=None,
                   resume: bool = False,
                   force: bool = False, tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL, monodromy_tol: float = 1e-10,
                   resonance_order: int = 3, probe: bool = False, solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
-                  command_line: str = "", notify=None, progress: bool = False, reduce="default"):
+                  command_line: str = "", notify=None, progress: bool = False, reduce="default", plane: str = "in"):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
     messages name the arguments (the CLI passes its flags); ``speeds_rpm`` the speeds in rev/min
     instead of ``speeds_rad_s``. ``reduce``: the frozen-mode reduction
     of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" where the full model
-    needs ``AUTO_MIN_STEPS`` Magnus steps; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
+    needs ``AUTO_MIN_STEPS`` Magnus steps; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`).
+    ``plane``: "out" for the out-of-plane problem (docs/theory.md §19.9; archive ``<stem>-out-floquet.h5``)."""
     from fkev_slepc.api.loads import full_turn_problem
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, FloquetRequest, read_floquet, run_floquet
@@ -58,6 +60,14 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
         bad.append(turn)
     if bad:
         raise SceneError(sc.source, bad)
+    if plane != "in":
+        from fkev_slepc.api.point import out_of_plane_arguments
+
+        try:
+            out_of_plane_arguments(sc, plane, None)
+        except SceneError as err:
+            raise SceneError(err.source, [Problem(names["plane"] if p.path == "plane" else p.path, p.message)
+                                          for p in err.problems]) from None
     scene = configure(sc, angles=angles_deg, speeds=speeds_rad_s, speeds_rpm=speeds_rpm, cases=[case], names=names)
     speeds = np.asarray(scene.driver.speeds, dtype=float)
     if not np.all(speeds > 0):
@@ -66,23 +76,24 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     if output is None:
         if study.path is None:
             raise SceneError(sc.source, [Problem(names["output"], "required for a study made from text")])
-        output = default_output(study.path).with_name(Path(study.path).stem + "-floquet.h5")
+        stem = Path(study.path).stem + ("" if plane == "in" else f"-{plane}")
+        output = default_output(study.path).with_name(stem + "-floquet.h5")
     request = FloquetRequest(scene, Path(output), tol=float(tol), rtol=float(rtol),
                              monodromy_tol=float(monodromy_tol or MONODROMY_TOL), resonance_order=int(resonance_order),
                              probe=bool(probe), reduce=reduce, resume=resume, force=force,
-                             solver=solver, command_line=command_line)
+                             solver=solver, command_line=command_line, plane=plane)
     comm = local(comm)
     out = run_floquet(request, comm, notify=notify, progress=progress)
     res = read_floquet(out)
     if critical and comm.rank == 0:
-        res = replace(res, extras={"frozen_time_critical": _frozen_critical(study, scene, case, speeds, solver)})
+        res = replace(res, extras={"frozen_time_critical": _frozen_critical(study, scene, case, speeds, solver, plane)})
     return res
 
 
-def _frozen_critical(study, scene, case, speeds, solver) -> dict:
+def _frozen_critical(study, scene, case, speeds, solver, plane="in") -> dict:
     """The lowest frozen-time divergence and flutter speeds over the frozen sweep's crank angles,
     up to the top Floquet speed (solve/critical.py), with what they are."""
-    scan = type(study)(scene, study.path).critical(case, None, float(speeds.max()), None, solver)
+    scan = type(study)(scene, study.path).critical(case, None, float(speeds.max()), None, solver, plane)
     d = scan.as_dict()
     return {"divergence_speed_rad_s": d["divergence_speed_rad_s"], "divergence_angle_deg": d["divergence_angle_deg"],
             "flutter_speed_rad_s": d["flutter_speed_rad_s"], "flutter_angle_deg": d["flutter_angle_deg"],

@@ -21,7 +21,8 @@ def mesh_of(model) -> NodeDofMap:
                 tuple(m.link_names), np.asarray(m.node_axis, float))
 
 
-def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error) -> PointResult:
+def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error,
+                plane="in") -> PointResult:
     """One operating point of ``pool.scene`` (see ``Study.point`` for the arguments)."""
     from fkev_slepc.solve.engines import cross_check as _cross_check
     from fkev_slepc.solve.thresholds import SolveSettings
@@ -31,7 +32,9 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
     an = sc.analysis
     case, n_modes = point_arguments(sc, case, modes, angle_deg=angle_deg, speed_rad_s=speed_rad_s,
                                     need_angle=True, need_speed=True)
-    model = pool.model(case)
+    if plane != "in":
+        out_of_plane_arguments(sc, plane, rel_error)
+    model = pool.model(case, plane)
     modes_fit(sc, n_modes, model.n_free, modes is not None)
     theta = float(np.radians(angle_deg))
     try:  # the rigid-body kinematics (the mesh does not change them) decide assembly
@@ -63,7 +66,27 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
     return PointResult(
         float(angle_deg), float(speed_rad_s), case, res, sc.title, model.n_free, qep.kind,
         float(np.degrees(mu[0])) if mu is not None else float("nan"), mesh_of(model),
-        np.asarray(model.node_positions(theta)), model.scene, diff, plan, engine.max_pair_error, an.damping_tol)
+        np.asarray(model.node_positions(theta)), model.scene, diff, plan, engine.max_pair_error, an.damping_tol, plane)
+
+
+def out_of_plane_arguments(sc: Scene, plane, rel_error) -> None:
+    """SceneError naming every argument the out-of-plane point cannot take (docs/theory.md §19)."""
+    from fkev_slepc.model.mechanism import build_mechanism
+    from fkev_slepc.model.operators import PLANES
+    from fkev_slepc.model.out_of_plane import section_of
+
+    bad = []
+    if plane not in PLANES:
+        bad.append(Problem("plane", f"must be one of {', '.join(PLANES)} (got {plane!r})"))
+    else:
+        try:
+            section_of(build_mechanism(sc))
+        except ValueError as err:
+            bad.append(Problem("plane", f"{err} (got {plane!r})"))
+    if rel_error is not None or sc.analysis.rel_error is not None:
+        bad.append(Problem("rel_error", "the accuracy plan is in plane only (got a rel_error with plane 'out')"))
+    if bad:
+        raise SceneError(sc.source, bad)
 
 
 def _planned(sc: Scene, angle_deg, speed_rad_s, case, modes, rel_error, solver) -> tuple[Scene, dict | None]:
@@ -82,7 +105,7 @@ def _planned(sc: Scene, angle_deg, speed_rad_s, case, modes, rel_error, solver) 
     return planned, plan.summary()
 
 
-def critical_scan(pool, case, angle_deg, max_speed_rad_s, modes, solver):
+def critical_scan(pool, case, angle_deg, max_speed_rad_s, modes, solver, plane="in"):
     """Critical speeds of ``pool.scene`` (see ``Study.critical``)."""
     from fkev_slepc.model.operators import AssemblyError
     from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
@@ -90,7 +113,9 @@ def critical_scan(pool, case, angle_deg, max_speed_rad_s, modes, solver):
 
     sc = pool.scene
     case, n_modes = point_arguments(sc, case, modes, angle_deg=angle_deg, max_speed_rad_s=max_speed_rad_s)
-    model = pool.model(case)
+    if plane != "in":
+        out_of_plane_arguments(sc, plane, None)
+    model = pool.model(case, plane)
     modes_fit(sc, n_modes, model.n_free, modes is not None)
     angles = sc.analysis.crank_angles_deg if angle_deg is None else (float(angle_deg),)
     engine = pool.engine(solver or sc.solver.method, model, SolveSettings.from_scene(sc))

@@ -19,19 +19,20 @@ class ModelPool:
 
     def __init__(self, scene: Scene):
         self.scene = scene
-        self._models: dict[frozenset, object] = {}
+        self._models: dict[tuple[str, frozenset], object] = {}
         self._engines: dict[tuple[str, int], object] = {}
 
-    def model(self, case: str):
-        """A model that can solve ``case``: one already built whose terms include the case's
-        (the fewest such terms), else a new one for this case."""
-        need = frozenset(terms_used((case,)))
-        fits = [terms for terms in self._models if need <= terms]
-        if fits:
-            return self._models[min(fits, key=len)]
-        from fkev_slepc.model.operators import Model
+    def model(self, case: str, plane: str = "in"):
+        """A model of ``plane`` ("in" or "out", docs/theory.md §19) that can solve ``case``: one
+        already built whose terms include the case's (the fewest such terms), else a new one for
+        this case."""
+        from fkev_slepc.model.operators import OUT_OF_PLANE_ABSENT, Model
 
-        model = self._models[need] = Model(self.scene, cases=(case,))
+        need = frozenset(t for t in terms_used((case,)) if plane == "in" or t not in OUT_OF_PLANE_ABSENT)
+        fits = [key for key in self._models if key[0] == plane and need <= key[1]]
+        if fits:
+            return self._models[min(fits, key=lambda key: len(key[1]))]
+        model = self._models[(plane, need)] = Model(self.scene, cases=(case,), plane=plane)
         return model
 
     def n_free(self) -> int:

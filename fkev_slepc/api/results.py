@@ -33,6 +33,7 @@ class ModeShape:
     displacement: np.ndarray  # (n_node, 3) complex
     node_link: np.ndarray  # (n_node,) link index
     link_names: tuple[str, ...]
+    plane: str = "in"  # "out": ``displacement`` is (w, θ_X, θ_Y) per node (docs/theory.md §19)
 
 
 @dataclass(frozen=True, repr=False)
@@ -62,6 +63,7 @@ class PointResult:
     accuracy: dict | None = None  # with rel_error: the planned element and mesh, and its estimate
     max_pair_error: float = float("nan")  # the engine's acceptance threshold on each reported pair's error
     damping_tol: float = float("nan")  # a mode with damping ratio < -damping_tol is unstable (analysis.damping_tol)
+    plane: str = "in"  # "in": the in-plane problem; "out": bending out of the plane and torsion (theory §19)
 
     @property
     def theta_rad(self) -> float:
@@ -122,6 +124,8 @@ class PointResult:
         >>> s.relative_frequency.round(6), s.method
         (array([0.5, 0.5, 0.5, 0.5]), 'adjoint')
         """
+        if self.plane != "in":
+            raise ValueError(f"sensitivities are in plane only (this point is plane {self.plane!r})")
         from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
 
         from fkev_slepc.model.operators import Model
@@ -153,10 +157,12 @@ class PointResult:
         from fkev_slepc.plots.shapes import align_phase, node_displacement
 
         q = align_phase(self.raw.shapes[:, k - 1], None)
-        # a slider node's translational DOF runs along its guide (mesh.node_axis) -> x, y
-        disp = node_displacement(self.mesh, q, self.mesh.node_axis)
+        if self.plane == "out":  # the out-of-plane DOFs (θ_X, θ_Y, w) -> (w, θ_X, θ_Y)
+            disp = node_displacement(self.mesh, q)[:, [2, 0, 1]]
+        else:  # a slider node's translational DOF runs along its guide (mesh.node_axis) -> x, y
+            disp = node_displacement(self.mesh, q, self.mesh.node_axis)
         return ModeShape(k, float(self.frequency_hz[k - 1]), complex(self.eigenvalues[k - 1]), self.node_xy, disp,
-                         self.mesh.node_link, self.mesh.link_names)
+                         self.mesh.node_link, self.mesh.link_names, self.plane)
 
     def plot(self, modes=None):
         """Mode shapes on the undeformed linkage (a matplotlib Figure; needs ``shapes=True``)."""
@@ -168,6 +174,10 @@ class PointResult:
         picked = list(range(len(self.frequency_hz))) if modes is None else [int(m) - 1 for m in modes]
         heading = (f"{self.title}\nmode shapes at θ = {self.angle_deg:g}°, Ω = {self.speed_rad_s:g} rad/s, "
                    f"case {self.case}")
+        if self.plane == "out":  # w along the links, the twist marked (plots/out_of_plane.py)
+            from fkev_slepc.plots.out_of_plane import out_of_plane_figure
+
+            return out_of_plane_figure(mesh, xy, self.raw.shapes, self.frequency_hz, picked, heading)
         return shapes_figure(mesh, xy, [(self.case, self.raw.shapes, self.frequency_hz)], picked, heading,
                              guide_lines=archived_guides(mesh, xy, mesh.node_axis), axes_dof=mesh.node_axis)
 
@@ -177,7 +187,7 @@ class PointResult:
             return None if not np.isfinite(v) else float(v) + 0.0  # + 0.0: no -0.0 (an exact zero Re λ)
 
         out = {"scene": self.title, "angle_deg": self.angle_deg, "speed_rad_s": self.speed_rad_s,
-               "case": self.case, "n_free": self.n_free, "kind": self.kind, "solver": self.solver,
+               "case": self.case, "plane": self.plane, "n_free": self.n_free, "kind": self.kind, "solver": self.solver,
                "frequency_hz": [num(v) for v in self.frequency_hz],
                "eigenvalue": [[num(z.real), num(z.imag)] for z in self.eigenvalues],
                "residual": [num(v) for v in self.pair_error],

@@ -133,7 +133,7 @@ class Study(RunningSpeed):
 
     def point(self, angle_deg: float, speed_rad_s: float, case="full", modes: int | None = None,
               solver: str | None = None, shapes: bool = False, *, cross_check: bool = False,
-              rel_error: float | None = None) -> PointResult:
+              rel_error: float | None = None, plane: str = "in") -> PointResult:
         """Solve one operating point: crank angle (deg), constant crank speed (rad/s), case.
 
         Parameters
@@ -153,6 +153,11 @@ class Study(RunningSpeed):
         rel_error : float, optional
             Re-mesh so that the frequencies are within this relative error (default the scene's
             ``analysis.rel_error``; docs/accuracy.md); the plan is :attr:`PointResult.accuracy`.
+        plane : {"in", "out"}
+            The in-plane problem (default) or the out-of-plane one (bending out of the plane and
+            torsion, docs/theory.md §19; needs every link's out-of-plane section data; mode shapes
+            as (w, θ_X, θ_Y) per node, drawn as w along the links with the twist marked; no
+            ``rel_error`` or sensitivities yet).
 
         Raises
         ------
@@ -175,10 +180,11 @@ class Study(RunningSpeed):
         """
         from fkev_slepc.api.point import solve_point
 
-        return solve_point(self.pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error)
+        return solve_point(self.pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error,
+                           plane)
 
     def critical(self, case="full", angle_deg: float | None = None, max_speed_rad_s: float | None = None,
-                 modes: int | None = None, solver: str | None = None):
+                 modes: int | None = None, solver: str | None = None, plane: str = "in"):
         """Divergence (buckling) and flutter onset speeds of ``case``: the code path of ``fkev critical``.
 
         Divergence: the lowest Ω at which K(Ω) = K₀ + Ω²K₂ is singular, an eigenproblem in Ω²;
@@ -196,6 +202,9 @@ class Study(RunningSpeed):
             divergence speed, else ``DEFAULT_MAX_FACTOR`` x the scene's top speed).
         modes, solver
             Modes whose damping is watched and the engine (default the scene's).
+        plane : {"in", "out"}
+            The in-plane problem (default) or the out-of-plane one (docs/theory.md §19): its
+            divergence is the weak-axis buckling of a compressed link; it has no flutter.
 
         Returns
         -------
@@ -214,12 +223,13 @@ class Study(RunningSpeed):
         """
         from fkev_slepc.api.point import critical_scan
 
-        return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver)
+        return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver, plane)
 
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
               retry_failed: bool = False, cross_check: bool = False, progress: bool = False,
-              force: bool = False, element: str | None = None, rel_error: float | None = None) -> SweepResults:
+              force: bool = False, element: str | None = None, rel_error: float | None = None,
+              plane: str = "in") -> SweepResults:
         """Sweep crank angle x speed x case into an HDF5 archive: the code path of ``fkev run``.
 
         Parameters
@@ -247,6 +257,9 @@ class Study(RunningSpeed):
             default the scene's ``analysis.rel_error``): before the sweep the element and the
             elements per link are chosen at a few sample points of the grid, and the plan is
             archived as the root attribute ``accuracy`` (docs/accuracy.md §3).
+        plane : {"in", "out"}
+            The in-plane problem (default) or the out-of-plane one (docs/theory.md §19; one plane
+            per archive, root attribute ``plane``; default output ``<scene stem>-out.h5``).
 
         Returns
         -------
@@ -278,13 +291,17 @@ class Study(RunningSpeed):
 
         scene = configure(self.scene, angles=angles_deg, speeds=speeds_rad_s, cases=cases, modes=modes,
                           mode_shapes=mode_shapes, element=element, rel_error=rel_error)
+        if plane != "in":
+            from fkev_slepc.api.point import out_of_plane_arguments
+
+            out_of_plane_arguments(scene, plane, rel_error)
         if output is None:
             if self.path is None:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
-            output = default_output(self.path)
+            output = default_output(self.path, plane)
         scene, plan = mesh_for_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
-                               cross_check=cross_check, force=force, accuracy=plan)
+                               cross_check=cross_check, force=force, accuracy=plan, plane=plane)
         outcome = run_sweep(request, comm, notify=log.info, progress=progress)
         return open(outcome.output)
 

@@ -219,6 +219,8 @@ ROOT_ATTRS = (
     Attr("element", "", "element type of the mesh (`analysis.element`)"),
     Attr("elements", "", "elements per link, scene order"),
     Attr("n_free", "", "free DOFs (length of a mode shape)"),
+    Attr("plane", "", "`in`: the in-plane problem; `out`: bending out of the plane and torsion, DOFs (θ_X, θ_Y, w) "
+         "per node (docs/theory.md §19); absent in archives written before it: `in`"),
     Attr("mode_shapes", "", "0/1: `/modes` holds mode shapes"),
     Attr("speed_unit", "", "unit the speeds were given in and are shown in: `rad/s` or `rpm` (stored in rad/s)"),
     Attr("damping_alpha", "1/s", "Rayleigh damping, mass-proportional coefficient α (0: none)"),

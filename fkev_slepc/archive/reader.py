@@ -22,8 +22,7 @@ from typing import Iterable
 import numpy as np
 
 from fkev_slepc.archive import products as P
-from fkev_slepc.archive.products import FORMAT as ARCHIVE_FORMAT
-from fkev_slepc.archive.products import SUPPORTED_VERSIONS
+from fkev_slepc.archive.products import FORMAT as ARCHIVE_FORMAT, SUPPORTED_VERSIONS
 from fkev_slepc.archive.scene_text import scene_title
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.solve.modes import percent_error
@@ -91,6 +90,7 @@ class SweepResults:
     has_mode_shapes: bool
     node_xy: np.ndarray | None  # (n_angle, n_node, 2) undeformed node positions, m
     attrs: dict = field(default_factory=dict)  # every root attribute, decoded
+    plane = property(lambda self: str(self.attrs.get("plane", "in")))  # in/out (docs/theory.md §19); absent: in
     status_flags: dict = field(default_factory=dict)  # status value -> name (CF flag_values/flag_meanings)
 
     # ---------------------------------------------------------------- selection by labels

@@ -198,7 +198,7 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
         if text(f.attrs.get("format", "")) != FORMAT:
             raise ArchiveMismatch(f"{src}: not an fkev archive")
         for key, value in expect.items():
-            have = f.attrs.get(key)
+            have = f.attrs.get(key, "in" if key == "plane" else None)  # archives before plane: in plane
             if key == "scene_toml":
                 diff = scene_difference(text(have) if have is not None else "", value)
                 if diff:

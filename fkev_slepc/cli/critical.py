@@ -15,7 +15,7 @@ import numpy as np
 
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
-from .common import add_model_arguments, load_checked, report_scene_error
+from .common import add_model_arguments, as_flags, load_checked, report_scene_error
 
 
 def add_parser(sub) -> None:
@@ -34,6 +34,9 @@ def add_parser(sub) -> None:
                    help="highest crank speed considered, rad/s (default: divergence unbounded; flutter "
                    f"searched up to the divergence speed, else {DEFAULT_MAX_FACTOR:g}x the scene's top speed)")
     p.add_argument("--modes", type=int, help="modes whose damping is watched (default: the scene's)")
+    p.add_argument("--plane", choices=("in", "out"), default="in",
+                   help="in: the in-plane problem; out: bending out of the plane and torsion, whose divergence "
+                   "is the weak-axis buckling of a compressed link (docs/theory.md §19)")
     add_model_arguments(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
@@ -47,11 +50,12 @@ def run(args) -> int:
         scene = load_checked(args.scene, args.elements, check_angles=args.angle is None)
         with Study(scene, None) as study:
             found = study.critical(scene.analysis.cases[0] if args.case is None else args.case, args.angle,
-                                   args.max_speed, args.modes, args.solver)
-            n_free = study.n_free
+                                   args.max_speed, args.modes, args.solver, args.plane)
+            n_free = study.pool.model(found.case, args.plane).n_free
     except SceneError as err:  # API argument names -> this command's flags
-        return report_scene_error(err)
-    out = {"scene": scene.title, "n_free": n_free, **found.as_dict(), "max_speed_rad_s": args.max_speed,
+        return report_scene_error(as_flags(err, {"plane": "--plane"}))
+    out = {"scene": scene.title, "plane": args.plane, "n_free": n_free, **found.as_dict(),
+           "max_speed_rad_s": args.max_speed,
            "stability_scope": {"time": FROZEN_TIME}}
     if args.json:
         json.dump(out, sys.stdout, indent=1)
@@ -69,7 +73,8 @@ def _print(o: dict, quiet: bool = False) -> None:
     """The two speeds; unless ``quiet``, how flutter was searched (one line) and any note
     (what stopped a search), sorted by crank angle and marked with it."""
     per = o["per_angle"]
-    print(f"{o['scene']}: case {o['case']}, {o['n_free']} DOFs, {len(per)} crank angle(s); frozen-time "
+    plane = "" if o["plane"] == "in" else ", out of plane"
+    print(f"{o['scene']}: case {o['case']}{plane}, {o['n_free']} DOFs, {len(per)} crank angle(s); frozen-time "
           "critical speeds (the matrices held at each crank angle)")
     top = o["max_speed_rad_s"]
     if o["divergence_speed_rad_s"] is not None:
@@ -82,8 +87,11 @@ def _print(o: dict, quiet: bool = False) -> None:
     else:
         bounds = [r["flutter_search_max_rad_s"] for r in per if r["flutter_scan_points"]]
         flut = f"none up to {min(bounds):g} rad/s" if bounds else "not searched"
-    print(f"  frozen-time flutter (min ζ of {o['modes']} modes crosses 0 and falls below -{o['damping_tol']:g}): "
-          f"{flut}; unstable speed bands over a revolution: fkev floquet")
+    if o["plane"] == "out":
+        print("  frozen-time flutter: none out of plane (K symmetric, no gyroscopic C: docs/theory.md §19.6)")
+    else:
+        print(f"  frozen-time flutter (min ζ of {o['modes']} modes crosses 0 and falls below -{o['damping_tol']:g}): "
+              f"{flut}; unstable speed bands over a revolution: fkev floquet")
     if quiet:
         return
     scanned = [r for r in per if r["flutter_scan_points"]]

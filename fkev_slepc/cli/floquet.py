@@ -19,7 +19,7 @@ from .common import add_elements_argument, add_speeds_arguments, load_checked
 NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles", "cases": "--case",
          "modes": "--modes", "element": "--element", "rel_error": "--rel-error", "tol": "--tol", "rtol": "--rtol",
          "monodromy_tol": "--monodromy-tol", "output": "-o", "resonance_order": "--resonance-order",
-         "reduce": "--reduce"}
+         "reduce": "--reduce", "plane": "--plane"}
 
 
 GAPS_LISTED = 12  # resonance gaps listed in the text report
@@ -54,6 +54,9 @@ def add_parser(sub) -> None:
                    help="solve one more monodromy at each of those candidates (a band found there is refined)")
     add_elements_argument(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver of the frozen sweep")
+    p.add_argument("--plane", choices=("in", "out"), default="in",
+                   help="in: the in-plane problem; out: bending out of the plane and torsion (docs/theory.md §19.9; "
+                   "default archive <scene dir>/out/<stem>-out-floquet.h5)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run (only pending speeds are solved)")
     p.add_argument("--force", action="store_true", help="replace an existing archive")
     p.add_argument("--plot", type=Path, metavar="FIG", help="also draw max|μ| vs speed with the bands (png, pdf, svg)")
@@ -85,7 +88,7 @@ def run(args) -> int:
                             probe=args.probe_resonances, reduce=args.reduce or "default",
                             solver=args.solver, comm=comm, critical=not args.no_critical, names=NAMES,
                             command_line="fkev " + " ".join(sys.argv[1:]),
-                            notify=None if args.json or args.quiet else _note)
+                            notify=None if args.json or args.quiet else _note, plane=args.plane)
     except SceneError as err:
         if rank0:
             print(str(err), file=sys.stderr, flush=True)

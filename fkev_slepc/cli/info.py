@@ -107,7 +107,8 @@ def report(res, n_errors: int = 5) -> list[str]:
         + (f" ({describe(res.speed_rad_s / RAD_S_PER_RPM, 'rpm')})" if rpm else ""),
         f"  cases       {', '.join(res.cases)}",
         f"  modes       {len(res.modes)} per point; {at.get('n_free', '?')} free DOFs; elements per link "
-        f"{', '.join(str(n) for n in res.elements_per_link())}",
+        f"{', '.join(str(n) for n in res.elements_per_link())}"
+        + ("; out of plane (bending out of the plane and torsion, docs/theory.md §19)" if res.plane == "out" else ""),
         f"  points      {total} = {na} x {ns} x {nc}"
         + (" (all accounted for)" if total == na * ns * nc and counts["pending"] == 0 else ""),
         "  status      " + ", ".join(f"{k} {v}" for k, v in counts.items()),

@@ -29,6 +29,9 @@ def add_parser(sub) -> None:
     speed.add_argument("--speed", type=float, help="crank speed, rad/s (default: the scene's first)")
     speed.add_argument("--speed-rpm", type=float, metavar="RPM", help="crank speed, rev/min")
     p.add_argument("--case", help="case name or Table 3.1 number (default: the scene's first)")
+    p.add_argument("--plane", choices=("in", "out"), default="in",
+                   help="in: the in-plane problem; out: bending out of the plane and torsion "
+                   "(docs/theory.md §19; needs the links' out-of-plane section data)")
     p.add_argument("--modes", type=int, help="number of modes (default: the scene's)")
     add_elements_argument(p)
     add_accuracy_arguments(p)
@@ -43,6 +46,10 @@ def run(args) -> int:
     from fkev_slepc.api import Study
 
     flags = {"speed_rad_s": "--speed-rpm"} if args.speed_rpm is not None else {}
+    flags["plane"] = "--plane"
+    if args.plane != "in" and args.sensitivity:  # refused before any work
+        return report_scene_error(SceneError(args.scene, [Problem(
+            "--sensitivity", f"sensitivities are in plane only (got --plane {args.plane})")]))
     try:
         scene = load_checked(args.scene, args.elements, check_angles=False)  # only --angle matters
         an = scene.analysis
@@ -52,9 +59,11 @@ def run(args) -> int:
         res = Study(apply_element(scene, args.element)).point(
             an.crank_angles_deg[0] if args.angle is None else args.angle, speed,
             an.cases[0] if args.case is None else args.case,
-            modes=args.modes, solver=args.solver, cross_check=args.cross_check, rel_error=args.rel_error)
+            modes=args.modes, solver=args.solver, cross_check=args.cross_check, rel_error=args.rel_error,
+            plane=args.plane)
     except SceneError as err:  # argument names -> the flags that set them
         return report_scene_error(as_flags(err, flags))
+
     transmission_warning(res.transmission_angle_deg, res.angle_deg)
     try:
         sens = sensitivities(res, args.sensitivity)
@@ -75,8 +84,9 @@ def run(args) -> int:
 
 
 def _print_table(o: dict, scene: str = "SCENE") -> None:
+    plane = "" if o["plane"] == "in" else ", out of plane"
     print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {with_rpm(o['speed_rad_s'], o['speed_rpm'] is not None)}, "
-          f"case {o['case']}, {o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
+          f"case {o['case']}{plane}, {o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
     print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'ζ':>11} {'residual':>10}")
     rows = zip(o["frequency_hz"], o["eigenvalue"], o["damping_ratio"], o["residual"])
     for i, (f, (re, im), z, r) in enumerate(rows, 1):
@@ -91,7 +101,11 @@ def _print_table(o: dict, scene: str = "SCENE") -> None:
     pairs = (f"every reported pair accepted (largest pair error {worst:.1e} <= max_pair_error {o['max_pair_error']:g})"
              if o["pairs_accepted"] else "pairs NOT accepted: the frequencies are not trustworthy")
     print(f"accuracy: {pairs}; frozen-time stability: {growing(o['unstable_modes'])}")
-    if o["speed_rad_s"] != 0:
+    if o["speed_rad_s"] != 0 and o["plane"] != "in":
+        print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; whether vibration grows over a crank "
+              f"revolution is the Floquet verdict: fkev floquet {scene} --plane out --speeds {o['speed_rad_s']:g} "
+              f"--case {o['case']}")
+    elif o["speed_rad_s"] != 0:
         print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; whether vibration grows over a crank "
               f"revolution is the Floquet verdict: fkev floquet {scene} --speeds {o['speed_rad_s']:g} --case {o['case']}")
     if "rel_error_estimate" in o:

@@ -18,7 +18,7 @@ from pathlib import Path
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT
 from fkev_slepc.sweep.session import default_output
-from .common import SWEEP_FLAGS, add_accuracy_arguments, add_elements_argument, flag_words, load_checked
+from .common import SWEEP_FLAGS, add_accuracy_arguments, add_elements_argument, as_flags, flag_words, load_checked
 from .launch import NP_VARIABLE
 
 
@@ -44,6 +44,9 @@ def add_parser(sub) -> None:
     add_accuracy_arguments(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
     p.add_argument("--mode-shapes", action="store_true", help="also archive mode shapes (/modes)")
+    p.add_argument("--plane", choices=("in", "out"), default="in",
+                   help="in: the in-plane problem; out: bending out of the plane and torsion (docs/theory.md §19; "
+                   "one plane per archive, default output <scene dir>/out/<stem>-out.h5)")
     p.add_argument("--cross-check", action="store_true",
                    help="also solve every point with the other engine (dense <-> SLEPc) and report the "
                         "largest relative frequency difference (archived in the solver settings)")
@@ -73,11 +76,19 @@ def run(args) -> int:
         scene = configure(scene, angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm,
                           cases=args.cases, modes=args.modes, mode_shapes=args.mode_shapes, element=args.element,
                           rel_error=args.rel_error, names=CLI_NAMES)
+        if args.plane != "in":
+            from fkev_slepc.api.point import out_of_plane_arguments
+
+            try:
+                out_of_plane_arguments(scene, args.plane, None)
+            except SceneError as err:
+                raise as_flags(err, {"plane": "--plane", "rel_error": "--rel-error"}) from None
         scene, plan = mesh_for_accuracy(scene, args.solver, comm, None if args.quiet else _note, CLI_NAMES["rel_error"])
-        request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene),
+        request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene, args.plane),
                                resume=args.resume, retry_failed=args.retry_failed, solver=args.solver,
                                cross_check=args.cross_check, accuracy=plan, force=args.force,
-                               make_dirs=args.output is None, resume_command=resume_command(sys.argv[1:]))
+                               make_dirs=args.output is None, resume_command=resume_command(sys.argv[1:]),
+                               plane=args.plane)
         outcome = run_sweep(request, comm, notify=_note, progress=not args.quiet)
     except SweepInterrupted as err:  # the notice with the resume command is already printed
         return err.exit_code

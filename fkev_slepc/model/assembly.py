@@ -17,17 +17,26 @@ import scipy.sparse as sp
 
 
 class Pattern:
-    """CSR pattern of ``elem_dofs`` (n_el, n_dof) over ``n_free`` DOFs, with scatter positions."""
+    """CSR pattern of ``elem_dofs`` (n_el, n_dof) over ``n_free`` DOFs, with scatter positions.
 
-    def __init__(self, elem_dofs: np.ndarray, n_free: int):
+    ``extra_dofs`` (n_x, n_dof), optional: more blocks in the pattern that are not elements (the
+    compliant bearings out of plane, model/out_of_plane.py), scattered by :meth:`scatter_extra`."""
+
+    def __init__(self, elem_dofs: np.ndarray, n_free: int, extra_dofs: np.ndarray | None = None):
         self.elem_dofs = elem_dofs = np.asarray(elem_dofs)
         k = elem_dofs.shape[1]
-        rows = np.repeat(elem_dofs, k, axis=1).ravel()
-        cols = np.tile(elem_dofs, (1, k)).ravel()
-        self.valid = (rows >= 0) & (cols >= 0)
-        r, c = rows[self.valid], cols[self.valid]
+        extra = np.zeros((0, k), dtype=int) if extra_dofs is None else np.asarray(extra_dofs).reshape(-1, k)
+        blocks = np.concatenate([elem_dofs, extra])
+        rows = np.repeat(blocks, k, axis=1).ravel()
+        cols = np.tile(blocks, (1, k)).ravel()
+        valid = (rows >= 0) & (cols >= 0)
+        r, c = rows[valid], cols[valid]
         key = r.astype(np.int64) * n_free + c
-        uniq, self.position = np.unique(key, return_inverse=True)
+        uniq, position = np.unique(key, return_inverse=True)
+        n_elem = elem_dofs.size * k
+        self.valid, self.extra_valid = valid[:n_elem], valid[n_elem:]
+        n_valid = int(self.valid.sum())
+        self.position, self.extra_position = position[:n_valid], position[n_valid:]
         self.indices = (uniq % n_free).astype(np.int32)
         counts = np.bincount((uniq // n_free).astype(np.int64), minlength=n_free)
         self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
@@ -49,6 +58,12 @@ class Pattern:
         if w.shape[0] == 1:
             return np.bincount(self.position, weights=w[0][self.valid], minlength=self.nnz).reshape(lead + (self.nnz,))
         return np.ascontiguousarray((self.summing @ w.T).T).reshape(lead + (self.nnz,))
+
+    def scatter_extra(self, stack: np.ndarray) -> np.ndarray:
+        """CSR data (..., nnz) of an (..., n_x, n_dof, n_dof) stack on the ``extra_dofs`` blocks."""
+        lead = stack.shape[:-3]
+        w = stack.reshape(-1, self.extra_valid.size)[:, self.extra_valid]
+        return self._bincount(self.extra_position, w, self.nnz).reshape(lead + (self.nnz,))
 
     @cached_property
     def summing(self) -> sp.csr_matrix:

@@ -50,6 +50,11 @@ class Mechanism:
     elem_rho_a: np.ndarray  # mass per unit length
     elem_ea: np.ndarray
     elem_ei: np.ndarray
+    # out-of-plane bending and torsion (NaN where the scene gives no out-of-plane data)
+    elem_ei_out: np.ndarray  # E I_out, bending about the in-plane axis normal to the link
+    elem_gj: np.ndarray  # G J, St-Venant torsion
+    elem_rho_ip: np.ndarray  # ρ I_p, torsional rotary inertia per unit length
+    elem_piece: tuple  # the scene Segment of every element (its section and material name)
     elem_dofs: np.ndarray  # (n_el, n_dof): nodal (u1 v1 φ1 u2 v2 φ2), then internal (element_types)
     n_free: int
     # joints
@@ -135,13 +140,8 @@ def build_mechanism(scene: Scene) -> Mechanism:
     else:
         fixed[3 * mesh.point_node[driver, 0] + 2] = True  # driven crank: clamped root (§9.3)
 
-    keep = (rep == np.arange(rep.size)) & ~fixed
-    free_index = -np.ones(rep.size, dtype=int)
-    free_index[keep] = np.arange(int(keep.sum()))
-    dof_of_raw = np.where(fixed | fixed[rep], -1, free_index[rep])
-    node_dofs = dof_of_raw.reshape(n_node, 3)
+    node_dofs, n_free = number_dofs(rep, fixed, n_node)
     elem_dofs = np.concatenate([node_dofs[mesh.elem_nodes[:, 0]], node_dofs[mesh.elem_nodes[:, 1]]], axis=1)
-    n_free = int(keep.sum())
     # Internal DOFs of higher-order elements (element_types.py) follow every nodal DOF.
     n_el = mesh.elem_link.size
     n_int = element_type(scene.analysis.element).n_internal
@@ -169,7 +169,8 @@ def build_mechanism(scene: Scene) -> Mechanism:
         node_link=mesh.node_link, node_s=mesh.node_s, node_local=mesh.node_local,
         node_dofs=node_dofs, node_axis=axis, elem_link=mesh.elem_link, elem_beam=mesh.elem_beam,
         elem_nodes=mesh.elem_nodes, elem_length=mesh.elem_length, elem_s0=mesh.elem_s0,
-        elem_rho_a=mesh.elem_rho_a, elem_ea=mesh.elem_ea, elem_ei=mesh.elem_ei, elem_dofs=elem_dofs,
+        elem_rho_a=mesh.elem_rho_a, elem_ea=mesh.elem_ea, elem_ei=mesh.elem_ei, elem_ei_out=mesh.elem_ei_out,
+        elem_gj=mesh.elem_gj, elem_rho_ip=mesh.elem_rho_ip, elem_piece=mesh.elem_piece, elem_dofs=elem_dofs,
         n_free=n_free, joint_names=tuple(j.name for j in scene.joints), joint_ground=joint_ground,
         joint_guide=guide, joint_guide_point=guide_point, attach=tuple(attach), link_points=mesh.link_points,
         point_node=mesh.point_node,
@@ -177,6 +178,16 @@ def build_mechanism(scene: Scene) -> Mechanism:
         mass_link=m_link, mass_local=m_local, mass_value=m_val, mass_inertia=m_inertia, mass_nodes=m_node,
         mass_dofs=mass_dofs, body_mass=body[0], body_centroid=body[1], body_inertia=body[2],
     )  # fmt: skip
+
+
+def number_dofs(rep: np.ndarray, fixed: np.ndarray, n_node: int) -> tuple[np.ndarray, int]:
+    """Free DOF numbers (n_node, 3) (-1: fixed) and their count, from the raw DOFs 3·node + c:
+    ``rep`` the raw DOF each one is merged into (itself if none), ``fixed`` the constrained ones."""
+    keep = (rep == np.arange(rep.size)) & ~fixed
+    free_index = -np.ones(rep.size, dtype=int)
+    free_index[keep] = np.arange(int(keep.sum()))
+    dof_of_raw = np.where(fixed | fixed[rep], -1, free_index[rep])
+    return dof_of_raw.reshape(n_node, 3), int(keep.sum())
 
 
 def _particles(scene: Scene, index, mesh, attach):

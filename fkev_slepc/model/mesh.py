@@ -42,6 +42,11 @@ class Mesh:
     elem_rho_a: np.ndarray
     elem_ea: np.ndarray
     elem_ei: np.ndarray
+    # out-of-plane data (NaN where the scene gives none): E I_out, G J, ρ I_p
+    elem_ei_out: np.ndarray
+    elem_gj: np.ndarray
+    elem_rho_ip: np.ndarray
+    elem_piece: tuple  # the Segment of every element (section, material name)
     # the node at each link point (n_link, 3): root, tip, third (-1 if the link has none)
     point_node: np.ndarray
     link_points: np.ndarray  # (n_link, 3, 2) the points in the link frame (NaN: none)
@@ -76,7 +81,7 @@ def build_mesh(scene: Scene) -> Mesh:
             extra[index[m.link]].append(m.position)
     beam_link, beam_angle, beam_origin = [], [], []
     nodes_link, nodes_beam, nodes_s, nodes_local = [], [], [], []
-    el = {k: [] for k in ("link", "beam", "left", "right", "s0", "len", "rho_a", "ea", "ei")}
+    el = {k: [] for k in ("link", "beam", "left", "right", "s0", "len", "piece")}
     point_node = -np.ones((len(scene.links), 3), dtype=int)
     link_points = np.full((len(scene.links), 3, 2), np.nan)
     n_node = 0
@@ -101,22 +106,19 @@ def build_mesh(scene: Scene) -> Mesh:
             nodes_s.append(sk)
             nodes_local.append(np.asarray(origin) + sk * direction)
         for k in range(len(s) - 1):
-            e_mod, rho, area, inertia = props[k]
             el["link"].append(lk)
             el["beam"].append(b)
             el["left"].append(ids[k])
             el["right"].append(ids[k + 1])
             el["s0"].append(s[k])
             el["len"].append(s[k + 1] - s[k])
-            el["rho_a"].append(rho * area)
-            el["ea"].append(e_mod * area)
-            el["ei"].append(e_mod * inertia)
+            el["piece"].append(props[k])
         return ids
 
     for i, link in enumerate(scene.links):
         foot = [] if link.third is None else [link.third[0]]
         s, seg = _stations(link, extra[i] + foot)
-        props = [(p.youngs_modulus, p.density, p.area, p.second_moment) for p in (link.pieces[k] for k in seg)]
+        props = [link.pieces[k] for k in seg]
         ids = add_beam(i, 0.0, (0.0, 0.0), s, props, None)
         point_node[i, 0], point_node[i, 1] = ids[0], ids[-1]
         link_points[i, 0], link_points[i, 1] = (0.0, 0.0), (link.length, 0.0)
@@ -129,11 +131,12 @@ def build_mesh(scene: Scene) -> Mesh:
                 continue
             n = link.third_elements
             sb = abs(y) * np.arange(n + 1) / n
-            uniform = [(link.youngs_modulus, link.density, link.area, link.second_moment)] * n
+            uniform = [link.uniform] * n
             angle = np.pi / 2 if y > 0 else -np.pi / 2
             branch = add_beam(i, angle, (x, 0.0), sb, uniform, at)
             point_node[i, 2] = branch[-1]
 
+    sections = _section_arrays(el["piece"])
     return Mesh(
         beam_link=np.array(beam_link, dtype=int), beam_angle=np.array(beam_angle, dtype=float),
         beam_origin=np.array(beam_origin, dtype=float).reshape(-1, 2),
@@ -141,9 +144,20 @@ def build_mesh(scene: Scene) -> Mesh:
         node_s=np.array(nodes_s, dtype=float), node_local=np.array(nodes_local, dtype=float).reshape(-1, 2),
         elem_link=np.array(el["link"], dtype=int), elem_beam=np.array(el["beam"], dtype=int),
         elem_nodes=np.stack([np.array(el["left"], dtype=int), np.array(el["right"], dtype=int)], axis=1),
-        elem_length=np.array(el["len"]), elem_s0=np.array(el["s0"]), elem_rho_a=np.array(el["rho_a"]),
-        elem_ea=np.array(el["ea"]), elem_ei=np.array(el["ei"]), point_node=point_node, link_points=link_points,
+        elem_length=np.array(el["len"]), elem_s0=np.array(el["s0"]), elem_piece=tuple(el["piece"]), **sections,
+        point_node=point_node, link_points=link_points,
     )  # fmt: skip
+
+
+def _section_arrays(pieces) -> dict[str, np.ndarray]:
+    """Per-element ρA, EA, EI and the out-of-plane E I_out, G J, ρ I_p (NaN where not given)."""
+    def field(name):
+        return np.array([np.nan if getattr(p, name) is None else getattr(p, name) for p in pieces], dtype=float)
+
+    e_mod, rho = field("youngs_modulus"), field("density")
+    return {"elem_rho_a": rho * field("area"), "elem_ea": e_mod * field("area"), "elem_ei": e_mod * field("second_moment"),
+            "elem_ei_out": e_mod * field("second_moment_out"), "elem_gj": field("shear_modulus") * field("torsion_constant"),
+            "elem_rho_ip": rho * field("polar_moment")}
 
 
 def rigid_body(mesh: Mesh, n_link: int, particles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

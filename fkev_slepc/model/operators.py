@@ -21,6 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
+from fkev_slepc.model import out_of_plane as oop
 from fkev_slepc.model.assembly import Pattern
 from fkev_slepc.model.element_types import element_type
 from fkev_slepc.model.energy import StagedStiffness, gather_matrix
@@ -35,6 +36,9 @@ from fkev_slepc.scene import Scene
 from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
 
 __all__ = ["AssemblyError", "LoadPieces", "Model", "OperatorPieces", "PieceStack", "classify", "node_frames"]
+
+PLANES = ("in", "out")
+OUT_OF_PLANE_ABSENT = ("coriolis", "tangential")  # identically zero out of plane (§19.6)
 
 # Angles per block of a vectorised call: a block's element temporaries (n_angle, n_el, n_dof,
 # n_dof) stay near 2**21 floats (16 MB) each, whatever the mesh.
@@ -68,19 +72,57 @@ class Model:
     cases : tuple of case names, optional
         The cases that will be asked for (default: the scene's); terms none of them keep are
         not assembled.
+    plane : {"in", "out"}
+        The in-plane problem (§4-§18) or the out-of-plane one (§19: per node θ_X, θ_Y, w; no
+        Coriolis or tangential term; the normal term is the twist's propeller moment).
+    section : out_of_plane.Section, optional
+        Out-of-plane section data per element (default: the mechanism's, from the scene).
+    bearings : dict, optional
+        Out of plane: {joint name: (k_t, k_b)}, compliant joints whose links' rotations about the
+        in-plane axes are tied by springs (N m/rad, about and across the first link's axis, §19.8)
+        instead of shared (default: the scene's joints' ``bearing_stiffness_nm_rad``).
     """
 
-    def __init__(self, scene: Scene, cases: tuple[str, ...] | None = None):
+    def __init__(self, scene: Scene, cases: tuple[str, ...] | None = None, plane: str = "in", section=None,
+                 bearings: dict | None = None):
+        if plane not in PLANES:
+            raise ValueError(f"plane must be one of {', '.join(PLANES)} (got {plane!r})")
         self.scene = scene
-        self.mechanism = mech = build_mechanism(scene)
-        self.n_free = mech.n_free
-        self.pattern = Pattern(mech.elem_dofs, mech.n_free)
+        self.plane = plane
+        mech = build_mechanism(scene)
         self.cases = tuple(cases or scene.analysis.cases)
-        self.terms = terms_used(self.cases)
         self.element = et = element_type(scene.analysis.element)
-        self.stacks = element_stacks(mech, et)
-        # lumped masses and rotary inertias on the mass diagonal, added in this order
-        self._lumped = ((mech.mass_dofs[:, :2], mech.mass_value[:, None]), (mech.mass_dofs[:, 2], mech.mass_inertia))
+        self.bearings = None
+        if bearings and plane == "in":
+            raise ValueError("bearings: compliant joints act out of plane only (plane 'out')")
+        if plane == "in":
+            self.stacks = element_stacks(mech, et)
+            # lumped masses and rotary inertias on the mass diagonal, added in this order
+            self._lumped = ((mech.mass_dofs[:, :2], mech.mass_value[:, None]), (mech.mass_dofs[:, 2], mech.mass_inertia))
+        else:
+            section = oop.section_of(mech, section)
+            if bearings is None:  # the scene's compliant joints
+                bearings = {j.name: j.bearing_stiffness for j in scene.joints if j.bearing_stiffness is not None}
+            names = set(bearings)
+            oop_mech = oop.out_of_plane_mechanism(mech, {i for i, n in enumerate(mech.joint_names) if n in names})
+            self.bearings = oop.bearings(mech, oop_mech, bearings)
+            mech = oop_mech
+            self.stacks = oop.out_of_plane_stacks(mech, section)
+            self._lumped = oop.lumped(mech)
+        self.mechanism = mech
+        self.n_free = mech.n_free
+        self.pattern = Pattern(mech.elem_dofs, mech.n_free, None if self.bearings is None else self.bearings.dofs)
+        self.terms = {t for t in terms_used(self.cases) if self._terms(t)}
+
+    @property
+    def lumped(self) -> tuple:
+        """The lumped-mass diagonal ((dofs, values), ...), added to M in this order: masses on the
+        translations and rotary inertias on Φ in plane, masses on w out of plane."""
+        return self._lumped
+
+    def case_terms(self, case: str):
+        """The motion terms ``case`` keeps in this model's plane (Table 3.1; §19.6 out of plane)."""
+        return self._case(case, 0.0)[0]
 
     @cached_property
     def kinetostatic_plan(self):
@@ -104,13 +146,27 @@ class Model:
         """Every piece the model's cases need at crank angles ``theta`` (rad): CSR data
         (n_θ, nnz) on :attr:`pattern` (NaN rows where ``ok`` is False). Computed in blocks of
         angles whose temporaries stay near :data:`BLOCK_FLOATS` floats each."""
-        return self._by_blocks(theta, lambda state: assemble_pieces(
-            self.stacks, self.pattern, state, self.terms, self._lumped, self.scene.damping))
+        def build(state):
+            stack = assemble_pieces(self.stacks, self.pattern, state, self.terms, self._lumped, self.scene.damping)
+            bearing = self.bearing_data(state)
+            return stack if bearing is None else dataclasses.replace(stack, structural=stack.structural + bearing)
+
+        return self._by_blocks(theta, build)
+
+    def bearing_data(self, state: AngleState) -> np.ndarray | None:
+        """The compliant bearings' stiffness (n_θ, nnz) at the angles of ``state`` (None without any;
+        part of K_s, not of its Rayleigh damping β K_s)."""
+        if self.bearings is None:
+            return None
+        return self.pattern.scatter_extra(self.bearings.stack(state.kinematics.phi))
 
     def load_pieces(self, theta) -> LoadPieces:
         """The rigid-body inertia loads at crank angles ``theta`` (rad; model/loads.py): vectors
         (n_θ, n_free) on the DOFs of :attr:`pattern`, per Ω², per crank acceleration α and per
-        unit gravity along -Y (``LoadPieces.total(Ω, α, g)`` sums them)."""
+        unit gravity along -Y (``LoadPieces.total(Ω, α, g)`` sums them). In plane only: the rigid
+        motion and gravity load nothing out of plane (§19.1)."""
+        if self.plane == "out":
+            raise ValueError("plane 'out' has no rigid-body loads: the rigid motion and gravity lie in the plane")
         return self._by_blocks(theta, lambda state: assemble_loads(self.mechanism, self.stacks, self.pattern, state),
                                with_loads=False)
 
@@ -129,8 +185,8 @@ class Model:
         if not stack.ok[i]:
             raise AssemblyError.at(stack.theta[i])
         mech = self.mechanism
-        staged = StagedStiffness(self.stacks.strain, self.stacks.strain_weight, stack.state.T[i], mech.elem_dofs,
-                                 mech.n_free, self._gather)
+        staged = None if self.bearings is not None else StagedStiffness(  # bearings are not in the strains
+            self.stacks.strain, self.stacks.strain_weight, stack.state.T[i], mech.elem_dofs, mech.n_free, self._gather)
         row = (lambda a: None if a is None else a[i])  # noqa: E731
         pair = (lambda a: None if a is None else (a[0][i], a[1][i]))  # noqa: E731
         return OperatorPieces(float(stack.theta[i]), stack.mass[i], stack.structural[i], row(stack.coriolis),
@@ -180,10 +236,18 @@ class Model:
                    staged=p.staged, stiffness_rest=pat.matrix(c.rest))
 
     def _case(self, case: str, accel: float | None):
-        """The case's term flags (Table 3.1) and the crank acceleration (default the scene's)."""
+        """The case's term flags (Table 3.1; out of plane without the Coriolis and tangential
+        terms, §19.6) and the crank acceleration (default the scene's)."""
         if case not in CASES:
             raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
-        return CASES[case], self.scene.driver.acceleration if accel is None else float(accel)
+        t = CASES[case]
+        if self.plane == "out":
+            t = dataclasses.replace(t, **{name: False for name in OUT_OF_PLANE_ABSENT})
+        return t, self.scene.driver.acceleration if accel is None else float(accel)
+
+    def _terms(self, term: str) -> bool:
+        """Whether the motion term ``term`` exists in this model's plane."""
+        return self.plane == "in" or term not in OUT_OF_PLANE_ABSENT
 
     # -- geometry for drawing --------------------------------------------------------------
     def node_positions(self, theta: float) -> np.ndarray:

@@ -28,6 +28,10 @@ CSR data on ``model.pattern``, shape (len(thetas), nnz); θ in rad), and
 ``PeriodicPieces.coefficients(omega) -> (M, C, K)`` data stacks for Ω in rad/s (M q̈ + C q̇ +
 K q = 0 in time t). A scene with a crank acceleration is refused (ValueError naming
 ``driver.acceleration_rad_s2``).
+
+Out of plane (``Model(..., plane="out")``, §19.9) the same formulas hold with m_a = 0 (no
+Coriolis, no tangential term), the propeller matrix for the normal term's m, and E acting on each
+node's rotation pair (θ_X, θ_Y), which the out-of-plane DOF order puts where the translations are.
 """
 
 from __future__ import annotations
@@ -72,7 +76,8 @@ class PeriodicPieces:
 
 
 def frame_rate(n_dof: int) -> np.ndarray:
-    """E with Ṫ = -φ̇ E T: the +90° rotation S on each node's translations, 0 elsewhere."""
+    """E with Ṫ = -φ̇ E T: the +90° rotation S on each node's translations, 0 elsewhere (out of
+    plane, on the same positions, each node's in-plane rotation pair (θ_X, θ_Y): §19.9)."""
     E = np.zeros((n_dof, n_dof))
     for o in (0, 3):
         E[o, o + 1], E[o + 1, o] = -1.0, 1.0
@@ -89,7 +94,7 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
         raise ValueError(
             f"driver.acceleration_rad_s2: the periodic coefficients need a constant crank speed, "
             f"got {acc:g} rad/s²")
-    t = CASES[case]
+    t = model.case_terms(case)  # out of plane: no Coriolis, no tangential term (§19.9)
     cc, ct, cn, cp = (float(t.keeps(x)) for x in ("coriolis", "tangential", "normal", "pseudo_normal"))
     mech, pat, st = model.mechanism, model.pattern, model.stacks
     thetas = np.atleast_1d(np.asarray(thetas, dtype=float))
@@ -98,24 +103,25 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
         bad = np.degrees(thetas[~state.ok][0])
         raise ValueError(f"crank angle: the linkage cannot be assembled at {bad:g} deg; the "
                          f"periodic analysis needs a crank that turns fully")
-    m, ma, ks = st.mass, st.skew_mass, st.structural
+    m, ks = st.mass, st.structural
+    ma = np.zeros_like(m) if st.skew_mass is None else st.skew_mass  # None out of plane (c_c = c_t = 0)
+    nm = m if st.normal is None else st.normal  # the normal term's -φ̇² n: m in plane, the propeller out of it
     E = frame_rate(st.n_dof)
     mE, maE, Ema, EmE = m @ E, ma @ E, E @ ma, E @ m @ E
     dp, ddp = state.dphi[..., None, None], state.ddphi[..., None, None]
     g = lambda X: el.to_global(X, state.T)  # Tᵀ X T over (θ, element)
 
     mass = pat.scatter(g(m))
-    for dofs, values in ((mech.mass_dofs[:, :2], mech.mass_value[:, None]),
-                         (mech.mass_dofs[:, 2], mech.mass_inertia)):
+    for dofs, values in model.lumped:
         mass = pat.add_diagonal(mass, dofs, values)
     stiff = pat.scatter(g(ks))
     gyro = pat.scatter(g(dp * (2.0 * cc * ma - 2.0 * mE)))
     kg = st.axial_force(state.axial[0]) if cp else 0.0
-    speed = pat.scatter(g(ct * ddp * ma - ddp * mE + dp**2 * (m @ E @ E - 2.0 * cc * maE - cn * m) + kg))
+    speed = pat.scatter(g(ct * ddp * ma - ddp * mE + dp**2 * (m @ E @ E - 2.0 * cc * maE - cn * nm) + kg))
     coupling = potential = None
-    if case in LAGRANGIAN_CASES:
+    if cc == ct:  # Lagrangian (LAGRANGIAN_CASES in plane; every case out of plane, §19.9)
         coupling = pat.scatter(g(dp * (cc * ma - mE)))
-        potential = pat.scatter(g(kg + dp**2 * (EmE - cc * (Ema + maE) - cn * m)))
+        potential = pat.scatter(g(kg + dp**2 * (EmE - cc * (Ema + maE) - cn * nm)))
     damping = damping_k = None
     dm = model.scene.damping
     if dm is not None and dm.active:
@@ -124,6 +130,8 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
         damping_k = pat.scatter(g(-dp * ((a_d * m + b_d * ks) @ E)))
         if mech.mass_value.size and a_d:
             damping_k = _lumped_frame_damping(pat, damping_k, mech, state.kinematics, a_d)
+    bearing = model.bearing_data(state)  # compliant joints out of plane: a potential, not damped (§19.8)
+    stiff = stiff if bearing is None else stiff + bearing
     return PeriodicPieces(thetas, case, mass, gyro, stiff, speed, coupling, potential, damping, damping_k)
 
 

@@ -87,7 +87,10 @@ def assemble_pieces(stacks: ElementStacks, pattern: Pattern, state: AngleState, 
     ma_g = el.to_global(stacks.skew_mass, T) if terms & {"coriolis", "tangential"} else None
     coriolis = pat.scatter(2.0 * dphi * ma_g) if "coriolis" in terms else None
     tangential = (pat.scatter(ddphi * ma_g), pat.scatter(dphi * ma_g)) if "tangential" in terms else None
-    normal = pat.scatter(-(dphi**2) * m_g) if "normal" in terms else None
+    normal = None
+    if "normal" in terms:  # -φ̇² m in plane (§6); out of plane the propeller moment (§19.4)
+        n_g = m_g if stacks.normal is None else el.to_global(stacks.normal, T)
+        normal = pat.scatter(-(dphi**2) * n_g)
     pseudo = None
     if "pseudo_normal" in terms:
         pseudo = tuple(pat.scatter(el.to_global(stacks.axial_force(c), T)) for c in state.axial)

@@ -57,6 +57,7 @@ class ElementStacks:
     strain: np.ndarray  # (n_el, n_s, n_dof) B, with k_s = Bᵀ diag(w) B
     strain_weight: np.ndarray  # (n_el, n_s) w
     node_frames: np.ndarray | None  # (n_el, n_dof, n_dof) or None (no slider node)
+    normal: np.ndarray | None = None  # n of the normal term -φ̇² n; None: the mass m (in plane, §6)
 
     @property
     def n_el(self) -> int:

@@ -20,10 +20,12 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from fkev_slepc.plots.common import (
+from fkev_slepc.plots.common import (  # align_phase, node_displacement: re-exported (api/results.py)
+    align_phase,
     case_label,
     case_style,
     mode_grid,
+    node_displacement,
     pick_angle,
     pick_cases,
     pick_modes,
@@ -66,18 +68,6 @@ def node_axes(mesh: NodeDofMap, node_xy: np.ndarray, lines) -> np.ndarray:
             off = [abs(np.cross(t, node_xy[n] - p)) for p, t in lines]
             axes[n] = lines[int(np.argmin(off))][1]
     return axes
-
-
-def node_displacement(mesh: NodeDofMap, q: np.ndarray, axes: np.ndarray | None = None) -> np.ndarray:
-    """Global (x, y, rotation) displacement (n_node, 3) of every node from the free-DOF values
-    ``q`` (real or complex); a constrained DOF is 0; ``axes`` as in :func:`element_displacement`."""
-    q = np.asarray(q)
-    vals = np.append(q, np.zeros(1, q.dtype))[mesh.node_dofs]  # index -1 -> the appended 0
-    if axes is not None:  # (a, n) in the node's frame -> (U, V)
-        a, n = vals[:, 0].copy(), vals[:, 1].copy()
-        vals[:, 0] = a * axes[:, 0] - n * axes[:, 1]
-        vals[:, 1] = a * axes[:, 1] + n * axes[:, 0]
-    return vals
 
 
 def element_displacement(mesh: NodeDofMap, node_xy: np.ndarray, q: np.ndarray, xi: np.ndarray,
@@ -160,21 +150,6 @@ def draw_guides(ax, node_xy: np.ndarray, mesh: NodeDofMap, lines, extent: float)
                                lw=1.0, zorder=2, label="_slider"))
 
 
-def align_phase(x: np.ndarray, ref: np.ndarray | None) -> np.ndarray:
-    """``x`` times a unit phase factor, so that its real part is the shape to draw.
-
-    With no reference: the phase that maximizes ‖Re x‖ (ψ = ½ arg Σx²). With a reference:
-    the phase that best matches it (ψ = arg refᴴx), so the cases of one mode are drawn in
-    the same sense. Real shapes (no Coriolis term) come back real up to sign.
-    """
-    if ref is None:
-        s = np.sum(x * x)
-        psi = 0.5 * np.angle(s) if abs(s) > 0 else 0.0
-    else:
-        psi = np.angle(np.vdot(ref, x))
-    return x * np.exp(-1j * psi)
-
-
 def mode_shape(
     res: SweepResults,
     angle: float | None = None,
@@ -204,6 +179,11 @@ def mode_shape(
     where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s], res.speeds_in_rpm)}"
     heading = f"{scene_heading(res)}\nmode shapes at {where}"
     xy = np.asarray(res.node_xy[a], dtype=float)
+    if res.plane == "out":  # w along the links, the twist marked; the first case asked
+        from fkev_slepc.plots.out_of_plane import out_of_plane_figure
+
+        case, shapes, freq = lines[0]
+        return out_of_plane_figure(res.mesh, xy, shapes, freq, mode_idx, f"{heading}, case {case}")
     if res.mesh.node_axis is not None:  # the archived axes: exact
         axes, lines_g = res.mesh.node_axis, archived_guides(res.mesh, xy, res.mesh.node_axis)
     else:  # archives written before /mesh/node_axis

@@ -18,6 +18,7 @@ from fkev_slepc.scene.model import (
     Link,
     LinkEnd,
     LumpedMass,
+    Material,
     Problem,
     Scene,
     SceneError,
@@ -30,5 +31,5 @@ from fkev_slepc.scene.reader import load_scene, parse_scene
 __all__ = [
     "DAMPING_TOL", "IMAG_TOL", "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Damping", "Driver", "Joint",
     "Link", "LinkEnd",
-    "LumpedMass", "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene", "parse_scene",
+    "LumpedMass", "Material", "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene", "parse_scene",
 ]

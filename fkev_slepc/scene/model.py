@@ -48,6 +48,26 @@ class SceneError(ValueError):
 
 
 @dataclass(frozen=True)
+class Material:
+    """A ``[materials.NAME]`` table (SI units; docs/response.md §2): the elastic constants a
+    link takes with ``material = "NAME"`` and the strengths of the design check (None: not given)."""
+
+    name: str
+    youngs_modulus: float  # Pa
+    density: float  # kg/m^3
+    poisson_ratio: float | None = None  # gives the shear modulus G = E / 2(1 + ν)
+    yield_strength: float | None = None  # Pa
+    ultimate_strength: float | None = None  # Pa
+    endurance_limit: float | None = None  # Pa, fully reversed (corrected) endurance strength
+
+
+# The optional section and material fields of a Segment and a Link (None: the scene does not
+# give them; the out-of-plane ones are the data of out-of-plane bending and torsion).
+SECTION_EXTRAS = ("fibre_distance", "second_moment_out", "torsion_constant", "polar_moment",
+                  "fibre_distance_out", "shear_modulus", "material")
+
+
+@dataclass(frozen=True)
 class Segment:
     """One uniform piece of a stepped link, in order from the link's root (SI units)."""
 
@@ -58,6 +78,12 @@ class Segment:
     area: float
     second_moment: float
     fibre_distance: float | None = None  # m, extreme fibre from the neutral axis (None: not given)
+    second_moment_out: float | None = None  # m^4, about the in-plane axis normal to the link
+    torsion_constant: float | None = None  # m^4, St-Venant J
+    polar_moment: float | None = None  # m^4, I_p = I + I_out (torsional rotary inertia ρ I_p)
+    fibre_distance_out: float | None = None  # m, out-of-plane extreme fibre
+    shear_modulus: float | None = None  # Pa
+    material: str | None = None  # name of its [materials] entry
 
 
 @dataclass(frozen=True)
@@ -81,14 +107,24 @@ class Link:
     third: tuple[float, float] | None = None  # m, link frame
     third_elements: int = 2
     fibre_distance: float | None = None  # m, extreme fibre (scene/shapes.py; None: not given)
+    second_moment_out: float | None = None  # m^4 (the SECTION_EXTRAS as in Segment)
+    torsion_constant: float | None = None  # m^4
+    polar_moment: float | None = None  # m^4
+    fibre_distance_out: float | None = None  # m
+    shear_modulus: float | None = None  # Pa
+    material: str | None = None
+    buckling_length_factor: float = 1.0  # K of the Euler load π²EI/(KL)² (1: pinned ends)
+
+    @property
+    def uniform(self) -> Segment:
+        """The uniform section fields as one segment of the whole length (a ternary link's branch)."""
+        return Segment(self.length, self.elements, self.youngs_modulus, self.density, self.area,
+                       self.second_moment, **{f: getattr(self, f) for f in SECTION_EXTRAS})
 
     @property
     def pieces(self) -> tuple[Segment, ...]:
         """The segments of the axis beam (one for a uniform link)."""
-        if self.segments:
-            return self.segments
-        return (Segment(self.length, self.elements, self.youngs_modulus, self.density, self.area,
-                        self.second_moment, self.fibre_distance),)
+        return self.segments or (self.uniform,)
 
 
 @dataclass(frozen=True)
@@ -109,6 +145,8 @@ class Joint:
     assembly: str = "left"  # dyad branch: left/right of the ray P->Q; slider: ahead/behind
     guide_angle: float = 0.0  # prismatic: direction of the guide from +x (rad)
     slider_mass: float = 0.0  # prismatic: mass of the slider block (kg)
+    # out of plane: rotational stiffness (about, across the first link's axis), N m/rad; None: rigid
+    bearing_stiffness: tuple[float, float] | None = None
 
     @property
     def prismatic(self) -> bool:
@@ -181,9 +219,14 @@ class Scene:
     analysis: Analysis = field(default_factory=lambda: Analysis((0.0,), ("full",)))
     solver: Solver = field(default_factory=Solver)
     damping: Damping = field(default_factory=Damping)
+    materials: tuple[Material, ...] = ()
     process_loads: tuple = ()  # [[loads]]: scene/process_loads.py ProcessLoad items
     source_text: str = ""  # the TOML text, verbatim (archived)
     source: str = "<scene>"  # file name, for messages
+
+    def material(self, name: str | None) -> Material | None:
+        """The ``[materials]`` entry called ``name`` (None for None)."""
+        return next((m for m in self.materials if m.name == name), None)
 
 
 def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 from fkev_slepc.scene.model import THIRD, Joint, Link, LumpedMass, Segment
-from fkev_slepc.scene import shapes
+from fkev_slepc.scene import materials, shapes
 from fkev_slepc.scene.schema import REQUIRED, Reader, join, show
 
 SEGMENT_PROPERTIES = {  # TOML key -> Segment field (finite, > 0)
@@ -20,7 +20,9 @@ SEGMENT_PROPERTIES = {  # TOML key -> Segment field (finite, > 0)
     "area_m2": "area",
     "second_moment_m4": "second_moment",
 }
-SEGMENT_KEYS = ("length_m", *SEGMENT_PROPERTIES, "elements", shapes.SECTION_KEY, shapes.FIBRE_KEY)
+# optional keys of a link and its segments (TOML key -> Link/Segment field)
+OPTIONAL = {shapes.FIBRE_KEY: "fibre_distance", **shapes.OUT_KEYS, materials.SHEAR_KEY: "shear_modulus"}
+SEGMENT_KEYS = ("length_m", *SEGMENT_PROPERTIES, "elements", shapes.SECTION_KEY, *OPTIONAL, materials.MATERIAL_KEY)
 TERNARY_KEYS = ("third_joint_m", "third_elements")
 PRISMATIC_KEYS = ("guide_angle_deg", "slider_mass_kg")
 PRISMATIC_ASSEMBLIES = ("ahead", "behind")
@@ -29,16 +31,33 @@ MASS_KEYS = ("joint", "link", "position_m", "mass_kg", "inertia_kg_m2")
 STATION_TOL = 1e-9
 
 
-def read_segments(r: Reader, item, path: str, link_values: dict, inherited: dict) -> tuple | None:
+def read_optional(r: Reader, item, path: str, values: dict, defaults: dict) -> bool:
+    """Read the :data:`OPTIONAL` keys of ``item`` into ``values`` (``defaults`` where absent);
+    False if one of them is bad (or its section was)."""
+    ok = True
+    for key in OPTIONAL:
+        values[key] = r.number(item, key, path, positive=True, default=defaults.get(key))
+        ok = ok and (values[key] is not None or (key not in item and not shapes.reported(item, key)))
+    return ok
+
+
+def complete(values: dict, mats) -> None:
+    """Fill the derived optional values of one uniform piece: I_p = I + I_out, G from ν."""
+    shapes.polar_default(values)
+    values[materials.SHEAR_KEY] = materials.shear_modulus(values, mats)
+
+
+def read_segments(r: Reader, item, path: str, link_values: dict, inherited: dict, mats=None) -> tuple | None:
     """``[[links.segments]]`` of one link: a tuple of :class:`Segment`, or ``None`` if bad.
 
     ``link_values`` holds the link's own (or default) section values, ``None`` where absent or
-    already reported; ``inherited`` tells which of those keys were given at all.
+    already reported; ``inherited`` tells which of those keys were given at all; ``mats`` are
+    the ``[materials]`` (scene/materials.py).
     """
     out, ok = [], True
     for spath, seg in r.tables(item, "segments", path, required=True):
         r.check_keys(seg, spath, SEGMENT_KEYS)
-        seg = shapes.expand(r, seg, spath)
+        seg = materials.expand(r, shapes.expand(r, seg, spath), spath, mats)
         values = {}
         for key in ("length_m", *SEGMENT_PROPERTIES, "elements"):
             given = link_values.get(key)
@@ -51,12 +70,15 @@ def read_segments(r: Reader, item, path: str, link_values: dict, inherited: dict
                 values[key] = r.integer(seg, key, spath, default=default, minimum=1, remark=remark)
             else:
                 values[key] = r.number(seg, key, spath, positive=True, default=default, remark=remark)
-        fibre = r.number(seg, shapes.FIBRE_KEY, spath, positive=True, default=link_values.get(shapes.FIBRE_KEY))
-        if None in values.values() or (fibre is None and (shapes.FIBRE_KEY in seg or shapes.reported(seg, "area_m2"))):
+        optional_ok = read_optional(r, seg, spath, values, link_values)
+        if None in (values[k] for k in ("length_m", *SEGMENT_PROPERTIES, "elements")) or not optional_ok:
             ok = False
             continue
+        values[materials.MATERIAL_KEY] = seg.get(materials.MATERIAL_KEY, link_values.get(materials.MATERIAL_KEY))
+        complete(values, mats)
         out.append(Segment(values["length_m"], values["elements"], values["youngs_modulus_pa"],
-                           values["density_kg_m3"], values["area_m2"], values["second_moment_m4"], fibre))
+                           values["density_kg_m3"], values["area_m2"], values["second_moment_m4"],
+                           material=values[materials.MATERIAL_KEY], **{f: values[k] for k, f in OPTIONAL.items()}))
     return tuple(out) if ok and out else None
 
 

@@ -13,6 +13,7 @@ from fkev_slepc.scene import parts
 from fkev_slepc.scene import sections as sec
 from fkev_slepc.scene import settings
 from fkev_slepc.scene.damping import read_damping
+from fkev_slepc.scene.materials import read_materials
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.process_loads import read_process_loads
 from fkev_slepc.scene.schema import Reader
@@ -106,7 +107,8 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
     r = Reader(sec.SECTIONS)
     r.check_keys(doc, "", sec.TOP_KEYS)
     title = r.string(doc, "title", "", default=Path(source).stem)
-    links, link_names, ternary = sec.read_links(r, doc)
+    mats = read_materials(r, doc)
+    links, link_names, ternary = sec.read_links(r, doc, mats)
     n_before = len(r.problems)
     joints, joint_names = sec.read_joints(r, doc, link_names, ternary)
     topology_ok = len(r.problems) == n_before and None not in links and None not in joints
@@ -129,6 +131,7 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
         analysis=analysis,
         solver=solver,
         damping=damping,
+        materials=tuple(mats.values()) if mats else (),
         process_loads=tuple(process),
         source_text=text,
         source=source,

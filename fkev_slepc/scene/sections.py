@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import difflib
 
-from fkev_slepc.scene import parts, shapes
+from fkev_slepc.scene import materials, parts, shapes
 from fkev_slepc.scene.damping import DAMPING_KEYS
 from fkev_slepc.scene.model import END_NAMES, THIRD, Driver, Joint, Link, LinkEnd
 from fkev_slepc.scene.schema import REQUIRED, Reader, join, show
@@ -29,14 +29,16 @@ LINK_PROPERTIES = {  # TOML key -> Link field; all must be finite and > 0
     "area_m2": "area",
     "second_moment_m4": "second_moment",
 }
-LINK_DEFAULT_KEYS = (*LINK_PROPERTIES, "elements", shapes.SECTION_KEY, shapes.FIBRE_KEY)
+OPTIONAL = parts.OPTIONAL  # optional section keys (TOML key -> Link/Segment field)
+BUCKLING_KEY = "buckling_length_factor"
+LINK_DEFAULT_KEYS = (*LINK_PROPERTIES, "elements", shapes.SECTION_KEY, *OPTIONAL, materials.MATERIAL_KEY, BUCKLING_KEY)
 LINK_KEYS = ("name", *LINK_DEFAULT_KEYS, "segments", *parts.TERNARY_KEYS)
-JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISMATIC_KEYS)
+JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISMATIC_KEYS, "bearing_stiffness_nm_rad")
 JOINT_TYPES = ("revolute", "prismatic")
 ASSEMBLIES = ("left", "right")
 DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
-TOP_KEYS = ("title", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver", "damping", "units",
-            "loads")
+TOP_KEYS = ("title", "materials", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver", "damping",
+            "units", "loads")
 GROUND = "ground"
 # Where a misplaced key belongs (``modes`` under [solver] -> analysis.modes).
 SECTIONS = {
@@ -48,9 +50,9 @@ SECTIONS = {
 }
 
 
-def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set[str]]:
+def read_links(r: Reader, doc, mats=None) -> tuple[list[Link | None], list[str] | None, set[str]]:
     """``[[links]]`` merged over ``[link_defaults]``: (links, None where bad; valid names;
-    names of ternary links).
+    names of ternary links). ``mats`` are the ``[materials]`` (scene/materials.py).
 
     The names are returned separately so that references to a link whose *other* fields are
     bad do not also show up as "unknown link"; they are ``None`` if ``[[links]]`` itself is
@@ -60,7 +62,7 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set
     table = r.table(doc, "link_defaults", "")
     if table:
         r.check_keys({k: v for k, v in table.items() if k != "name"}, "link_defaults", LINK_DEFAULT_KEYS)
-        table = shapes.expand(r, table, "link_defaults")
+        table = materials.expand(r, shapes.expand(r, table, "link_defaults"), "link_defaults", mats)
         if "name" in table:
             r.add("link_defaults.name", "links need their own names; set name in each [[links]]")
         # A bad default is reported once, here, and then stays silent (None) in every link.
@@ -69,15 +71,17 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set
                 defaults[key] = r.number(table, key, "link_defaults", positive=True, default=None)
         if "elements" in table:
             defaults["elements"] = r.integer(table, "elements", "link_defaults", minimum=1)
-        if shapes.FIBRE_KEY in table or shapes.reported(table, shapes.FIBRE_KEY):
-            defaults[shapes.FIBRE_KEY] = r.number(table, shapes.FIBRE_KEY, "link_defaults", positive=True)
+        for key in (*OPTIONAL, BUCKLING_KEY):
+            if key in table or shapes.reported(table, key):
+                defaults[key] = r.number(table, key, "link_defaults", positive=True)
+        defaults[materials.MATERIAL_KEY] = table.get(materials.MATERIAL_KEY)
     out: list[Link | None] = []
     seen: dict[str, str] = {}
     ternary: set[str] = set()
     remark = "set it here or in [link_defaults]"
     for path, item in r.tables(doc, "links", "", required=True):
         r.check_keys(item, path, LINK_KEYS)
-        item = shapes.expand(r, item, path)
+        item = materials.expand(r, shapes.expand(r, item, path), path, mats)
         name = r.string(item, "name", path)
         if name is not None:
             name = _check_name(r, join(path, "name"), name, seen, "link")
@@ -92,27 +96,29 @@ def read_links(r: Reader, doc) -> tuple[list[Link | None], list[str] | None, set
                 given[key] = r.integer(item, key, path, default=default, minimum=1, remark=remark)
             elif not (stepped and key == "length_m"):
                 given[key] = r.number(item, key, path, positive=True, remark=remark, default=default)
-        given[shapes.FIBRE_KEY] = fibre = r.number(item, shapes.FIBRE_KEY, path, positive=True,
-                                                   default=defaults.get(shapes.FIBRE_KEY))
-        fibre_ok = fibre is not None or (shapes.FIBRE_KEY not in item and not shapes.reported(item, "area_m2"))
+        optional_ok = parts.read_optional(r, item, path, given, defaults)
+        given[materials.MATERIAL_KEY] = item.get(materials.MATERIAL_KEY, defaults.get(materials.MATERIAL_KEY))
+        buckling = r.number(item, BUCKLING_KEY, path, positive=True, default=defaults.get(BUCKLING_KEY, 1.0))
         segments = ()
         if stepped:
             inherited = {k: k in item or k in defaults for k in given}
-            segments = parts.read_segments(r, item, path, given, inherited)
+            segments = parts.read_segments(r, item, path, given, inherited, mats)
             if segments is not None:
                 first = segments[0]
-                given.update(youngs_modulus_pa=first.youngs_modulus, density_kg_m3=first.density,
-                             area_m2=first.area, second_moment_m4=first.second_moment,
-                             fibre_distance_m=first.fibre_distance,
-                             length_m=parts.stepped_length(r, item, path, segments),
+                given.update({k: getattr(first, f) for k, f in (*LINK_PROPERTIES.items(), *OPTIONAL.items())})
+                given.update(length_m=parts.stepped_length(r, item, path, segments), material=first.material,
                              elements=sum(s.elements for s in segments))
+        else:
+            parts.complete(given, mats)
         third, third_el, third_ok = parts.read_third(r, item, path, given.get("length_m"), given.get("elements"))
         values = {field_: given.get(key) for key, field_ in LINK_PROPERTIES.items()}
         elements = given.get("elements")
         ok = name is not None and elements is not None and None not in values.values()
-        ok = ok and segments is not None and third_ok and fibre_ok
-        link = Link(name=name, elements=elements, segments=segments or (), third=third,
-                    third_elements=third_el or 2, fibre_distance=given[shapes.FIBRE_KEY], **values) if ok else None
+        ok = ok and segments is not None and third_ok and optional_ok and buckling is not None
+        extras = {f: given[k] for k, f in OPTIONAL.items()}
+        link = Link(name=name, elements=elements, segments=segments or (), third=third, third_elements=third_el or 2,
+                    material=given[materials.MATERIAL_KEY], buckling_length_factor=buckling,
+                    **extras, **values) if ok else None
         out.append(link)
     if not isinstance(doc.get("links"), list):
         return out, None, ternary  # no usable [[links]]: references to links cannot be judged
@@ -170,9 +176,13 @@ def read_joints(r: Reader, doc, link_names: list[str] | None, ternary: set[str] 
                     ends = None
                 else:
                     used[end] = (name, path)
+        bearing = r.point(item, "bearing_stiffness_nm_rad", path, default=None)  # out of plane (theory §19.8)
+        if bearing is not None and min(bearing) <= 0:
+            r.add(join(path, "bearing_stiffness_nm_rad"), f"must be two stiffnesses > 0, N m/rad (got {show(list(bearing))})")
+        bearing_ok = "bearing_stiffness_nm_rad" not in item or (bearing is not None and min(bearing) > 0)
         ok = None not in (name, jtype, assembly, ends) and (position is not None or not grounded)
-        ok = ok and prismatic_ok
-        out.append(Joint(name, jtype, tuple(ends), position, assembly, angle, slider_mass) if ok else None)
+        ok = ok and prismatic_ok and bearing_ok
+        out.append(Joint(name, jtype, tuple(ends), position, assembly, angle, slider_mass, bearing) if ok else None)
     return out, list(names)
 
 

@@ -9,11 +9,20 @@ moment of area I about the axis normal to the plane of motion, and the extreme-f
 needs). ``height_m`` of a rectangle lies in the plane of motion (the bending direction),
 ``width_m`` normal to it. The explicit form stays: ``area_m2``, ``second_moment_m4`` and the
 optional ``fibre_distance_m``. A shape and an explicit value in the same table are refused.
+
+A shape also gives the out-of-plane data (docs/response.md §2): the second moment I_out about
+the in-plane axis normal to the link (weak-axis buckling, out-of-plane bending), the St-Venant
+torsion constant J, the polar second moment I_p = I + I_out (torsional rotary inertia ρ I_p) and
+the out-of-plane fibre distance; explicitly ``second_moment_out_of_plane_m4``,
+``torsion_constant_m4``, ``polar_moment_m4`` (default I + I_out, the perpendicular-axis theorem)
+and ``fibre_distance_out_of_plane_m``.
 """
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from fkev_slepc.scene.schema import Reader, join, show
 
@@ -24,15 +33,75 @@ SHAPES = {  # shape -> its dimension keys (m, each finite and > 0)
     "rectangle": ("width_m", "height_m"),
     "tube": ("outer_diameter_m", "inner_diameter_m"),
 }
-EXPLICIT = ("area_m2", "second_moment_m4", FIBRE_KEY)
-# Marks a table whose section was bad and already reported: its readers take the three keys as
-# absent-and-reported (None), so no "missing required key area_m2" follows the real problem.
-REPORTED = "\0section reported"
+# the optional out-of-plane keys (TOML key -> Link/Segment field)
+OUT_KEYS = {
+    "second_moment_out_of_plane_m4": "second_moment_out",
+    "torsion_constant_m4": "torsion_constant",
+    "polar_moment_m4": "polar_moment",
+    "fibre_distance_out_of_plane_m": "fibre_distance_out",
+}
+EXPLICIT = ("area_m2", "second_moment_m4", FIBRE_KEY, *OUT_KEYS)
+# Marks a table whose section (or material, scene/materials.py) was bad and already reported:
+# it holds the keys its readers take as absent-and-reported (None), so no "missing required key
+# area_m2" follows the real problem.
+REPORTED = "\0reported"
+# odd n of the series of the rectangle's torsion constant: the n = 201 term is < 1e-11 of the sum
+_ODD = np.arange(1, 202, 2, dtype=float)
 
 
 def reported(table, key: str) -> bool:
-    """True when ``key`` is one of the section's keys and the section was already reported bad."""
-    return key in EXPLICIT and isinstance(table, dict) and table.get(REPORTED, False)
+    """True when ``key`` is one of the keys of a section or material already reported bad."""
+    return isinstance(table, dict) and key in table.get(REPORTED, ())
+
+
+def mark_reported(table: dict, keys) -> None:
+    """Record on ``table`` that ``keys`` were reported bad (see :func:`reported`)."""
+    table[REPORTED] = (*table.get(REPORTED, ()), *keys)
+
+
+def rectangle_torsion_constant(a: float, b: float) -> float:
+    """St-Venant torsion constant J of an a x b rectangle (m⁴), any order of the sides.
+
+    The exact series (Timoshenko & Goodier, *Theory of Elasticity*, §109; docs/response.md §2)
+    with a >= b: J = (a b³ / 3) [1 - (192 b / π⁵ a) Σ_{n odd} tanh(n π a / 2b) / n⁵].
+
+    Examples
+    --------
+    >>> round(rectangle_torsion_constant(1.0, 1.0), 6)   # the square: 0.1406 a⁴
+    0.140577
+    """
+    a, b = max(a, b), min(a, b)
+    series = np.sum(np.tanh(_ODD * math.pi * a / (2 * b)) / _ODD**5)
+    return float(a * b**3 / 3 * (1 - 192 * b / (math.pi**5 * a) * series))
+
+
+def out_of_plane(shape: str, dims: dict[str, float]) -> tuple[float, float, float, float]:
+    """(I_out m⁴, J m⁴, I_p m⁴, c_out m) of a shape: the second moment about the in-plane axis
+    normal to the link, the St-Venant torsion constant, the polar second moment and the
+    out-of-plane extreme-fibre distance (docs/response.md §2).
+
+    Examples
+    --------
+    >>> i_out, j, ip, c = out_of_plane("rectangle", {"width_m": 0.008, "height_m": 0.02})
+    >>> i_out == 0.02 * 0.008**3 / 12, c
+    (True, 0.004)
+    """
+    if shape == "rectangle":
+        b, h = dims["width_m"], dims["height_m"]
+        return h * b**3 / 12, rectangle_torsion_constant(b, h), b * h * (b * b + h * h) / 12, b / 2
+    if shape == "circle":
+        d = dims["diameter_m"]
+        return math.pi * d**4 / 64, math.pi * d**4 / 32, math.pi * d**4 / 32, d / 2
+    D, d = dims["outer_diameter_m"], dims["inner_diameter_m"]
+    return math.pi * (D**4 - d**4) / 64, math.pi * (D**4 - d**4) / 32, math.pi * (D**4 - d**4) / 32, D / 2
+
+
+def polar_default(values: dict) -> None:
+    """Fill ``polar_moment_m4`` of a table of section values with I + I_out when both are known
+    and it is not given (the perpendicular-axis theorem, exact for any section)."""
+    inplane, out = values.get("second_moment_m4"), values.get("second_moment_out_of_plane_m4")
+    if values.get("polar_moment_m4") is None and inplane is not None and out is not None:
+        values["polar_moment_m4"] = inplane + out
 
 
 def properties(shape: str, dims: dict[str, float]) -> tuple[float, float, float]:
@@ -57,19 +126,19 @@ def properties(shape: str, dims: dict[str, float]) -> tuple[float, float, float]
 
 
 def expand(r: Reader, table, path: str):
-    """``table`` with its ``section`` (if any) replaced by ``area_m2``, ``second_moment_m4`` and
-    ``fibre_distance_m``; problems are recorded on ``r`` with their dotted path (then the three
-    keys are left out and the table is marked :data:`REPORTED`)."""
+    """``table`` with its ``section`` (if any) replaced by ``area_m2``, ``second_moment_m4``,
+    ``fibre_distance_m`` and the out-of-plane keys (:data:`OUT_KEYS`); problems are recorded on
+    ``r`` with their dotted path (then those keys are left out and marked :data:`REPORTED`)."""
     if not isinstance(table, dict) or SECTION_KEY not in table:
         return table
     out = {k: v for k, v in table.items() if k != SECTION_KEY}
-    out[REPORTED] = True  # until the section is read
+    mark_reported(out, EXPLICIT)  # until the section is read
     where = join(path, SECTION_KEY)
     sec = table[SECTION_KEY]
     clash = [k for k in EXPLICIT if k in table]
     if clash:
         r.add(join(path, clash[0]), f"give the section either as {SECTION_KEY} = {{shape = ...}} or as "
-                                    f"area_m2/second_moment_m4/fibre_distance_m, not both")
+                                    f"{'/'.join(EXPLICIT)}, not both")
         return out
     if not isinstance(sec, dict):
         r.add(where, f"must be a table {{shape = \"circle\", diameter_m = ...}} (got {show(sec)})")
@@ -86,5 +155,7 @@ def expand(r: Reader, table, path: str):
                                                f"(got {show(sec['inner_diameter_m'])})")
         return out
     out["area_m2"], out["second_moment_m4"], out[FIBRE_KEY] = properties(shape, dims)
-    del out[REPORTED]
+    for key, value in zip(OUT_KEYS, out_of_plane(shape, dims)):
+        out[key] = value
+    out[REPORTED] = tuple(k for k in out[REPORTED] if k not in EXPLICIT)
     return out

@@ -51,10 +51,14 @@ DIMENSIONS = {
     "diameter_m": (1, 0, 0), "width_m": (1, 0, 0), "height_m": (1, 0, 0), "outer_diameter_m": (1, 0, 0),
     "inner_diameter_m": (1, 0, 0), "area_m2": (2, 0, 0), "second_moment_m4": (4, 0, 0),
     "youngs_modulus_pa": (-2, 1, 0), "density_kg_m3": (-3, 0, 1),
+    "second_moment_out_of_plane_m4": (4, 0, 0), "torsion_constant_m4": (4, 0, 0), "polar_moment_m4": (4, 0, 0),
+    "fibre_distance_out_of_plane_m": (1, 0, 0), "shear_modulus_pa": (-2, 1, 0), "yield_pa": (-2, 1, 0),
+    "ultimate_pa": (-2, 1, 0), "endurance_pa": (-2, 1, 0),
     "mass_kg": (0, 0, 1), "slider_mass_kg": (0, 0, 1), "inertia_kg_m2": (2, 0, 1),
+    "bearing_stiffness_nm_rad": (1, 1, 0),
     "fx_n": (0, 1, 0), "fy_n": (0, 1, 0), "moment_n_m": (1, 1, 0),
 }
-CONVERTED_SECTIONS = ("link_defaults", "links", "joints", "masses", "loads")  # where dimensional keys live
+CONVERTED_SECTIONS = ("materials", "link_defaults", "links", "joints", "masses", "loads")  # where dimensional keys live
 
 
 def read_units(r, doc) -> tuple[float, float, float] | None:

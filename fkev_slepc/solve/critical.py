@@ -156,12 +156,14 @@ def critical_speeds(engine, model, angle_deg: float, case: str, n_modes: int, da
     bound = np.inf if max_speed is None else float(max_speed)
     div = divergence_speed(model, pieces, case, accel, bound, engine.solve_settings.imag_tol)
     top = bound if max_speed is not None else (div if np.isfinite(div) else float(default_max))
-    notes, searched = [], CASES[case].motion and top > 0 and np.isfinite(top)
+    # out of plane K is symmetric and C absent or dissipative (docs/theory.md §19.6): no flutter
+    symmetric = getattr(model, "plane", "in") == "out"
+    notes, searched = [], CASES[case].motion and top > 0 and np.isfinite(top) and not symmetric
     if searched:
         flut, notes = flutter_speed(engine, model, pieces, case, top, n_modes, damping_tol, accel, n_scan)
     else:
         flut = float("nan")
-        if CASES[case].motion:
+        if CASES[case].motion and not symmetric:
             notes = ["flutter not searched: no divergence speed and no maximum speed given"]
     return CriticalSpeeds(float(angle_deg), div, flut, float(top), tuple(notes), n_scan if searched else 0)
 

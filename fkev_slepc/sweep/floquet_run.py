@@ -151,7 +151,7 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     if evaluator is None:
         _engine_available()
     request.run_frozen_sweep(comm, notify, progress)
-    model = Model(sc, (request.case,))
+    model = Model(sc, (request.case,), plane=request.plane)
     n_index = 2 * model.n_free
     part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request),
                                 request.resume, comm, same=lambda p: not _settings_differ(p, request, n_index))

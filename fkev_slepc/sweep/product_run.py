@@ -39,6 +39,7 @@ class ProductRequest:
     solver: str | None = None
     command_line: str = ""
     make_dirs: bool = True
+    plane: str = "in"  # the frozen sweep's and the product's problem (docs/theory.md §19: "out")
 
     @property
     def case(self) -> str:
@@ -49,7 +50,8 @@ class ProductRequest:
         from fkev_slepc.sweep.session import SweepRequest, run_sweep
 
         run_sweep(SweepRequest(self.scene, Path(self.output), resume=self.resume, force=self.force,
-                               solver=self.solver, command_line=self.command_line, make_dirs=self.make_dirs), comm,
+                               solver=self.solver, command_line=self.command_line, make_dirs=self.make_dirs,
+                               plane=self.plane), comm,
                   notify=notify, progress=progress)
 
 

@@ -50,16 +50,16 @@ class OutputError(RunRefused):
     """The output archive cannot be used (e.g. ``resume`` of a different scene or grid)."""
 
 
-def default_output(scene_path) -> Path:
-    """``<scene dir>/out/<scene stem>.h5``.
+def default_output(scene_path, plane: str = "in") -> Path:
+    """``<scene dir>/out/<scene stem>.h5`` (``<scene stem>-out.h5`` out of plane).
 
     Examples
     --------
-    >>> default_output("study/four-bar.toml").as_posix()
-    'study/out/four-bar.h5'
+    >>> default_output("study/four-bar.toml").as_posix(), default_output("study/four-bar.toml", "out").name
+    ('study/out/four-bar.h5', 'four-bar-out.h5')
     """
     p = Path(scene_path)
-    return p.parent / "out" / (p.stem + ".h5")
+    return p.parent / "out" / (p.stem + ("" if plane == "in" else f"-{plane}") + ".h5")
 
 
 def mesh_arrays(mech) -> dict:
@@ -104,6 +104,7 @@ class SweepRequest:
     force: bool = False  # replace an existing archive (or unfinished run) instead of refusing
     make_dirs: bool = True  # create a missing output directory (fkev run: only for its default <scene dir>/out/)
     resume_command: str | None = None  # how the user continues after an interruption (printed)
+    plane: str = "in"  # "out": the out-of-plane problem (docs/theory.md §19), archived as the attribute plane
 
 
 @dataclass(frozen=True)
@@ -166,7 +167,7 @@ class SweepSession:
         an = scene.analysis
         self.grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(scene.driver.speeds, float),
                          tuple(an.cases), int(an.modes))
-        self.model = Model(scene, cases=self.grid.cases)
+        self.model = Model(scene, cases=self.grid.cases, plane=request.plane)
         from fkev_slepc.solve.thresholds import SolveSettings
 
         factory = make_cross_check_engine if request.cross_check else make_engine
@@ -202,7 +203,8 @@ class SweepSession:
         scene = self.request.scene
         elements = np.array([lk.elements for lk in scene.links], dtype="i4")
         return {"scene_toml": scene.source_text, "elements": elements, "n_free": self.model.n_free,
-                "mode_shapes": int(scene.analysis.mode_shapes), "element": scene.analysis.element}
+                "mode_shapes": int(scene.analysis.mode_shapes), "element": scene.analysis.element,
+                "plane": self.request.plane}
 
     def _open_locked(self) -> OutputState:
         """Rank 0: take the output's lock (archive/lock.py; held until :meth:`finalise`, so a
