@@ -10,7 +10,7 @@ from fkev_slepc.model.operators import Model
 from fkev_slepc.model.out_of_plane import Section
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.solve import floquet as fq
-from fkev_slepc.solve.floquet import TrigInterpolant, to_dense
+from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
 from fkev_slepc.solve.floquet_linkage import floquet_multipliers
 
 

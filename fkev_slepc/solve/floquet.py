@@ -47,9 +47,6 @@ start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps
     adapters for M q'' + C q' + K q = f: ``coefficients(theta)`` -> (M, C, K) each (k, n, n)
     dense; A = [[0, I], [-M⁻¹K, -M⁻¹C]] (``state_matrix(M, C, K)``, the one state-space form),
     b = [0, M⁻¹f].
-``TrigInterpolant(start, samples)``: the trigonometric interpolant (callable θ -> (len(θ), n, n))
-    of a smooth 2π-periodic matrix function sampled at k (even) equispaced angles from start;
-    ``to_dense(pattern, data)``: (k, nnz) CSR data -> (k, n, n).
 ``match_multipliers(a, b) -> (i, j)``: the pairing minimising Σ|a_i - b_j| (Hungarian).
 """
 
@@ -367,40 +364,3 @@ def second_order_forcing(mass, load):
         return b[:, :, 0] if f.ndim == 2 else b
 
     return forcing
-
-
-def to_dense(pattern, data: np.ndarray) -> np.ndarray:
-    """(k, nnz) CSR data on ``pattern`` (a :class:`fkev_slepc.model.assembly.Pattern`) -> (k, n, n)."""
-    rows = np.repeat(np.arange(pattern.n), np.diff(pattern.indptr))
-    out = np.zeros((data.shape[0], pattern.n, pattern.n))
-    out[:, rows, pattern.indices] = data
-    return out
-
-
-def _dirichlet(theta: np.ndarray, k: int) -> np.ndarray:
-    """Weights (len(θ), k) of the trigonometric interpolant on the k (even) nodes 2πj/k:
-    D(x) = sin(kx/2) cot(x/2)/k at x = θ - 2πj/k, by angle addition (sin(kθ_j/2) = 0,
-    cos(kθ_j/2) = (-1)^j), so only O(len(θ) + k) transcendental evaluations."""
-    half, node = 0.5 * theta[:, None], np.pi * np.arange(k)[None, :] / k
-    sx = np.sin(half) * np.cos(node) - np.cos(half) * np.sin(node)  # sin(x/2)
-    cx = np.cos(half) * np.cos(node) + np.sin(half) * np.sin(node)  # cos(x/2)
-    sk = np.sin(k * half) * np.where(np.arange(k) % 2, -1.0, 1.0)[None, :]  # sin(kx/2)
-    small = np.abs(sx) < 1e-12
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = sk * cx / (k * np.where(small, 1.0, sx))
-    return np.where(small, np.sign(cx) ** k, w)
-
-
-class TrigInterpolant:
-    """θ -> (len(θ), n, n): the trigonometric interpolant of ``samples`` (k even, (k, n, n)) taken
-    at start + 2πj/k, j = 0..k-1 (period 2π)."""
-
-    def __init__(self, start, samples: np.ndarray):
-        self.start, self.S = start, samples
-        self.k = samples.shape[0]
-
-    def __call__(self, theta):
-        theta = np.asarray(theta, dtype=float)
-        W = _dirichlet(theta - self.start, self.k)
-        n = self.S.shape[1]
-        return (W @ self.S.reshape(self.k, -1)).reshape(theta.size, n, n)

@@ -40,7 +40,7 @@ the interpolation error on Φ), ``interp_error``, ``samples``, ``n_dof``,
 ``basis`` (None or the basis size), ``truncation`` (None or the :class:`Truncation` measured)
 and ``truncation_error`` (its larger measure).
 
-``TrigInterpolant`` and ``to_dense`` are re-exported from :mod:`fkev_slepc.solve.floquet`.
+``TrigInterpolant`` and ``to_dense`` are re-exported from :mod:`fkev_slepc.solve.trig_interpolant`.
 """
 
 from __future__ import annotations
@@ -50,7 +50,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as la
 
-from fkev_slepc.solve.floquet import Monodromy, TrigInterpolant, exponential_monodromy, monodromy, to_dense
+from fkev_slepc.solve.floquet import Monodromy, exponential_monodromy, monodromy
+from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
 from fkev_slepc.solve.floquet_reduce import compress, frozen_pool
 from fkev_slepc.solve.periodic_system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.solve.floquet_truncation import (

@@ -50,7 +50,8 @@ import numpy as np
 
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.model.process_loads import process_load_vectors
-from fkev_slepc.solve.floquet import TrigInterpolant, state_matrix, to_dense
+from fkev_slepc.solve.floquet import state_matrix
+from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
 from fkev_slepc.model.kinematics import solve_kinematics
 from fkev_slepc.solve.floquet_reduce import corotated_pairs, reduced_coefficients, rotate_rows
 
