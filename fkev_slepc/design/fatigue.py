@@ -28,8 +28,9 @@ def static_factor(peak_abs, yield_strength) -> np.ndarray:
 
 
 def fatigue_factor(mean, alternating, material, criterion: str = "goodman") -> np.ndarray:
-    """The fatigue safety factor of (σ_m, σ_a) for ``material`` (a scene Material with its
-    endurance, ultimate and, for Soderberg, yield strength) by ``criterion`` (:data:`CRITERIA`).
+    """The fatigue safety factor of (σ_m, σ_a) for ``material`` (a scene Material, or anything
+    with its ``endurance_limit``, ``ultimate_strength`` and, for Soderberg, ``yield_strength``,
+    numbers or arrays) by ``criterion`` (:data:`CRITERIA`).
 
     Examples
     --------
@@ -52,7 +53,6 @@ def fatigue_factor(mean, alternating, material, criterion: str = "goodman") -> n
 
 def missing_strengths(material, criterion: str) -> list[str]:
     """The TOML keys of the strengths ``criterion`` needs that ``material`` lacks."""
-    need = {"yield_pa": "yield_strength", "endurance_pa": "endurance_limit"}
-    need["yield_pa" if criterion == "soderberg" else "ultimate_pa"] = (
-        "yield_strength" if criterion == "soderberg" else "ultimate_strength")
+    need = {"endurance_pa": "endurance_limit"}
+    need.update({"yield_pa": "yield_strength"} if criterion == "soderberg" else {"ultimate_pa": "ultimate_strength"})
     return [key for key, field in need.items() if getattr(material, field) is None]
