@@ -94,3 +94,22 @@ def test_bad_arguments_name_the_flag():
     assert r.returncode == 2 and "--buckling-threshold: must be a finite number > 0 (got -1.0)" in r.stderr, r.stderr
     r = fkev("design-check", SCENE, "--speed", "100", "--criterion", "wohler")
     assert r.returncode == 2 and "--criterion" in r.stderr
+
+
+def test_check_and_loads_report_the_weak_axis_margin(tmp_path):
+    """`fkev check` prints each link's weak-axis margin at the scene's highest speed and warns below
+    3 (exit 2 with --strict); `fkev loads --json` gives it under buckling.<link>, equal to
+    P_cr/|N_min| of its own axial forces. K = 2 (fixed-free) quarters the pinned-ends margin."""
+    scene = tmp_path / "k2.toml"
+    scene.write_text(SCENE.read_text().replace('name = "rod"                 # A -> B (wrist pin)',
+                                               'name = "rod"\nbuckling_length_factor = 2.0'))
+    r = fkev("check", scene)
+    assert r.returncode == 0 and "weak-axis buckling at the scene's highest speed 100 rad/s" in r.stdout, r.stderr
+    assert "link 'rod': weak-axis buckling factor" in r.stderr and "K = 2" in r.stderr
+    assert fkev("check", "--strict", scene).returncode == 2
+    loads = fkev("loads", scene, "--angles", "0:330:30", "--json")
+    d = json.loads(loads.stdout)
+    n_min = np.nanmin(np.array(d["links"]["rod"]["axial_force_n"], dtype=float))
+    p_cr = math.pi**2 * 2.05e11 * (0.020 * 0.005**3 / 12) / (2.0 * 0.3) ** 2
+    assert d["buckling"]["rod"]["euler_load_n"] == pytest.approx(p_cr, rel=1e-14)
+    assert d["buckling"]["rod"]["buckling_sf"] == pytest.approx(p_cr / abs(n_min), rel=1e-12)

@@ -35,9 +35,9 @@ def add_parser(sub) -> None:
     speed = p.add_mutually_exclusive_group()
     speed.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
     speed.add_argument("--speed-rpm", type=float, metavar="RPM", help="crank speed, rev/min")
-    p.add_argument("--criterion", default="goodman", choices=CRITERIA, help="fatigue criterion (default goodman)")
+    p.add_argument("--criterion", default="goodman", choices=CRITERIA, help="fatigue criterion")
     p.add_argument("--buckling-threshold", type=float, default=WARN_BELOW, metavar="F",
-                   help=f"warn below this weak-axis buckling factor (default {WARN_BELOW:g})")
+                   help="warn below this weak-axis buckling factor")
     p.add_argument("--case", help="case name or Table 3.1 number (default: full)")
     p.add_argument("--gravity", metavar="GX,GY", help="gravity in the ground frame, m/s² (default: the scene's "
                    "analysis.gravity_m_s2, else none)")
