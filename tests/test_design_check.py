@@ -42,6 +42,8 @@ def test_fatigue_factor_is_the_hand_formula_of_the_tools_own_stresses(criterion)
     assert lk["fatigue_sf"] == pytest.approx(hand[criterion], rel=1e-12)
     assert lk["fatigue_criterion"] == criterion
     assert lk["static_sf"] == pytest.approx(sy / lk["peak_stress_pa"], rel=1e-12)
+    per_point = np.array([lk["points"]["fatigue_sf"][face] for face in ("plus", "minus")], dtype=float)
+    assert np.nanmin(per_point) == lk["fatigue_sf"] and len(lk["points"]["s_m"]) == per_point.shape[1]
 
 
 def test_fatigue_factor_conventions():

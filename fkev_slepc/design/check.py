@@ -37,6 +37,7 @@ class LinkCheck:
     buckling: Buckling
     pins: dict[str, dict]  # joint name -> {"peak_n", "crank_angle_deg"}: the force on this link there
     notes: tuple[str, ...]
+    points: dict | None = None  # per point: s_m, and per face static_sf, fatigue_sf (lists)
 
     def as_dict(self, criterion: str) -> dict:
         crit = self.critical or {}
@@ -46,7 +47,7 @@ class LinkCheck:
                 "sigma_mean_pa": crit.get("sigma_mean_pa"), "sigma_alternating_pa": crit.get("sigma_alternating_pa"),
                 "critical_point": self.critical, "buckling_sf": self.buckling.factor,
                 "min_axial_force_n": self.buckling.min_axial_force_n, "buckling": self.buckling.as_dict(),
-                "pin_loads": self.pins, "notes": list(self.notes)}
+                "pin_loads": self.pins, "notes": list(self.notes), "points": self.points}
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,7 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
     notes = []
     peak = ls.peak(lk)
     static = fatigue = critical = None
+    points = {"s_m": ls.point_s[sel].tolist()}
     if peak is None:
         notes.append("no stress: the section gives no fibre distance")
     elif not names:
@@ -96,6 +98,7 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
             notes.append("no static factor: the material has no yield_pa")
         else:
             static = float(np.nanmin(n_static))
+            points["static_sf"] = _faces(n_static)
         lacking = sorted({k for n in names for k in missing_strengths(scene.material(n), criterion)})
         if lacking:
             notes.append(f"no {criterion} fatigue factor: the material lacks {', '.join(lacking)}")
@@ -103,6 +106,7 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
             n_fat = fatigue_factor(mean, alt, st, criterion)
             k, f = np.unravel_index(np.nanargmin(n_fat), n_fat.shape)
             fatigue = float(n_fat[k, f])
+            points["fatigue_sf"] = _faces(n_fat)
             critical = {"s_m": float(ls.point_s[sel[k]]), "face": FACES[f], "sigma_mean_pa": float(mean[k, f]),
                         "sigma_alternating_pa": float(alt[k, f]), "sigma_max_pa": float(hi[k, f]),
                         "sigma_min_pa": float(lo[k, f])}
@@ -113,7 +117,13 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
                 mag = np.hypot(*np.moveaxis(jl.end_force[:, lk, point], -1, 0))
                 a = int(np.nanargmax(mag))
                 pins[jl.joint_names[jj]] = {"peak_n": float(mag[a]), "crank_angle_deg": float(jl.crank_angle_deg[a])}
-    return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes))
+    return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes),
+                     points)
+
+
+def _faces(x: np.ndarray) -> dict:
+    """{face: list} of a (n_pt, 2) array; NaN and ∞ as None (JSON)."""
+    return {face: [float(v) if np.isfinite(v) else None for v in x[:, f]] for f, face in enumerate(FACES)}
 
 
 def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
