@@ -13,9 +13,8 @@ import pytest
 from clitools import ROOT, fkev
 
 from fkev_slepc.api.loads import study_loads
-from fkev_slepc.design.check import design_check
 from fkev_slepc.design.fatigue import fatigue_factor
-from fkev_slepc.scene import Material, load_scene, parse_scene, with_elements
+from fkev_slepc.scene import Material, parse_scene, with_elements
 
 SCENE = ROOT / "runs" / "slider-crank-design.toml"
 SMALL = ("--elements", "2", "--angles", "0:330:30", "--harmonics", "8")
@@ -23,8 +22,11 @@ STEEL = Material("s", 2.05e11, 7870.0, 0.29, yield_strength=5.3e8, ultimate_stre
 
 
 def small_check(text=None, **options):
-    scene = load_scene(SCENE) if text is None else parse_scene(text, "d.toml")
-    return design_check(with_elements(scene, 2), 100.0, angles_deg=np.arange(0.0, 360.0, 30.0), harmonics=8, **options)
+    """The check at 100 rad/s on 2 elements per link, 12 angles, 8 harmonics (``Study.design_check``)."""
+    import fkev_slepc as fk
+
+    study = fk.load(SCENE, elements=2) if text is None else fk.Study(with_elements(parse_scene(text, "d.toml"), 2))
+    return study.design_check(100.0, angles_deg=np.arange(0.0, 360.0, 30.0), harmonics=8, **options)
 
 
 @pytest.mark.parametrize("criterion", ["goodman", "soderberg", "gerber"])
