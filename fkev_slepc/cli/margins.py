@@ -91,7 +91,8 @@ def print_table(title: str, o: dict) -> None:
           f"every revolution at the angles shown); near: within {o['near_percent']:g} %")
     if o["tracking_fell_back"]:
         print("modes in sorted order: tracking fell back at this speed (ambiguous MAC, /tracking/fallback)")
-    print(f"{'mode':>4} {'order':>5} {'n·Ω/2π [Hz]':>12} {'band [Hz]':>19} {'margin':>7}  {'θ (deg): crossed, or closest':<30}")
+    print(f"{'mode':>4} {'order':>5} {'n·Ω/2π [Hz]':>12} {'band [Hz]':>19} {'margin':>7}  "
+          f"{'θ (deg): crossed, or closest':<30}")
     for r in o["per_order"]:
         where = ", ".join(f"{x:.1f}" for x in r["angles_deg"][:4]) + ("…" if len(r["angles_deg"]) > 4 else "")
         print(f"{r['mode']:>4} {str(r['order']) + '×':>5} {r['frequency_hz']:>12.2f} {r['f_min_hz']:>9.2f}-"

@@ -65,8 +65,8 @@ class DesignCheck:
 
     def as_dict(self) -> dict:
         return {"scene": self.title, "speed_rad_s": self.speed, "case": self.case, "fatigue_criterion": self.criterion,
-                "buckling_threshold": self.threshold, "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links},
-                "warnings": self.warnings}
+                "buckling_threshold": self.threshold, "warnings": self.warnings,
+                "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links}}
 
 
 def point_strengths(scene: Scene, mech, ls) -> SimpleNamespace:
