@@ -117,3 +117,16 @@ def test_check_and_loads_report_the_weak_axis_margin(tmp_path):
     p_cr = math.pi**2 * 2.05e11 * (0.020 * 0.005**3 / 12) / (2.0 * 0.3) ** 2
     assert d["buckling"]["rod"]["euler_load_n"] == pytest.approx(p_cr, rel=1e-14)
     assert d["buckling"]["rod"]["buckling_sf"] == pytest.approx(p_cr / abs(n_min), rel=1e-12)
+
+
+def test_no_stress_gives_no_factor_and_strict_json():
+    """At rest without gravity nothing is stressed: no finite safety factor (None, not ∞), no
+    compression, and the JSON has no NaN or infinity."""
+    import fkev_slepc as fk
+
+    d = fk.load(SCENE, elements=2).design_check(0.0, angles_deg=[0.0, 90.0], harmonics=2).as_dict()
+    json.dumps(d, allow_nan=False)
+    for name in ("crank", "rod"):
+        lk = d["links"][name]
+        assert lk["peak_stress_pa"] == 0.0 and lk["static_sf"] is None and lk["fatigue_sf"] is None
+        assert lk["buckling_sf"] is None

@@ -43,7 +43,8 @@ class LinkCheck:
         crit = self.critical or {}
         return {"material": "/".join(self.materials) or None,
                 "peak_stress_pa": None if self.peak is None else self.peak["stress_pa"], "peak": self.peak,
-                "static_sf": self.static_sf, "fatigue_sf": self.fatigue_sf, "fatigue_criterion": criterion,
+                "static_sf": _finite(self.static_sf), "fatigue_sf": _finite(self.fatigue_sf),
+                "fatigue_criterion": criterion,
                 "sigma_mean_pa": crit.get("sigma_mean_pa"), "sigma_alternating_pa": crit.get("sigma_alternating_pa"),
                 "critical_point": self.critical, "buckling_sf": self.buckling.factor,
                 "min_axial_force_n": self.buckling.min_axial_force_n, "buckling": self.buckling.as_dict(),
@@ -119,6 +120,11 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
                 pins[jl.joint_names[jj]] = {"peak_n": float(mag[a]), "crank_angle_deg": float(jl.crank_angle_deg[a])}
     return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes),
                      points)
+
+
+def _finite(x: float | None) -> float | None:
+    """``x``, or None for None and ∞ (no stress: no finite factor; JSON has no infinity)."""
+    return None if x is None or not np.isfinite(x) else x
 
 
 def _faces(x: np.ndarray) -> dict:
