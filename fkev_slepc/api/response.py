@@ -37,13 +37,16 @@ class ResponseResult:
     methods_difference: float  # max |q_HB - q_shooting| / max |q|
     closure: float  # ‖x(2π) − x(0)‖ / ‖x(0)‖ of the shooting trajectory
     elem_nodes: np.ndarray  # (n_el, 2) for drawing
+    link_stress: object = None  # solve.link_stress.LinkStress: σ₊, σ₋ at every element end
 
     def plot(self, kind: str = "deflected", **options):
-        """``deflected`` (the linkage at several angles, magnified, scale stated) or ``stations``
-        (stress, or bending moment without fibre distances, vs crank angle per station)."""
+        """``deflected`` (the linkage at several angles, magnified, scale stated), ``stations``
+        (stress, or bending moment without fibre distances, vs crank angle per station) or
+        ``stress`` (the signed stress range along each link, and σ over the cycle at the peak)."""
         from fkev_slepc.plots import response as plots
 
-        return {"deflected": plots.draw_deflected, "stations": plots.draw_stations}[kind](self, **options)
+        draw = {"deflected": plots.draw_deflected, "stations": plots.draw_stations, "stress": plots.draw_link_stress}
+        return draw[kind](self, **options)
 
     def animate(self, path, scale=None, fps: int = 12):
         """A GIF of the deflected linkage over the output angles (matplotlib PillowWriter)."""
@@ -80,7 +83,11 @@ class ResponseResult:
     def as_dict(self) -> dict:
         from fkev_slepc.model.joint_loads import _list
 
+        from fkev_slepc.solve.link_stress import FACES
+        from fkev_slepc.solve.response_stations import cycle_parts
+
         sr = self.stations
+        _, _, mean, alternating = cycle_parts(np.stack([sr.stress_plus, sr.stress_minus], axis=-1))
         stations = []
         for k, st in enumerate(sr.stations):
             stations.append({
@@ -89,7 +96,10 @@ class ResponseResult:
                 "transverse_chord_m": _list(sr.transverse_chord[:, k]),
                 "moment_n_m": _list(sr.moment[:, k]), "axial_force_n": _list(sr.axial_force[:, k]),
                 "axial_force_rigid_n": _list(sr.axial_force_rigid[:, k]), "shear_n": _list(sr.shear[:, k]),
-                "stress_pa": _list(sr.stress[:, k]),
+                "stress_pa": _list(sr.stress[:, k]), "stress_plus_pa": _list(sr.stress_plus[:, k]),
+                "stress_minus_pa": _list(sr.stress_minus[:, k]),
+                "stress_mean_pa": {face: _none(mean[k, f]) for f, face in enumerate(FACES)},
+                "stress_alternating_pa": {face: _none(alternating[k, f]) for f, face in enumerate(FACES)},
                 "envelope": {key: [float(np.nanmin(x[:, k])), float(np.nanmax(x[:, k]))] for key, x in (
                     ("transverse_m", sr.transverse), ("transverse_chord_m", sr.transverse_chord), ("axial_m", sr.axial), ("moment_n_m", sr.moment),
                     ("axial_force_n", sr.axial_force))},
@@ -97,6 +107,7 @@ class ResponseResult:
         return {
             "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": _list(self.gravity),
             "crank_angle_deg": _list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
+            "links": {} if self.link_stress is None else self.link_stress.as_dict(),
             "max_abs_multiplier": _none(self.max_abs_multiplier), "attracting": self.attracting,
             "floquet_verdict": self.verdict,
             "multiplier_error": _none(self.multiplier_error), "harmonics": self.harmonics,
@@ -136,7 +147,11 @@ class ResponseResult:
                                      ("axial_force_n", sr.axial_force, "N", "axial force EA u', tension > 0"),
                                      ("axial_force_rigid_n", sr.axial_force_rigid, "N", "rigid-body axial force"),
                                      ("shear_n", sr.shear, "N", "shear force -dM/ds"),
-                                     ("stress_pa", sr.stress, "Pa", "extreme-fibre stress max |N/A +- M c/I|")):
+                                     ("stress_pa", sr.stress, "Pa", "extreme-fibre stress max |N/A +- M c/I|"),
+                                     ("stress_plus_pa", sr.stress_plus, "Pa",
+                                      "signed stress N/A - M c/I of the face at +c along the left normal"),
+                                     ("stress_minus_pa", sr.stress_minus, "Pa",
+                                      "signed stress N/A + M c/I of the face at -c along the left normal")):
             variables[name] = (("crank_angle_deg", "station"), x, units, long)
         meta = {"title": self.title, "scene_toml": self.scene_text, "speed_rad_s": self.speed, "case": self.case,
                 "gravity_m_s2": self.gravity.tolist(), "link_names": list(self.link_names),
@@ -188,9 +203,11 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     theta = np.radians(a)
     q = r.hb.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
-    from fkev_slepc.solve.response_stations import station_response
+    from fkev_slepc.solve.link_stress import LinkStress
+    from fkev_slepc.solve.response_stations import element_end_stations, station_response
 
     st = station_response(model, theta, q, chosen, rigid)
+    whole = LinkStress.from_stations(station_response(model, theta, q, element_end_stations(mech)), mech.link_names, a)
     kin = model.angle_state(theta, with_loads=False).kinematics
     pos = point_local(kin, mech.node_link, mech.node_local)[0]
     disp = _node_displacement(mech, q)
@@ -199,7 +216,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
-        float("nan") if sh is None else sh.closure, mech.elem_nodes)
+        float("nan") if sh is None else sh.closure, mech.elem_nodes, whole)
 
 
 def checked_response(scene: Scene, case: str, harmonics, names=None, bad=None):

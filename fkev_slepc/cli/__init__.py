@@ -1,4 +1,4 @@
-"""Command line: ``fkev run | point | check | info | verify | plot | export | critical | loads | floquet | response``. Wiring only.
+"""Command line: ``fkev run | point | check | info | verify | plot | export | critical | loads | floquet | response | design-check``. Wiring only.
 
 Each subcommand lives in its own module exposing ``add_parser(subparsers)``, which registers
 the parser and sets ``func`` (args -> exit code). PETSc/SLEPc options (``-fkev_pep_type toar``)
@@ -15,8 +15,8 @@ import os
 import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
-SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "design", "loads",
-               "floquet", "response")
+SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "design",
+               "design-check", "loads", "floquet", "response")
 COLLECTIVE = ("run", "design", "floquet")  # every rank of mpiexec takes part; any other command runs on rank 0 alone
 GLOBAL_FLAGS = {"-v": ("verbose", 1), "--verbose": ("verbose", 1), "-q": ("quiet", 1), "--quiet": ("quiet", 1)}
 
@@ -110,9 +110,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
         try:
-            mod = importlib.import_module(f"fkev_slepc.cli.{name}")
+            mod = importlib.import_module(f"fkev_slepc.cli.{name.replace('-', '_')}")
         except ModuleNotFoundError as exc:  # a subcommand not built yet in this checkout
-            if exc.name != f"fkev_slepc.cli.{name}":
+            if exc.name != f"fkev_slepc.cli.{name.replace('-', '_')}":
                 raise
             continue
         mod.add_parser(sub)

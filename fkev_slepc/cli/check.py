@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
             status = EXIT_BAD_INPUT
             continue
         print(f"{path}: ok ({summary(scene)})", flush=True)
-        warnings = print_links(scene)
+        warnings = print_links(scene) + print_buckling(scene)
         for w in warnings:
             print(f"{path}: warning: {w}", file=sys.stderr, flush=True)
         if warnings and getattr(args, "strict", False):
@@ -69,6 +69,30 @@ def print_links(scene: Scene) -> list[str]:
     for s in rows:
         print(f"  {s.name:<12} {s.length_m:>9.4g} {s.mass_kg:>10.4g} {s.slenderness:>8.4g} {s.pinned_frequency_hz:>22.5g}")
     return [w for s in rows for w in s.warnings]
+
+
+def print_buckling(scene: Scene) -> list[str]:
+    """The weak-axis Euler margin of every link with an out-of-plane section under the
+    kinetostatic axial force at the scene's highest speed (model/buckling.py) on stdout; returns
+    the warnings of margins below 3. Nothing for a scene without out-of-plane sections."""
+    import numpy as np
+
+    from fkev_slepc.api.loads import study_loads
+    from fkev_slepc.model.buckling import euler_loads, weak_axis_buckling
+    from fkev_slepc.model.mechanism import build_mechanism
+
+    mech = build_mechanism(scene)
+    if np.isnan(euler_loads(mech)).all():
+        return []
+    speed = max(scene.driver.speeds, key=abs)
+    rows = weak_axis_buckling(mech, study_loads(scene, speed))
+    print(f"  weak-axis buckling at the scene's highest speed {speed:g} rad/s (kinetostatic axial force):")
+    for b in rows:
+        margin = "no compression" if b.min_axial_force_n >= 0 else "no out-of-plane section" if b.factor is None \
+            else f"factor {b.factor:.4g}"
+        print(f"  {b.link:<12} P_cr {b.euler_load_n:10.5g} N (K = {b.length_factor:g})  "
+              f"N_min {b.min_axial_force_n:10.5g} N  {margin}")
+    return [w for b in rows for w in [b.warning()] if w]
 
 
 def check_scene(path: str | Path) -> Scene:

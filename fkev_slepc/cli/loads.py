@@ -72,12 +72,28 @@ def run(args) -> int:
         loads.plot(args.polar).savefig(args.plot, dpi=120)
     if args.csv:
         _csv(loads, args.csv)
+    buckling = _buckling(scene, loads)
     if args.json:
-        json.dump(loads.as_dict(), sys.stdout)
+        json.dump({**loads.as_dict(), "buckling": {b.link: b.as_dict() for b in buckling}}, sys.stdout)
         print()
     elif args.csv != "-":
         _table(loads)
+        for b in buckling:
+            if b.factor is not None:
+                print(f"  link {b.link}: weak-axis buckling factor {b.factor:.4g} (P_cr = {b.euler_load_n:.6g} N, "
+                      f"K = {b.length_factor:g}, N_min = {b.min_axial_force_n:.6g} N at θ = {b.crank_angle_deg:g}°)")
+    for b in buckling:
+        if b.warning():
+            print(f"{args.scene}: warning: {b.warning()}", file=sys.stderr, flush=True)
     return EXIT_OK
+
+
+def _buckling(scene, loads):
+    """The weak-axis Euler margins of the links (fkev_slepc/model/buckling.py)."""
+    from fkev_slepc.model.buckling import weak_axis_buckling
+    from fkev_slepc.model.mechanism import build_mechanism
+
+    return weak_axis_buckling(build_mechanism(scene), loads)
 
 
 def _csv(loads, path) -> None:

@@ -55,6 +55,8 @@ def add_parser(sub) -> None:
     p.add_argument("--plot", metavar="PATH.png", help="the deflected linkage at 4 angles (with --speeds: peak "
                    "response vs speed)")
     p.add_argument("--plot-stations", metavar="PATH.png", help="stress (or moment) vs crank angle per station")
+    p.add_argument("--plot-stress", metavar="PATH.png", help="the signed stress range along each link (both faces) "
+                   "and σ over the cycle at the critical point")
     p.add_argument("--gif", metavar="PATH.gif", help="animation of the deflected linkage over one revolution")
     p.add_argument("--scale", type=float, help="magnification of the deflections in figures (default: automatic)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -109,6 +111,8 @@ def run(args) -> int:
         res.plot("deflected", scale=args.scale).savefig(args.plot, dpi=120)
     if args.plot_stations:
         res.plot("stations").savefig(args.plot_stations, dpi=120)
+    if args.plot_stress:
+        res.plot("stress").savefig(args.plot_stress, dpi=120)
     if args.gif:
         res.animate(args.gif, args.scale)
     d = res.as_dict()
@@ -158,6 +162,11 @@ def _print(d: dict) -> None:
               f"{p['crank_angle_deg']:g}°")
     else:
         print("  stresses need each section's fibre distance: give section = {shape = ...} or fibre_distance_m")
+    for name, link in d["links"].items():
+        q = link["peak"]
+        if q:
+            print(f"  whole link {name}: peak |σ| {q['stress_pa'] / 1e6:.6g} MPa (σ = {q['sigma_pa'] / 1e6:.6g} MPa, "
+                  f"face {q['face']}) at s = {q['s_m']:g} m, θ = {q['crank_angle_deg']:g}°")
     print(f"  largest node deflection {d['max_deflection_m'] * 1e3:.4g} mm (envelopes are min and max over the cycle)")
 
 

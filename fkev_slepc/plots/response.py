@@ -137,3 +137,40 @@ def resonance_labels(resonances, gap: float) -> list[tuple[float, str]]:
         else:
             out.append((float(r["speed_rad_s"]), text))
     return out
+
+
+def draw_link_stress(res) -> Figure:
+    """Left: the signed stress range [σ_min, σ_max] over the cycle along each link, both faces
+    (σ₊ at +c, σ₋ at −c along the left normal; solve/link_stress.py). Right: σ₊ and σ₋ over the
+    crank angle at the point of the peak |σ|."""
+    ls = res.link_stress
+    hi, lo, _, _ = ls.parts()
+    fig = Figure(figsize=(10.0, 4.2), layout="constrained")
+    along, cycle = fig.subplots(1, 2)
+    peaks = [(lk, ls.peak(lk)) for lk in range(len(ls.link_names))]
+    peaks = [(lk, p) for lk, p in peaks if p is not None]
+    for lk, _ in peaks:
+        sel = np.flatnonzero(ls.point_link == lk)
+        for f, (face, style) in enumerate(zip(("σ₊", "σ₋"), ("-", "--"))):
+            line, = along.plot(ls.point_s[sel], hi[sel, f] / 1e6, style, lw=1.2,
+                               label=f"{ls.link_names[lk]} {face} max/min")
+            along.plot(ls.point_s[sel], lo[sel, f] / 1e6, style, lw=1.2, color=line.get_color())
+            along.fill_between(ls.point_s[sel], lo[sel, f] / 1e6, hi[sel, f] / 1e6, color=line.get_color(), alpha=0.08)
+    along.set_xlabel("s from the link's root (m)")
+    along.set_ylabel("signed extreme-fibre stress (MPa)")
+    along.set_title("stress range over the cycle along each link", fontsize=9)
+    along.grid(alpha=0.3)
+    if peaks:
+        along.legend(fontsize=7)
+        lk, p = max(peaks, key=lambda item: item[1]["stress_pa"])
+        for f, face in enumerate(("σ₊ (+c)", "σ₋ (−c)")):
+            cycle.plot(ls.angle_deg, ls.sigma[:, p["point"], f] / 1e6, lw=1.4, label=face)
+        cycle.set_title(fit_width(f"critical point: {ls.link_names[lk]} at s = {p['s_m']:g} m (peak |σ| "
+                        f"{p['stress_pa'] / 1e6:.4g} MPa at θ = {p['crank_angle_deg']:g}°)", 0.45 * fig.get_figwidth(), 9),
+                        fontsize=9)
+        cycle.legend(fontsize=7)
+    cycle.set_xlabel(ANGLE_LABEL)
+    cycle.set_ylabel("signed extreme-fibre stress (MPa)")
+    cycle.grid(alpha=0.3)
+    suptitle(fig, f"{res.title}: Ω = {res.speed:g} rad/s, case {res.case}", fontsize=9)
+    return fig

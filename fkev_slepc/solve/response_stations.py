@@ -6,10 +6,16 @@ From the global DOFs q(θ) the element DOFs in the element's own frame are q_e =
 element's shape functions give there the elastic axial and transverse displacements u, v, the
 axial strain u' and the curvature v'', hence
 
-    N = EA u',   M = EI v'',   σ = N/A ± M c/I,   |σ|max = |N|/A + |M| c/I
+    N = EA u',   M = EI v'',   σ₊ = N/A − M c/I,   σ₋ = N/A + M c/I,   |σ|max = |N|/A + |M| c/I
 
 (c the extreme-fibre distance of the section, scene/shapes.py; NaN where the scene does not give
-it). N and M are the elastic model's internal forces: in the quasi-static limit of a statically
+it). σ₊ and σ₋ are the signed stresses of the faces at +c and −c along the link's left normal:
+with M = EI v'' positive where the link bends concave towards its left normal, the fibre at +c is
+shortened, hence the minus sign (docs/response.md §4). Over the cycle every point (station or
+element end, and face) has σ_max, σ_min, the mean (σ_max + σ_min)/2 and the alternating part
+(σ_max − σ_min)/2 (:func:`cycle_parts`).
+
+N and M are the elastic model's internal forces: in the quasi-static limit of a statically
 determinate linkage N tends to the rigid-body kinetostatic axial force, which is reported beside
 it (``axial_force_rigid_n``); their difference is the elastic correction of the axial load the
 link's joints see.
@@ -56,23 +62,37 @@ def stations_at(mech, link: int, s_values) -> list[Station]:
     return out
 
 
+def element_end_stations(mech, links=None) -> list[Station]:
+    """Both ends of every element of the axis beams of ``links`` (default all): the points of the
+    whole-link stress (the moment of the element model jumps at a node, so each end is its own
+    point; a ternary link's branch beam is not included)."""
+    out = []
+    for lk in range(mech.n_link) if links is None else links:
+        axis_beam = mech.beam_link.tolist().index(lk)
+        for e in np.flatnonzero(mech.elem_beam == axis_beam):
+            s0 = float(mech.elem_s0[e])
+            out += [Station(lk, s0, int(e), 0.0), Station(lk, s0 + float(mech.elem_length[e]), int(e), 1.0)]
+    return out
+
+
 def element_sections(mech) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Area A, second moment I and fibre distance c (NaN: not given) of every element, from the
     scene's links and segments (a ternary branch has the link's uniform section)."""
-    n_el = mech.elem_link.size
-    A, I, c = np.empty(n_el), np.empty(n_el), np.full(n_el, np.nan)
-    first_beam = {lk: mech.beam_link.tolist().index(lk) for lk in range(mech.n_link)}
-    for e in range(n_el):
-        link = mech.scene.links[mech.elem_link[e]]
-        piece = link.pieces[0]
-        if mech.elem_beam[e] == first_beam[mech.elem_link[e]]:
-            ends = np.cumsum([p.length for p in link.pieces])
-            mid = mech.elem_s0[e] + 0.5 * mech.elem_length[e]
-            piece = link.pieces[min(int(np.searchsorted(ends, mid)), len(link.pieces) - 1)]
-        A[e], I[e] = piece.area, piece.second_moment
-        if piece.fibre_distance is not None:
-            c[e] = piece.fibre_distance
-    return A, I, c
+    pieces = mech.elem_piece
+    c = np.array([np.nan if p.fibre_distance is None else p.fibre_distance for p in pieces], dtype=float)
+    return np.array([p.area for p in pieces]), np.array([p.second_moment for p in pieces]), c
+
+
+def cycle_parts(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(σ_max, σ_min, mean, alternating) over the crank angles (axis 0) of a signed stress.
+
+    Examples
+    --------
+    >>> [float(x[0]) for x in cycle_parts(np.array([[-1.0], [3.0], [2.0]]))]
+    [3.0, -1.0, 1.0, 2.0]
+    """
+    hi, lo = np.max(sigma, axis=0), np.min(sigma, axis=0)
+    return hi, lo, 0.5 * (hi + lo), 0.5 * (hi - lo)
 
 
 @dataclass(frozen=True)
@@ -86,6 +106,8 @@ class StationResponse:
     axial_force: np.ndarray  # N, N (tension > 0)
     shear: np.ndarray  # V = -dM/ds, N
     stress: np.ndarray  # max |σ| over the section, Pa (NaN without c)
+    stress_plus: np.ndarray  # σ₊ = N/A − M c/I, the face at +c along the left normal, Pa (NaN without c)
+    stress_minus: np.ndarray  # σ₋ = N/A + M c/I, the face at −c, Pa
     axial_force_rigid: np.ndarray  # rigid-body kinetostatic axial force, N
     # v minus the chord through the link's deflected ends: the deflection a floating frame on
     # the link's ends sees (the slider-crank benchmark's "midpoint transverse deflection"), m
@@ -129,8 +151,9 @@ def station_response(model, theta, q, stations=None, rigid_axial=None) -> Statio
     N, M, V = ea * du, ei * d2v, -ei * d3v
     A, I, c = (x[e] for x in element_sections(mech))
     stress = np.abs(N) / A + np.abs(M) * c / I
+    plus, minus = N / A - M * c / I, N / A + M * c / I
     rigid = np.full_like(N, np.nan)
     if rigid_axial is not None:
         co = rigid_axial[:, e]
         rigid = co[..., 0] + co[..., 1] * xi + co[..., 2] * xi**2
-    return StationResponse(stations, u, v, M, N, V, stress, rigid, chord)
+    return StationResponse(stations, u, v, M, N, V, stress, plus, minus, rigid, chord)

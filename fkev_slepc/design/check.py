@@ -1,0 +1,162 @@
+"""The design check of a linkage at one crank speed (docs/design.md, "Design check"): per link
+the peak |σ| of the steady periodic response along the whole link, the static factor against
+yield, the fatigue factor (fkev_slepc/design/fatigue.py) at its critical point, the weak-axis
+Euler margin (fkev_slepc/model/buckling.py) and the peak pin loads of the link's joints from the
+rigid-body kinetostatics (fkev_slepc/model/joint_loads.py).
+
+The stresses are those of ``fkev response`` at the same point (the harmonic-balance solution;
+the monodromy is not needed for them and is skipped): σ₊, σ₋ at both ends of every axis element
+over the output angles (fkev_slepc/solve/link_stress.py). A point's material is its segment's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import numpy as np
+
+from fkev_slepc.design.fatigue import CRITERIA, fatigue_factor, missing_strengths, static_factor
+from fkev_slepc.model.buckling import WARN_BELOW, Buckling, weak_axis_buckling
+from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.solve.link_stress import FACES
+
+STRENGTHS = ("yield_strength", "ultimate_strength", "endurance_limit")
+
+
+@dataclass(frozen=True)
+class LinkCheck:
+    """The design check of one link (None: not available, the reason in ``notes``)."""
+
+    link: str
+    materials: tuple[str, ...]
+    peak: dict | None  # solve.link_stress.LinkStress.peak
+    static_sf: float | None
+    fatigue_sf: float | None
+    critical: dict | None  # the fatigue-critical point: s_m, face, sigma_mean_pa, sigma_alternating_pa
+    buckling: Buckling
+    pins: dict[str, dict]  # joint name -> {"peak_n", "crank_angle_deg"}: the force on this link there
+    notes: tuple[str, ...]
+    points: dict | None = None  # per point: s_m, and per face static_sf, fatigue_sf (lists)
+
+    def as_dict(self, criterion: str) -> dict:
+        crit = self.critical or {}
+        return {"material": "/".join(self.materials) or None,
+                "peak_stress_pa": None if self.peak is None else self.peak["stress_pa"], "peak": self.peak,
+                "static_sf": _finite(self.static_sf), "fatigue_sf": _finite(self.fatigue_sf),
+                "fatigue_criterion": criterion,
+                "sigma_mean_pa": crit.get("sigma_mean_pa"), "sigma_alternating_pa": crit.get("sigma_alternating_pa"),
+                "critical_point": self.critical, "buckling_sf": self.buckling.factor,
+                "min_axial_force_n": self.buckling.min_axial_force_n, "buckling": self.buckling.as_dict(),
+                "pin_loads": self.pins, "notes": list(self.notes), "points": self.points}
+
+
+@dataclass(frozen=True)
+class DesignCheck:
+    title: str
+    speed: float  # rad/s
+    case: str
+    criterion: str
+    threshold: float  # weak-axis buckling warning below this factor
+    links: tuple[LinkCheck, ...]
+
+    @property
+    def warnings(self) -> list[str]:
+        return [w for lc in self.links for w in [lc.buckling.warning(self.threshold)] if w]
+
+    def as_dict(self) -> dict:
+        return {"scene": self.title, "speed_rad_s": self.speed, "case": self.case, "fatigue_criterion": self.criterion,
+                "buckling_threshold": self.threshold, "warnings": self.warnings,
+                "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links}}
+
+
+def point_strengths(scene: Scene, mech, ls) -> SimpleNamespace:
+    """Yield, ultimate and endurance strength (Pa; NaN: not given) of every point of ``ls``."""
+    def strength(e, field):
+        m = scene.material(mech.elem_piece[e].material)
+        value = None if m is None else getattr(m, field)
+        return np.nan if value is None else value
+
+    return SimpleNamespace(**{f: np.array([strength(e, f) for e in ls.point_element], dtype=float) for f in STRENGTHS})
+
+
+def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
+    sel = np.flatnonzero(ls.point_link == lk)
+    names = sorted({mech.elem_piece[e].material for e in ls.point_element[sel]} - {None})
+    notes = []
+    peak = ls.peak(lk)
+    static = fatigue = critical = None
+    points = {"s_m": ls.point_s[sel].tolist()}
+    if peak is None:
+        notes.append("no stress: the section gives no fibre distance")
+    elif not names:
+        notes.append("no safety factors: the link has no material")
+    else:
+        hi, lo, mean, alt = (x[sel] for x in ls.parts())  # (n_pt, 2)
+        st = SimpleNamespace(**{f: getattr(point_strengths(scene, mech, ls), f)[sel, None] for f in STRENGTHS})
+        n_static = static_factor(np.maximum(np.abs(hi), np.abs(lo)), st.yield_strength)
+        if np.isnan(n_static).all():
+            notes.append("no static factor: the material has no yield_pa")
+        else:
+            static = float(np.nanmin(n_static))
+            points["static_sf"] = _faces(n_static)
+        lacking = sorted({k for n in names for k in missing_strengths(scene.material(n), criterion)})
+        if lacking:
+            notes.append(f"no {criterion} fatigue factor: the material lacks {', '.join(lacking)}")
+        else:
+            n_fat = fatigue_factor(mean, alt, st, criterion)
+            k, f = np.unravel_index(np.nanargmin(n_fat), n_fat.shape)
+            fatigue = float(n_fat[k, f])
+            points["fatigue_sf"] = _faces(n_fat)
+            critical = {"s_m": float(ls.point_s[sel[k]]), "face": FACES[f], "sigma_mean_pa": float(mean[k, f]),
+                        "sigma_alternating_pa": float(alt[k, f]), "sigma_max_pa": float(hi[k, f]),
+                        "sigma_min_pa": float(lo[k, f])}
+    pins = {}
+    for jj, here in enumerate(jl.attach):
+        for link, point in here:
+            if link == lk:
+                mag = np.hypot(*np.moveaxis(jl.end_force[:, lk, point], -1, 0))
+                a = int(np.nanargmax(mag))
+                pins[jl.joint_names[jj]] = {"peak_n": float(mag[a]), "crank_angle_deg": float(jl.crank_angle_deg[a])}
+    return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes),
+                     points)
+
+
+def _finite(x: float | None) -> float | None:
+    """``x``, or None for None and ∞ (no stress: no finite factor; JSON has no infinity)."""
+    return None if x is None or not np.isfinite(x) else x
+
+
+def _faces(x: np.ndarray) -> dict:
+    """{face: list} of a (n_pt, 2) array; NaN and ∞ as None (JSON)."""
+    return {face: [float(v) if np.isfinite(v) else None for v in x[:, f]] for f, face in enumerate(FACES)}
+
+
+def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
+                 angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float = 1e-8,
+                 threshold: float = WARN_BELOW, names=None) -> DesignCheck:
+    """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
+    ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
+    weak-axis factor below which a warning is given. Raises SceneError naming a bad argument."""
+    from fkev_slepc.api.loads import study_loads
+    from fkev_slepc.api.response import study_response
+
+    names = names or {}
+    bad = []
+    if criterion not in CRITERIA:
+        bad.append(Problem(names.get("criterion", "criterion"), f"must be one of {', '.join(CRITERIA)} "
+                           f"(got {criterion!r})"))
+    if not (isinstance(threshold, (int, float)) and np.isfinite(threshold) and threshold > 0):
+        bad.append(Problem(names.get("threshold", "threshold"), f"must be a finite number > 0 (got {threshold!r})"))
+    if bad:
+        raise SceneError(scene.source, bad)
+    res = study_response(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics,
+                         tol=tol, shoot=False, names=names)
+    jl = study_loads(scene, speed_rad_s, res.angle_deg, 0.0, res.gravity, names=names)
+    from fkev_slepc.model.mechanism import build_mechanism
+
+    mech = build_mechanism(scene)
+    buckling = weak_axis_buckling(mech, jl)
+    links = tuple(_link_check(scene, mech, res.link_stress, lk, criterion, buckling[lk], jl)
+                  for lk in range(mech.n_link))
+    return DesignCheck(scene.title, float(speed_rad_s), res.case, criterion, float(threshold), links)
