@@ -79,7 +79,8 @@ def test_design_check_peak_equals_fkev_response_and_csv():
     r = fkev("design-check", SCENE, "--speed", "100", *SMALL, "--json")
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
-    resp = fkev("response", SCENE, "--speed", "100", *SMALL, "--no-shooting", "--json")
+    # the same 8 harmonics as the design check (their estimate, 0.1, is not what is compared: --tol 0.5)
+    resp = fkev("response", SCENE, "--speed", "100", *SMALL, "--tol", "0.5", "--no-shooting", "--json")
     assert resp.returncode == 0, resp.stderr
     links = json.loads(resp.stdout)["links"]
     for name in ("crank", "rod"):

@@ -16,9 +16,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from fkev_slepc.design.fatigue import CRITERIA, fatigue_factor, missing_strengths, static_factor
-from fkev_slepc.model.buckling import WARN_BELOW, Buckling, weak_axis_buckling
-from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.design.fatigue import fatigue_factor, missing_strengths, static_factor
+from fkev_slepc.model.buckling import Buckling
+from fkev_slepc.scene import Scene
 from fkev_slepc.solve.link_stress import FACES
 
 STRENGTHS = ("yield_strength", "ultimate_strength", "endurance_limit")
@@ -80,7 +80,7 @@ def point_strengths(scene: Scene, mech, ls) -> SimpleNamespace:
     return SimpleNamespace(**{f: np.array([strength(e, f) for e in ls.point_element], dtype=float) for f in STRENGTHS})
 
 
-def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
+def link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
     sel = np.flatnonzero(ls.point_link == lk)
     names = sorted({mech.elem_piece[e].material for e in ls.point_element[sel]} - {None})
     notes = []
@@ -130,33 +130,3 @@ def _finite(x: float | None) -> float | None:
 def _faces(x: np.ndarray) -> dict:
     """{face: list} of a (n_pt, 2) array; NaN and ∞ as None (JSON)."""
     return {face: [float(v) if np.isfinite(v) else None for v in x[:, f]] for f, face in enumerate(FACES)}
-
-
-def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
-                 angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float = 1e-8,
-                 threshold: float = WARN_BELOW, names=None) -> DesignCheck:
-    """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
-    ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
-    weak-axis factor below which a warning is given. Raises SceneError naming a bad argument."""
-    from fkev_slepc.api.loads import study_loads
-    from fkev_slepc.api.response import study_response
-
-    names = names or {}
-    bad = []
-    if criterion not in CRITERIA:
-        bad.append(Problem(names.get("criterion", "criterion"), f"must be one of {', '.join(CRITERIA)} "
-                           f"(got {criterion!r})"))
-    if not (isinstance(threshold, (int, float)) and np.isfinite(threshold) and threshold > 0):
-        bad.append(Problem(names.get("threshold", "threshold"), f"must be a finite number > 0 (got {threshold!r})"))
-    if bad:
-        raise SceneError(scene.source, bad)
-    res = study_response(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics,
-                         tol=tol, shoot=False, names=names)
-    jl = study_loads(scene, speed_rad_s, res.angle_deg, 0.0, res.gravity, names=names)
-    from fkev_slepc.model.mechanism import build_mechanism
-
-    mech = build_mechanism(scene)
-    buckling = weak_axis_buckling(mech, jl)
-    links = tuple(_link_check(scene, mech, res.link_stress, lk, criterion, buckling[lk], jl)
-                  for lk in range(mech.n_link))
-    return DesignCheck(scene.title, float(speed_rad_s), res.case, criterion, float(threshold), links)
