@@ -25,6 +25,9 @@ How:
    by level until max|μ| and the retained Floquet frequencies change by less than ``reduce_tol``
    (:mod:`fkev_slepc.solve.floquet_truncation`, which states the rule); ``reduce=r`` takes the
    lowest r modes per angle and measures the same changes against 2r. ``truncation`` holds them.
+   ``reduce="links"`` / ``"links:N"`` project instead on each link's Craig–Bampton component
+   modes in its own frame (:mod:`fkev_slepc.solve.floquet_components`, docs/theory.md §18.8),
+   through the same projection and the same convergence rule (modes per link doubled).
 
 Result (``LinkageFloquet``): ``multipliers`` (2n,) complex sorted by |μ|, ``exponents`` (2n,)
 complex in 1/s (Re: growth rate; Im unwrapped to the mode's frequency, rad/s, by its
@@ -49,8 +52,9 @@ import scipy.linalg as la
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.solve.floquet import Monodromy, monodromy
 from fkev_slepc.solve.floquet_reduce import compress, frozen_pool, reduced_coefficients
+from fkev_slepc.solve.floquet_components import LINK_MODES, link_components
 from fkev_slepc.solve.floquet_truncation import (
-    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge, resolve_reduce,
+    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge, link_modes, resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -164,6 +168,7 @@ class LinkageFloquet:
     n_dof: int
     basis: int | None = None
     truncation: Truncation | None = None
+    covered_rad_s: float | None = None  # link-frame components: highest retained fixed-interface frequency
 
     @property
     def truncation_error(self) -> float | None:
@@ -250,8 +255,12 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     reaches ``AUTO_MIN_STEPS``, else None), ``"auto"`` (the convergence sequence of
     :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
-    its truncation measured against the pool of 2r unless ``check_truncation`` is False).
-    ``basis``: an explicit co-rotated basis V̂ (n, R) instead."""
+    its truncation measured against the pool of 2r unless ``check_truncation`` is False),
+    ``"links"`` (link-frame component modes, :mod:`fkev_slepc.solve.floquet_components`: the
+    modes per link double from ``LINK_MODES`` by the same convergence rule; ``covered_rad_s``
+    states the highest retained fixed-interface frequency) or ``"links:N"`` (N modes per link,
+    measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
+    :class:`~fkev_slepc.solve.floquet_components.LinkBasis`."""
     from fkev_slepc.model.operators import Model
 
     if not np.isfinite(omega) or omega == 0.0:
@@ -268,16 +277,19 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                     interp_tol=interp_tol)
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
-        n = int(model.n_free)
-        if reduce == "auto":
-            res, trunc = converge(solve, pool, n, modes=min(AUTO_MODES, n - 1), tol=reduce_tol,
-                                  max_basis=max_basis)
+        n, squeeze, first = int(model.n_free), compress, AUTO_MODES
+        if isinstance(reduce, str) and reduce.startswith("links"):  # link-frame component modes
+            comp = link_components(model)
+            pool, squeeze, first = comp.basis, lambda P, tau: P, LINK_MODES  # noqa: E731
+        if reduce in ("auto", "links"):
+            res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol,
+                                  max_basis=max_basis, compress=squeeze, retained=min(AUTO_MODES, n - 1))
             return replace(res, truncation=trunc)
-        r = min(reduce, n - 1)
-        res = solve(compress(pool(r), threshold))
+        r = min(reduce, n - 1) if link_modes(reduce) is None else link_modes(reduce)
+        res = solve(squeeze(pool(r), threshold))
         if not check_truncation:
             return res
-        ref = solve(compress(pool(min(2 * r, n - 1)), threshold))
+        ref = solve(squeeze(pool(min(2 * r, n - 1) if link_modes(reduce) is None else max(2 * r, 1)), threshold))
         return replace(res, truncation=between(ref, res, r, reduce_tol, [
             (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
     gen, ierr, k, c, d = _build(model, omega, case, damping, start, samples, interp_tol, basis)
@@ -288,4 +300,4 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                      min_steps=int(np.ceil(2.0 * TWO_PI * rho)))
     mu, s = _unwrapped_exponents(mono, c, d, omega)
     return LinkageFloquet(float(omega), case, mu, s, mono, ierr, k, int(model.n_free),
-                          None if basis is None else basis.shape[1])
+                          None if basis is None else basis.shape[1], None, getattr(basis, "covered_rad_s", None))
