@@ -177,3 +177,29 @@ def test_resolve_links(value, expected):
 def test_bad_links_value_is_named(bad):
     with pytest.raises(ValueError, match="reduce"):
         floquet_multipliers(_model(TM, 1), 100.0, "full", reduce=bad)
+
+
+def test_fkev_floquet_reduce_links_archives_the_covered_range(tmp_path):
+    """``fkev floquet --reduce links:1`` (Bahgat–Willmert, 1 element per link, 700 rad/s): the
+    archive holds the basis size, the truncation and the covered fixed-interface frequency of the
+    in-process result, and the report's model line states the range; a bad value names the flag."""
+    import h5py
+
+    from clitools import fkev
+    from fkev_slepc.cli.floquet import lines
+    from fkev_slepc.sweep.floquet_run import read_floquet
+
+    out = tmp_path / "links.h5"
+    r = fkev("floquet", BW, "--elements", "1", "--speeds", "700", "--angles", "0:360:90", "--no-critical",
+             "--reduce", "links:1", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    ref = floquet_multipliers(_model(BW, 1), 700.0, "full", reduce="links:1")
+    with h5py.File(out, "r") as f:
+        assert f["floquet/basis_size"][0, 0] == ref.basis
+        assert f["floquet/covered_rad_s"][0, 0] == pytest.approx(ref.covered_rad_s, rel=1e-12)
+        assert f["floquet/max_abs_multiplier"][0, 0] == pytest.approx(ref.max_abs, rel=1e-9)
+    o = read_floquet(out).as_dict()
+    assert any(t.startswith(f"  model: 1 of 1 grid speed on a link component-mode basis (fixed-interface modes up "
+                            f"to {ref.covered_rad_s:.4g} rad/s) of {ref.basis} vectors") for t in lines(o)), lines(o)
+    r = fkev("floquet", BW, "--speeds", "700", "--reduce", "links:two", "-o", tmp_path / "bad.h5")
+    assert r.returncode == 2 and "--reduce" in r.stderr
