@@ -20,6 +20,10 @@ of model/periodic.py is again Lagrangian (so symplectic steps still apply):
 
 For the lone crank the co-rotated system has constant coefficients, so its lowest frozen modes
 span an invariant subspace and the reduction is exact for them.
+
+The projection (:func:`reduced_coefficients`) takes any basis that gives (W, W', W'') at one crank
+angle from the link angles φ, φ', φ'' (``at``): the co-rotated frozen modes here
+(:class:`CorotatedBasis`) or the link-frame component modes of solve/floquet_components.py.
 """
 
 from __future__ import annotations
