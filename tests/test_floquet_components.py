@@ -203,3 +203,20 @@ def test_fkev_floquet_reduce_links_archives_the_covered_range(tmp_path):
                             f"to {ref.covered_rad_s:.4g} rad/s) of {ref.basis} vectors") for t in lines(o)), lines(o)
     r = fkev("floquet", BW, "--speeds", "700", "--reduce", "links:two", "-o", tmp_path / "bad.h5")
     assert r.returncode == 2 and "--reduce" in r.stderr
+
+
+def test_default_picks_link_components_where_their_levels_are_much_cheaper():
+    """reduce="default" per speed (docs/engine.md): the full model below AUTO_MIN_STEPS
+    (Turcic–Midha, 1 element per link, 100 rad/s); the frozen-mode sequence where the link level of
+    8 modes per link is the whole space (Turcic–Midha, 3 elements per link, 60 rad/s: 27 of 27);
+    the link components where that level needs at most a quarter of the full model's steps
+    (Bahgat–Willmert, 16 elements per link, 500 rad/s: 14,361 against 762,340)."""
+    from fkev_slepc.solve.floquet_linkage import default_reduction, full_min_steps
+    from fkev_slepc.solve.floquet_truncation import LINKS_STEP_RATIO
+
+    assert default_reduction(_model(TM, 1), 100.0) is None
+    assert default_reduction(_model(TM, 3), 60.0) == "auto"
+    fine = _model(BW, 16)
+    assert default_reduction(fine, 500.0) == "links"
+    level = full_min_steps(fine, 500.0, basis=link_components(fine).basis(8))
+    assert LINKS_STEP_RATIO * level <= full_min_steps(fine, 500.0)

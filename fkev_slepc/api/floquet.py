@@ -21,9 +21,10 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, angles_
                   resonance_order: int = 3, probe: bool = False, solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
                   command_line: str = "", notify=None, progress: bool = False, reduce="default"):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
-    messages name the arguments (the CLI passes its flags). ``reduce``: the frozen-mode reduction
-    of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" where the full model
-    needs ``AUTO_MIN_STEPS`` Magnus steps; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
+    messages name the arguments (the CLI passes its flags). ``reduce``: the reduction of each
+    monodromy, "auto", "none", r frozen modes per angle, "links", "links:N" (link-frame component
+    modes) or "default" (per speed, :func:`fkev_slepc.solve.floquet_linkage.default_reduction`;
+    :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`)."""
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, FloquetRequest, read_floquet, run_floquet
     from fkev_slepc.sweep.grid import configure

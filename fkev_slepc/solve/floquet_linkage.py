@@ -54,7 +54,8 @@ from fkev_slepc.solve.floquet import Monodromy, monodromy
 from fkev_slepc.solve.floquet_reduce import compress, frozen_pool, reduced_coefficients
 from fkev_slepc.solve.floquet_components import LINK_MODES, link_components
 from fkev_slepc.solve.floquet_truncation import (
-    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge, link_modes, resolve_reduce,
+    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, REDUCE_TOL, Truncation, between, converge, link_modes,
+    resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -235,11 +236,28 @@ def _unwrapped_exponents(mono: Monodromy, c: _Coefficients, d, omega: float) -> 
     return mu[order], s[order]
 
 
-def full_min_steps(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0) -> int:
-    """The full model's least Magnus step count over a revolution, 2·2π·ρ(A) at ``start``."""
-    c = _coefficients(model, np.array([float(start)]), omega, case, damping)
+def full_min_steps(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0,
+                   basis=None) -> int:
+    """The full model's (or, given ``basis``, the reduced model's) least Magnus step count over a
+    revolution, 2·2π·ρ(A) at ``start``."""
+    c = _coefficients(model, np.array([float(start)]), omega, case, damping, basis)
     A = _generator_samples(c, omega, _scaling(c))
     return int(np.ceil(2.0 * TWO_PI * np.max(np.abs(la.eigvals(A[0])))))
+
+
+def default_reduction(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0):
+    """``reduce="default"`` resolved for one speed (docs/engine.md): None (the full model) below
+    ``AUTO_MIN_STEPS`` full-model steps; above, ``"links"`` where the link-component level of
+    4·``LINK_MODES`` modes per link (the first that can end its sequence) is a strict sub-basis
+    needing at most 1/``LINKS_STEP_RATIO`` of the full model's steps, else ``"auto"``."""
+    full = full_min_steps(model, omega, case, damping, start)
+    if full < AUTO_MIN_STEPS:
+        return None
+    basis = link_components(model).basis(4 * LINK_MODES)
+    if basis.shape[1] < model.n_free and LINKS_STEP_RATIO * full_min_steps(
+            model, omega, case, damping, start, basis) <= full:
+        return "links"
+    return "auto"
 
 
 def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, damping: bool = True,
@@ -251,8 +269,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                         basis: np.ndarray | None = None) -> LinkageFloquet:
     """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
 
-    ``reduce``: None (the full model), ``"default"`` (``"auto"`` where :func:`full_min_steps`
-    reaches ``AUTO_MIN_STEPS``, else None), ``"auto"`` (the convergence sequence of
+    ``reduce``: None (the full model), ``"default"`` (:func:`default_reduction`: None below
+    ``AUTO_MIN_STEPS`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
     :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False),
@@ -271,7 +289,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     except ValueError as err:
         raise ValueError(f"reduce: {err}") from None
     if reduce == "default":
-        reduce = "auto" if full_min_steps(model, omega, case, damping, start) >= AUTO_MIN_STEPS else None
+        reduce = default_reduction(model, omega, case, damping, start)
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
                     interp_tol=interp_tol)

@@ -48,7 +48,8 @@ THRESHOLDS = tuple(10.0 ** -k for k in range(1, 11))
 REDUCE_TOL = 1e-3  # |Δ max|μ|| and the relative frequency change that end the sequence
 AUTO_MODES = 4  # modes per angle of the first pool
 AUTO_ANGLES = 8  # pool angles over a revolution
-AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: "auto" where the full model needs this many Magnus steps
+AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: reduced where the full model needs this many Magnus steps
+LINKS_STEP_RATIO = 4  # ... on link components where their level of 8 modes per link needs 1/4 of those steps or fewer
 
 
 @dataclass(frozen=True)
@@ -70,9 +71,10 @@ class Truncation:
 
 def resolve_reduce(value):
     """None (the full model), "default", "auto", a number of modes per angle, "links" or
-    "links:N" from what a user asked: "default" (decided per speed by ``floquet_multipliers``:
-    "auto" where the full model's step count 2·2π·ρ(A) reaches ``AUTO_MIN_STEPS``, docs/engine.md
-    measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
+    "links:N" from what a user asked: "default" (decided per speed by
+    ``floquet_linkage.default_reduction``: the full model below ``AUTO_MIN_STEPS`` full-model steps
+    2·2π·ρ(A), above "links" where the link-component level of 8 modes per link needs at most
+    1/``LINKS_STEP_RATIO`` of them, else "auto"; docs/engine.md measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
     link-frame component modes of solve/floquet_components.py, modes per link doubled until
     converged) or "links:N" (N >= 0 fixed-interface modes per link). ValueError otherwise."""
     if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
