@@ -34,7 +34,7 @@ the basis protocol of :func:`fkev_slepc.solve.floquet_reduce.reduced_coefficient
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from math import comb
 
 import numpy as np
@@ -77,8 +77,8 @@ class LinkComponent:
     psi: np.ndarray  # (n_i, n_braw) static constraint modes -K_ii⁻¹ K_ib
     freq: np.ndarray  # (m,) fixed-interface frequencies found so far, rad/s, ascending
     modes: np.ndarray  # (n_i, m) mass-normalised fixed-interface modes
-    stiffness: np.ndarray  # K_ii, K_ib (kept for more modes)
-    mass: np.ndarray  # M_ii
+    stiffness: tuple  # (K_ii, K_ib), dense, link frame
+    mass: np.ndarray  # M_ii, dense, link frame
 
     @property
     def size(self) -> int:
@@ -174,19 +174,13 @@ class Components:
                 lam, X = la.eigh(Kii, M)
             else:
                 lam, X = fixed_interface_slepc(sp.csr_matrix(Kii), sp.csr_matrix(M), max(want, 2 * c.freq.size))
-            self.links[j] = _replace(c, freq=np.sqrt(np.maximum(lam, 0.0)), modes=X)
+            self.links[j] = replace(c, freq=np.sqrt(np.maximum(lam, 0.0)), modes=X)
 
     def basis(self, k: int) -> LinkBasis:
         """The basis with the lowest ``k`` (>= 0) fixed-interface modes of every link."""
         self._ensure(k)
         keep = [min(int(k), c.size) for c in self.links]
         return LinkBasis(self, tuple(keep))
-
-
-def _replace(c: LinkComponent, **kw) -> LinkComponent:
-    from dataclasses import replace
-
-    return replace(c, **kw)
 
 
 def fixed_interface_slepc(K, M, nev: int):
