@@ -23,6 +23,13 @@ truncation measures of the last pair and whether they met the tolerance. One BLA
 
     .venv/bin/python scripts/bench_floquet.py
     .venv/bin/python scripts/bench_floquet.py --repeats 1 --large-elements 0 --angles 36
+    .venv/bin/python scripts/bench_floquet.py --table bw:1:500,bw:4:500,tm:0:60 --repeats 3
+
+Side by side (``--table``): per row SCENE:ELEMENTS:SPEED the frozen 360-angle sweep, the full
+monodromy (models up to ``--table-full-max`` DOFs), the frozen-mode reduction (``reduce="auto"``)
+and the link-frame component modes (``reduce="links"``, solve/floquet_components.py), timed
+alternately, medians over ``--repeats``; ratios to the sweep and max|μ| differences from the full
+model, as a markdown table.
 """
 
 from __future__ import annotations
@@ -51,6 +58,12 @@ def parse_args(argv=None):
     ap.add_argument("--reduce-scene", default="runs/turcic-midha-1984.toml")
     ap.add_argument("--reduce-elements", type=int, default=0, help="elements per link (0: the scene's)")
     ap.add_argument("--reduce-repeats", type=int, default=1)
+    ap.add_argument("--table", default="", help="side-by-side rows SCENE:ELEMENTS:SPEED,... (SCENE bw, tm, sc or "
+                    "a path; ELEMENTS 0: the scene's mesh): frozen sweep, full, frozen-mode auto, link components")
+    ap.add_argument("--table-methods", default="full,auto,links", help="which monodromies the table times")
+    ap.add_argument("--table-full-max", type=int, default=400, help="largest model (DOFs) whose full monodromy is timed")
+    ap.add_argument("--table-steps", action="store_true", help="instead of timing: the least Magnus step count "
+                    "2·2π·ρ(A) of the full model and of the link-component levels (1, 2, 4, 8, 16 modes per link)")
     return benchlib.parse(ap, argv)[0]
 
 
@@ -83,6 +96,9 @@ def main(argv=None) -> None:
     from fkev_slepc.solve.floquet import match_multipliers
     from fkev_slepc.solve.floquet_linkage import floquet_multipliers
 
+    if args.table:
+        (level_steps if args.table_steps else side_by_side)(args)
+        return
     scene = load_scene(benchlib.ROOT / args.scene)
     model = Model(scene, cases=(args.case,))
     sweep = frozen_sweep(scene, model, args.speed, args.case, args.angles, args.modes)
@@ -152,6 +168,77 @@ def reduced_vs_full(scene, elements, speed, case, tol, repeats) -> None:
     print(f"  true error of max|mu|: {abs(red.max_abs - full.max_abs) / full.max_abs:.1e} relative; "
           f"speed-up full / reduced: {tf / tr:.1f}")
     print_truncation(red.truncation)
+
+TABLE_SCENES = {"bw": "runs/bahgat-willmert-1976.toml", "tm": "runs/turcic-midha-1984.toml",
+                "sc": "runs/slider-crank-benchmark.toml"}
+TABLE_REDUCE = {"full": None, "auto": "auto", "links": "links"}
+
+
+def _table_models(args):
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.scene import load_scene, with_elements
+
+    for row in args.table.split(","):
+        name, elements, speed = row.split(":")
+        scene = load_scene(benchlib.ROOT / TABLE_SCENES.get(name, name))
+        scene = with_elements(scene, int(elements)) if int(elements) > 0 else scene
+        yield name, elements, float(speed), scene, Model(scene, cases=(args.case,))
+
+
+def level_steps(args) -> None:
+    """Per row: the full model's least step count and each link-component level's (basis size, least
+    step count, highest retained fixed-interface frequency), from one eigenvalue problem each."""
+    import scipy.linalg as la
+
+    from fkev_slepc.solve.floquet_components import link_components
+    from fkev_slepc.solve.floquet_linkage import _coefficients, _generator_samples, _scaling, full_min_steps
+
+    for name, elements, speed, _scene, model in _table_models(args):
+        comp = link_components(model)
+        full = full_min_steps(model, speed, args.case) if model.n_free <= args.table_full_max else "-"
+        cells = []
+        for k in (1, 2, 4, 8, 16):
+            basis = comp.basis(k)
+            c = _coefficients(model, np.array([0.0]), speed, args.case, True, basis)
+            rho = np.max(np.abs(la.eigvals(_generator_samples(c, speed, _scaling(c))[0])))
+            cells.append(f"{basis.shape[1]}: {int(np.ceil(4 * np.pi * rho)):,} ({basis.covered_rad_s:.3g} rad/s)")
+        print(f"| {name} | {elements} | {model.n_free} | {speed:g} | {full if isinstance(full, str) else f'{full:,}'} | "
+              + " | ".join(cells) + " |", flush=True)
+
+
+def side_by_side(args) -> None:
+    """One row per SCENE:ELEMENTS:SPEED: the frozen 360-angle sweep and each monodromy of
+    ``--table-methods`` timed alternately (medians over ``--repeats``), their ratios to the sweep,
+    max|μ| and its difference from the full model (where the full model is timed)."""
+    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+
+    methods = [m.strip() for m in args.table_methods.split(",") if m.strip()]
+    print("| scene | el/link | DOFs | rad/s | sweep s | " + " | ".join(
+        f"{m} s (×sweep) | {m} max|μ| (basis)" for m in methods) + " |")
+    print("|" + "---|" * (5 + 2 * len(methods)))
+    for name, elements, speed, scene, model in _table_models(args):
+        todo = [m for m in methods if m != "full" or model.n_free <= args.table_full_max]
+        sweep = frozen_sweep(scene, model, speed, args.case, args.angles, args.modes)
+        times = {m: [] for m in ["sweep"] + todo}
+        res = {}
+        for _ in range(args.repeats):
+            times["sweep"].append(sweep())
+            for m in todo:
+                t0 = time.perf_counter()
+                res[m] = floquet_multipliers(model, speed, args.case, tol=args.tol, reduce=TABLE_REDUCE[m])
+                times[m].append(time.perf_counter() - t0)
+        ts = float(np.median(times["sweep"]))
+        cells = []
+        for m in methods:
+            if m not in res:
+                cells += ["not run", "-"]
+                continue
+            r, tm = res[m], float(np.median(times[m]))
+            diff = f", Δ {abs(r.max_abs - res['full'].max_abs):.1e}" if "full" in res and m != "full" else ""
+            extra = "" if r.basis is None else f" ({r.basis}{'' if r.truncation.converged else ' NOT converged'})"
+            cells += [f"{tm:.2f} ({tm / ts:.2f}×)", f"{r.max_abs:.9f}{diff}{extra}"]
+        print(f"| {name} | {elements} | {model.n_free} | {speed:g} | {ts:.2f} | " + " | ".join(cells) + " |", flush=True)
+
 
 if __name__ == "__main__":
     main()

@@ -24,9 +24,10 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
                   command_line: str = "", notify=None, progress: bool = False, reduce="default", plane: str = "in"):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
     messages name the arguments (the CLI passes its flags); ``speeds_rpm`` the speeds in rev/min
-    instead of ``speeds_rad_s``. ``reduce``: the frozen-mode reduction
-    of each monodromy, "auto", "none", r modes per angle, or "default" ("auto" where the full model
-    needs ``AUTO_MIN_STEPS`` Magnus steps; :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`).
+    instead of ``speeds_rad_s``. ``reduce``: the reduction of each
+    monodromy, "auto", "none", r frozen modes per angle, "links", "links:N" (link-frame component
+    modes) or "default" (per speed, :func:`fkev_slepc.solve.floquet_linkage.default_reduction`;
+    :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`).
     ``plane``: "out" for the out-of-plane problem (docs/theory.md §19.9; archive ``<stem>-out-floquet.h5``)."""
     from fkev_slepc.api.loads import full_turn_problem
     from fkev_slepc.scene.cases import case_name

@@ -20,7 +20,7 @@ MULTIPLIER_ERROR = Var("floquet/multiplier_error", (SPEED, CASE), "f8", "1",
                        "estimated absolute error of the multipliers (monodromy step doubling; reduced model: plus the "
                        "truncation change of max|mu|)", np.nan, source="error")
 BASIS_SIZE = Var("floquet/basis_size", (SPEED, CASE), "i4", "1",
-                 "vectors of the frozen-mode reduction (0: the full model)", 0, source="basis")
+                 "vectors of the reduced basis, frozen-mode or link components (0: the full model)", 0, source="basis")
 REDUCTION_ROWS = (
     BASIS_SIZE,
     Var("floquet/truncation_max_abs", (SPEED, CASE), "f8", "1", "reduced model: relative change of max|mu| from "
@@ -31,6 +31,9 @@ REDUCTION_ROWS = (
         "retained cycle-mean Floquet frequency from the previous basis level", np.nan, source="frequency"),
     Var("floquet/truncation_converged", (SPEED, CASE), "u1", "1", "reduced model: 1 if both changes were below "
         "the floquet group's reduce_tol twice in a row", 0, source="converged"),
+    Var("floquet/covered_rad_s", (SPEED, CASE), "f8", "rad/s", "link-frame component modes (reduce links): highest "
+        "retained fixed-interface frequency, the range of modes the verdict covers (NaN: full model or frozen-mode "
+        "basis)", np.nan, source="covered"),
 )
 F_STATUS = Var("floquet/status", (SPEED, CASE), STATUS, "1", "outcome of the speed", 0, required=True,
                source="status", attrs={"description": "ok: max|mu| - 1 <= tol + 10 x multiplier_error (tol: the "

@@ -46,9 +46,11 @@ def add_parser(sub) -> None:
     p.add_argument("--resonance-order", type=int, default=None, metavar="N",
                    help="list the resonance candidates 2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of order n <= N that lie between two stable "
                    "grid speeds, where a band narrower than the spacing would not be seen (default 3; 0: none)")
-    p.add_argument("--reduce", default=None, metavar="auto|none|N",
-                   help="frozen-mode reduction of each monodromy: auto (basis grown until max|μ| and the Floquet "
-                   "frequencies change < 1e-3, truncation archived), none (full model), N modes per angle; default: "
+    p.add_argument("--reduce", default=None, metavar="auto|none|N|links|links:N",
+                   help="reduction of each monodromy: auto (frozen-mode basis grown until max|μ| and the Floquet "
+                   "frequencies change < 1e-3, truncation archived), none (full model), N frozen modes per angle, "
+                   "links (component modes in link frames, modes per link doubled to the same rule), links:N (N "
+                   "fixed-interface modes per link, truncation measured against 2N); default: "
                    "auto where the full model needs >= 60,000 Magnus steps, else none (docs/engine.md)")
     p.add_argument("--probe-resonances", action="store_true",
                    help="solve one more monodromy at each of those candidates (a band found there is refined)")
@@ -198,14 +200,18 @@ def _unstable_at(b: dict) -> str:
 
 
 def _reduction_lines(o: dict) -> list[str]:
-    """Which speeds were solved on a frozen-mode basis, its size and its measured truncation."""
+    """Which speeds were solved on a reduced basis (frozen-mode, or link components with the frequency range
+    they cover), its size and its measured truncation."""
     size = [b or 0 for b in o.get("basis_size") or []]
     red = [i for i, b in enumerate(size) if b > 0]
     if not red:
         return ["  model: the full model at every grid speed (no frozen-mode reduction)"] if size else []
     pick = lambda key: [o[key][i] for i in red if o.get(key) and o[key][i] is not None]  # noqa: E731
     stuck = sum(not c for c in pick("truncation_converged"))
-    return [f"  model: {len(red)} of {len(size)} grid {_plural(len(size), 'speed')} on a frozen-mode basis of "
+    covered = [c for c in pick("covered_rad_s") if np.isfinite(c)]
+    kind = (f"link component-mode basis (fixed-interface modes up to {_span(covered, '.4g')} rad/s) of " if covered
+            else "frozen-mode basis of ")
+    return [f"  model: {len(red)} of {len(size)} grid {_plural(len(size), 'speed')} on a {kind}"
             f"{_span([size[i] for i in red], 'd')} vectors; truncation change of max|μ| {_span(pick('truncation_max_abs'), '.2g')}"
             f", of the retained frequencies {_span(pick('truncation_frequency'), '.2g')} (relative)"
             + (f"; {stuck} not converged (basis cap reached)" if stuck else "")]

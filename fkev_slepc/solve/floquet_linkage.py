@@ -29,6 +29,9 @@ How:
    by level until max|μ| and the retained Floquet frequencies change by less than ``reduce_tol``
    (:mod:`fkev_slepc.solve.floquet_truncation`, which states the rule); ``reduce=r`` takes the
    lowest r modes per angle and measures the same changes against 2r. ``truncation`` holds them.
+   ``reduce="links"`` / ``"links:N"`` project instead on each link's Craig–Bampton component
+   modes in its own frame (:mod:`fkev_slepc.solve.floquet_components`, docs/theory.md §18.8),
+   through the same projection and the same convergence rule (modes per link doubled).
 
 Result (``LinkageFloquet``): ``multipliers`` (2n,) complex sorted by |μ|, ``exponents`` (2n,)
 complex in 1/s (Re: growth rate; Im unwrapped to the mode's frequency, rad/s, by its
@@ -51,11 +54,13 @@ import numpy as np
 import scipy.linalg as la
 
 from fkev_slepc.solve.floquet import Monodromy, exponential_monodromy, monodromy
-from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
+from fkev_slepc.solve.floquet_components import LINK_MODES, link_components
 from fkev_slepc.solve.floquet_reduce import compress, frozen_pool
 from fkev_slepc.solve.periodic_system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
+from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
 from fkev_slepc.solve.floquet_truncation import (
-    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, REDUCE_TOL, Truncation, between, converge, resolve_reduce,
+    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, REDUCE_TOL, Truncation, between, converge, link_modes,
+    resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -75,6 +80,7 @@ class LinkageFloquet:
     basis: int | None = None
     truncation: Truncation | None = None
     interp_multiplier_error: float = 0.0  # the interpolation error's bound on the multipliers
+    covered_rad_s: float | None = None  # link-frame components: highest retained fixed-interface frequency
 
     @property
     def truncation_error(self) -> float | None:
@@ -117,10 +123,27 @@ def _unwrapped_exponents(mu, X, c: Coefficients, d, omega: float) -> np.ndarray:
     return mu[order], s[order]
 
 
-def full_min_steps(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0) -> int:
-    """The full model's least Magnus step count over a revolution, 2·2π·ρ(A) at ``start``."""
-    A = PeriodicSystem(model, omega, case, damping=damping, start=start).generator(np.zeros(1))
+def full_min_steps(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0,
+                   basis=None) -> int:
+    """The full model's (or, given ``basis``, the reduced model's) least Magnus step count over a
+    revolution, 2·2π·ρ(A) at ``start``."""
+    A = PeriodicSystem(model, omega, case, damping=damping, basis=basis, start=start).generator(np.zeros(1))
     return int(np.ceil(2.0 * TWO_PI * np.max(np.abs(la.eigvals(A[0])))))
+
+
+def default_reduction(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0):
+    """``reduce="default"`` resolved for one speed (docs/engine.md): None (the full model) below
+    ``AUTO_MIN_STEPS`` full-model steps; above, ``"links"`` where the link-component level of
+    4·``LINK_MODES`` modes per link (the first that can end its sequence) is a strict sub-basis
+    needing at most 1/``LINKS_STEP_RATIO`` of the full model's steps, else ``"auto"``."""
+    full = full_min_steps(model, omega, case, damping, start)
+    if full < AUTO_MIN_STEPS:
+        return None
+    basis = link_components(model).basis(4 * LINK_MODES)
+    if basis.shape[1] < model.n_free and LINKS_STEP_RATIO * full_min_steps(
+            model, omega, case, damping, start, basis) <= full:
+        return "links"
+    return "auto"
 
 
 def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, damping: bool = True,
@@ -132,12 +155,16 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                         basis: np.ndarray | None = None, comm=None, progress=None) -> LinkageFloquet:
     """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
 
-    ``reduce``: None (the full model), ``"default"`` (``"auto"`` where :func:`full_min_steps`
-    reaches ``AUTO_MIN_STEPS``, else None), ``"auto"`` (the convergence sequence of
+    ``reduce``: None (the full model), ``"default"`` (:func:`default_reduction`: None below
+    ``AUTO_MIN_STEPS`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
     :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
-    its truncation measured against the pool of 2r unless ``check_truncation`` is False).
-    ``basis``: an explicit co-rotated basis V̂ (n, R) instead. ``comm``: an MPI communicator whose
+    its truncation measured against the pool of 2r unless ``check_truncation`` is False),
+    ``"links"`` (link-frame component modes, :mod:`fkev_slepc.solve.floquet_components`: the
+    modes per link double from ``LINK_MODES`` by the same convergence rule; ``covered_rad_s``
+    states the highest retained fixed-interface frequency) or ``"links:N"`` (N modes per link,
+    measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
+    :class:`~fkev_slepc.solve.floquet_components.LinkBasis`. ``comm``: an MPI communicator whose
     ranks share every monodromy's steps (collective; one speed on several ranks).
     ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`)."""
     from fkev_slepc.model.operators import Model
@@ -150,22 +177,25 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     except ValueError as err:
         raise ValueError(f"reduce: {err}") from None
     if reduce == "default":
-        reduce = "auto" if full_min_steps(model, omega, case, damping, start) >= AUTO_MIN_STEPS else None
+        reduce = default_reduction(model, omega, case, damping, start)
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
                     interp_tol=interp_tol, comm=comm, progress=progress)
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
-        n = int(model.n_free)
-        if reduce == "auto":
-            res, trunc = converge(solve, pool, n, modes=min(AUTO_MODES, n - 1), tol=reduce_tol,
-                                  max_basis=max_basis)
+        n, squeeze, first = int(model.n_free), compress, AUTO_MODES
+        if isinstance(reduce, str) and reduce.startswith("links"):  # link-frame component modes
+            comp = link_components(model)
+            pool, squeeze, first = comp.basis, lambda P, tau: P, LINK_MODES  # noqa: E731
+        if reduce in ("auto", "links"):
+            res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol,
+                                  max_basis=max_basis, compress=squeeze, retained=min(AUTO_MODES, n - 1))
             return replace(res, truncation=trunc)
-        r = min(reduce, n - 1)
-        res = solve(compress(pool(r), threshold))
+        r = min(reduce, n - 1) if link_modes(reduce) is None else link_modes(reduce)
+        res = solve(squeeze(pool(r), threshold))
         if not check_truncation:
             return res
-        ref = solve(compress(pool(min(2 * r, n - 1)), threshold))
+        ref = solve(squeeze(pool(min(2 * r, n - 1) if link_modes(reduce) is None else max(2 * r, 1)), threshold))
         return replace(res, truncation=between(ref, res, r, reduce_tol, [
             (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
     system = PeriodicSystem(model, omega, case, damping=damping, basis=basis, start=start)
@@ -187,4 +217,5 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|
     bound = TWO_PI * interp.error * interp.peak * mono.max_abs
     return LinkageFloquet(float(omega), case, mu, s, mono, interp.error, interp.samples, int(model.n_free),
-                          None if basis is None else basis.shape[1], interp_multiplier_error=bound)
+                          None if basis is None else basis.shape[1], None, bound,
+                          getattr(basis, "covered_rad_s", None))

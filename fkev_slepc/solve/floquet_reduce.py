@@ -20,9 +20,15 @@ of model/periodic.py is again Lagrangian (so symplectic steps still apply):
 
 For the lone crank the co-rotated system has constant coefficients, so its lowest frozen modes
 span an invariant subspace and the reduction is exact for them.
+
+The projection (:func:`reduced_coefficients`) takes any basis that gives (W, W', W'') at one crank
+angle from the link angles φ, φ', φ'' (``at``): the co-rotated frozen modes here
+(:class:`CorotatedBasis`) or the link-frame component modes of solve/floquet_components.py.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse.linalg as spla
@@ -101,16 +107,36 @@ def compress(pool, threshold=1e-10):
     return U[:, s > threshold * s[0]]
 
 
-def reduced_coefficients(model, p, thetas, omega, damping, Vhat):
-    """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring)."""
+@dataclass(frozen=True)
+class CorotatedBasis:
+    """The co-rotated frozen-mode basis W = Q(θ) V̂ in the basis protocol of
+    :func:`reduced_coefficients` (``shape``, ``at(φ, φ', φ'') -> (W, W', W'')``)."""
+
+    Vhat: np.ndarray
+    pairs: tuple
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.Vhat.shape
+
+    def at(self, phi, dphi, ddphi):
+        return basis_derivatives(self.Vhat, self.pairs, phi, dphi, ddphi)
+
+
+def reduced_coefficients(model, p, thetas, omega, damping, basis):
+    """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring) on ``basis``: a
+    co-rotated V̂ (n, R), or any object whose ``at(φ, φ', φ'')`` gives (W, W', W'') at one crank
+    angle from the link angles and rates (:class:`CorotatedBasis`, or the link-frame component
+    modes of solve/floquet_components.py)."""
     kin = solve_kinematics(model.mechanism, thetas)
-    pairs = corotated_pairs(model.mechanism)
+    if isinstance(basis, np.ndarray):
+        basis = CorotatedBasis(basis, corotated_pairs(model.mechanism))
     pat = model.pattern
     w = float(omega)
     lag, damped = p.lagrangian, damping and p.damping is not None
     out = {k: [] for k in "M C K N V Cd Kd".split()}
     for i in range(len(thetas)):
-        W, W1, W2 = basis_derivatives(Vhat, pairs, kin.phi[i], kin.dphi[i], kin.ddphi[i])
+        W, W1, W2 = basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])
         mat = lambda data: pat.matrix(data)
         Mm = mat(p.mass[i])
         MW, MW1 = Mm @ W, Mm @ W1

@@ -48,7 +48,8 @@ THRESHOLDS = tuple(10.0 ** -k for k in range(1, 11))
 REDUCE_TOL = 1e-3  # |Δ max|μ|| and the relative frequency change that end the sequence
 AUTO_MODES = 4  # modes per angle of the first pool
 AUTO_ANGLES = 8  # pool angles over a revolution
-AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: "auto" where the full model needs this many Magnus steps
+AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: reduced where the full model needs this many Magnus steps
+LINKS_STEP_RATIO = 4  # ... on link components where their level of 8 modes per link needs 1/4 of those steps or fewer
 
 
 @dataclass(frozen=True)
@@ -69,20 +70,31 @@ class Truncation:
 
 
 def resolve_reduce(value):
-    """None (the full model), "default", "auto" or a number of modes per angle from what a user
-    asked: "default" (decided per speed by ``floquet_multipliers``: "auto" where the full model's
-    step count 2·2π·ρ(A) reaches ``AUTO_MIN_STEPS``, docs/engine.md measures why), "auto",
-    "none"/None, or a whole number >= 1 (also as text). ValueError otherwise."""
+    """None (the full model), "default", "auto", a number of modes per angle, "links" or
+    "links:N" from what a user asked: "default" (decided per speed by
+    ``floquet_linkage.default_reduction``: the full model below ``AUTO_MIN_STEPS`` full-model steps
+    2·2π·ρ(A), above "links" where the link-component level of 8 modes per link needs at most
+    1/``LINKS_STEP_RATIO`` of them, else "auto"; docs/engine.md measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
+    link-frame component modes of solve/floquet_components.py, modes per link doubled until
+    converged) or "links:N" (N >= 0 fixed-interface modes per link). ValueError otherwise."""
     if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
         return None
     if isinstance(value, str):
         v = value.strip().lower()
-        if v in ("default", "auto"):
+        if v in ("default", "auto", "links"):
             return v
+        if v.startswith("links:") and v[6:].isdigit():
+            return f"links:{int(v[6:])}"
         value = int(v) if v.isdigit() else value
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
         return int(value)
-    raise ValueError(f"must be auto, none, default or a number of modes per angle >= 1 (got {value!r})")
+    raise ValueError("must be auto, none, default, links, links:N (modes per link >= 0) or a number of "
+                     f"modes per angle >= 1 (got {value!r})")
+
+
+def link_modes(reduce) -> int | None:
+    """N of a resolved ``"links:N"``, None for any other value."""
+    return int(reduce[6:]) if isinstance(reduce, str) and reduce.startswith("links:") else None
 
 
 def retained_frequencies(exponents: np.ndarray, retained: int) -> np.ndarray:
@@ -112,13 +124,17 @@ def between(coarse, fine, retained: int, tol: float, levels=(), before: Truncati
 
 
 def converge(solve, pool, n_dof: int, *, modes: int = AUTO_MODES, tol: float = REDUCE_TOL,
-             max_basis: int | None = None, compress=None):
+             max_basis: int | None = None, compress=None, retained: int | None = None):
     """(result, :class:`Truncation`) by the basis rule of the module docstring.
 
     ``solve(V̂)`` -> a reduced Floquet result on the basis V̂ (n, R); ``pool(r)`` -> the (n, k)
-    pool of r modes per angle; ``compress(pool, τ)`` -> V̂."""
+    pool of r modes per angle; ``compress(pool, τ)`` -> V̂; ``retained``: the Floquet
+    frequencies compared (default ``modes``). The link-frame component modes
+    (solve/floquet_components.py) use the same rule with ``pool(r)`` the basis of r modes per
+    link and ``compress`` the identity: the modes per link double level by level."""
     if compress is None:
         from fkev_slepc.solve.floquet_reduce import compress
+    retained = modes if retained is None else int(retained)
     cap = n_dof if max_basis is None else min(int(max_basis), n_dof)
     prev, levels, pair, report, r = None, [], None, None, int(modes)
     while True:
@@ -135,10 +151,10 @@ def converge(solve, pool, n_dof: int, *, modes: int = AUTO_MODES, tol: float = R
             if size == n_dof:  # the whole space: the full model's multipliers
                 return res, Truncation(0.0, 0.0, 0.0, True, tol, tuple(levels))
             if prev is not None:
-                report = between(prev, res, modes, tol, levels, before=pair)
+                report = between(prev, res, retained, tol, levels, before=pair)
                 if pair is not None and report.converged:
                     return res, report
-                pair = between(prev, res, modes, tol)
+                pair = between(prev, res, retained, tol)
             prev = res
         else:
             if r < n_dof - 1 and (prev is None or prev.basis < cap):

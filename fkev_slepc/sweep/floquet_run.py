@@ -62,7 +62,7 @@ class FloquetRequest(ProductRequest):
     monodromy_tol: float = MONODROMY_TOL
     resonance_order: int = RESONANCE_ORDER
     probe: bool = False  # one more monodromy at each resonance candidate between stable grid speeds
-    reduce: int | str | None = None  # frozen-mode reduction: None (full model), "auto" or r modes per angle
+    reduce: int | str | None = None  # None (full model), "auto"/r (frozen modes), "links"/"links:N" (link components)
 
 
 def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False, comm=None):
@@ -86,7 +86,8 @@ def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False
         point, t = SpeedPoint.of(speed, res), res.truncation
         if t is not None:
             evaluate.reduction[float(speed)] = {"basis": res.basis, "max_abs": t.max_abs, "converged": t.converged,
-                                                "growth_rate": t.growth_rate, "frequency": t.frequency}
+                                                "growth_rate": t.growth_rate, "frequency": t.frequency,
+                                                "covered": np.nan if res.covered_rad_s is None else res.covered_rad_s}
             point = replace(point, error=point.error + t.max_abs * point.max_abs)
         return point, ""
 
