@@ -39,7 +39,9 @@ eigenvector's Rayleigh quotient on the frozen stiffness and mass at the start an
 ``growth_per_revolution`` (= max|μ|), ``monodromy`` (the :class:`Monodromy`, Φ in the scaled
 coordinates), ``error`` (multiplier error estimate: the monodromy's step-doubling estimate plus
 ``interp_multiplier_error`` = 2π · ``interp_error`` · max|A| · max|μ|, the first-order bound of
-the interpolation error on Φ), ``interp_error``, ``samples``, ``n_dof``,
+the interpolation error on Φ, where the interpolant stopped at its sample cap above ``interp_tol``;
+one that meets ``interp_tol`` is as accurate as its samples, whose own round-off every monodromy
+shares, and adds nothing), ``interp_error``, ``samples``, ``n_dof``,
 ``basis`` (None or the basis size), ``truncation`` (None or the :class:`Truncation` measured)
 and ``truncation_error`` (its larger measure).
 
@@ -215,7 +217,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     c = system.coefficients(np.array([system.start]))
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|
-    bound = TWO_PI * interp.error * interp.peak * mono.max_abs
+    bound = TWO_PI * interp.error * interp.peak * mono.max_abs if interp.error > interp_tol else 0.0
     return LinkageFloquet(float(omega), case, mu, s, mono, interp.error, interp.samples, int(model.n_free),
                           None if basis is None else basis.shape[1], None, bound,
                           getattr(basis, "covered_rad_s", None))
