@@ -35,8 +35,8 @@ complex in 1/s (Re: growth rate; Im unwrapped to the mode's frequency, rad/s, by
 eigenvector's Rayleigh quotient on the frozen stiffness and mass at the start angle), ``max_abs``,
 ``growth_per_revolution`` (= max|μ|), ``monodromy`` (the :class:`Monodromy`, Φ in the scaled
 coordinates), ``error`` (multiplier error estimate: the monodromy's step-doubling estimate plus
-``interp_multiplier_error`` = 2π · ``interp_error`` · max|A| · max|μ|, the first-order bound of
-the interpolation error on Φ), ``interp_error``, ``samples``, ``n_dof``,
+``interp_multiplier_error`` = 2π · ε · max|A| · max|μ|, the first-order bound of the interpolation
+error on Φ, ε the interpolant's extrapolated error ``Interpolated.final_error``), ``interp_error``, ``samples``, ``n_dof``,
 ``basis`` (None or the basis size), ``truncation`` (None or the :class:`Truncation` measured)
 and ``truncation_error`` (its larger measure).
 
@@ -183,6 +183,6 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     c = system.coefficients(np.array([system.start]))
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|
-    bound = TWO_PI * interp.error * interp.peak * mono.max_abs
+    bound = TWO_PI * interp.final_error * interp.peak * mono.max_abs
     return LinkageFloquet(float(omega), case, mu, s, mono, interp.error, interp.samples, int(model.n_free),
                           None if basis is None else basis.shape[1], interp_multiplier_error=bound)

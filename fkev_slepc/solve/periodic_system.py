@@ -26,7 +26,8 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
 ``interpolant(samples=16, tol=1e-12, max_samples=1024) -> Interpolated``
     the trigonometric interpolant of the generator: samples double until the interpolant matches
     the exact generator at the midpoints to ``tol`` (relative to max|A|); ``error`` the last
-    measured value (the midpoints then join the samples).
+    measured value (the midpoints then join the samples), ``final_error`` the error extrapolated
+    to the interpolant that holds them.
 
 ``link_frame() -> PeriodicSystem | None``
     the same system in co-rotating link-frame coordinates q = W(θ) q̂ (every node translation in
@@ -75,11 +76,15 @@ class Coefficients:
 @dataclass(frozen=True)
 class Interpolated:
     """The generator's trigonometric interpolant (callable τ -> A), its measured relative error
-    at the last midpoints, and the number of samples it holds."""
+    at the last midpoints (of the interpolant of half its samples), the number of samples it
+    holds, and ``final_error``: the estimated error of the interpolant itself, extrapolated from the
+    last two measured errors e₁ (k/2 samples) and e₂ (k samples) of a geometric convergence,
+    e₂ (e₂/e₁)², or e₂ where the errors did not fall (a stalled check keeps its whole error)."""
 
     generator: TrigInterpolant
     error: float
     samples: int
+    final_error: float
 
     @property
     def peak(self) -> float:
@@ -177,15 +182,21 @@ class PeriodicSystem:
         k = max(4, 2 * (int(samples) // 2))
         # the scaling's reference angles are the first samples when as many: computed once
         S = self.generator_of(self.reference) if k == SCALING_ANGLES else self.generator(TWO_PI * np.arange(k) / k)
+        peak = lambda X: max(float(np.max(np.abs(X))), 1e-300)  # noqa: E731
+        # the first previous error for free: the even samples' interpolant at the odd ones
+        prev = 0.0 if (k // 2) % 2 else float(  # 0: not known (an odd half-grid has no interpolant here)
+            np.max(np.abs(TrigInterpolant(0.0, S[0::2])(TWO_PI * np.arange(1, k, 2) / k) - S[1::2])) / peak(S))
         while True:
             tau_mid = TWO_PI * (np.arange(k) + 0.5) / k
             mid = self.generator(tau_mid)
-            err = float(np.max(np.abs(TrigInterpolant(0.0, S)(tau_mid) - mid)) / np.max(np.abs(S)))
+            err = float(np.max(np.abs(TrigInterpolant(0.0, S)(tau_mid) - mid)) / peak(S))
             both = np.empty((2 * k,) + S.shape[1:])
             both[0::2], both[1::2] = S, mid
             S, k = both, 2 * k
             if err <= tol or k >= max_samples:
-                return Interpolated(TrigInterpolant(0.0, S), err, k)
+                final = err * min(1.0, err / prev) ** 2 if prev > 0 else err
+                return Interpolated(TrigInterpolant(0.0, S), err, k, final)
+            prev = err
 
     def frame(self, theta) -> np.ndarray:
         """W (len(θ), n, n): q = W q̂ with each free node translation in its link's frame."""
