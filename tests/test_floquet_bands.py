@@ -131,3 +131,21 @@ def test_unsampled_candidate_crosses_the_speed_where_it_equals_it():
     assert unsampled(unstable, lambda w: [0.5 + 0.25 * w], max_order=1) == []
     failed = [stable[0], SpeedPoint(2.5, np.zeros(0, complex), float("nan"), False), stable[2]]
     assert unsampled(failed, lambda w: [0.5 + 0.25 * w], max_order=1) == []
+
+
+def test_suppressing_damping_closes_the_band_at_its_peak():
+    """ζ* of the first tongue's label (2 Re s/(2ω̄), from the undamped peak) is the damping that closes
+    the band there: with 0.9 ζ* the peak speed is still unstable, with 1.1 ζ* it is stable (the damped
+    multipliers are e^(-ζω₀P) times the undamped ones up to O(ζ²), and ω̄ = 0.99 ω₀ at ε = 0.2)."""
+    pts, bands, _ = find_bands(np.arange(1.90, 2.10 + 1e-9, 0.02), mathieu_point)
+    (band,) = label(bands, lambda w: [mean_frequency()])
+    assert band.resonance == "2ω̄1/1"
+    rate = np.log(band.peak_max_abs) * band.peak_speed / (2 * np.pi)
+    assert band.growth_rate == pytest.approx(rate, rel=1e-14) and rate > 0
+    zeta = band.suppressing_damping
+    assert zeta == pytest.approx(rate / mean_frequency(), rel=1e-12)
+    assert zeta == pytest.approx(EPS / 2, rel=0.05)  # σ ≈ εω₀/2 at the tongue's centre (first order in ε)
+    assert margin(mathieu_point(band.peak_speed, damping=0.9 * zeta)) > 0
+    assert margin(mathieu_point(band.peak_speed, damping=1.1 * zeta)) < 0
+    d = band.as_dict()
+    assert d["growth_rate_1_s"] == pytest.approx(rate) and d["suppressing_damping_ratio"] == pytest.approx(zeta)

@@ -334,3 +334,30 @@ def test_study_floquet_is_the_api_of_fkev_floquet(tmp_path):
     res = load(RUNS / "bahgat-willmert-1976.toml").floquet([500.0], "full", tmp_path / "bw.h5", angles_deg=[0, 90, 180, 270],
                                                          critical=False, resonance_order=2)
     assert res.bands == () and abs(res.max_abs[0] - 1.0) < 1e-8 and res.resonance_order == 2 and res.gaps == ()
+
+
+def test_one_speed_on_two_ranks_splits_its_monodromy(tmp_path):
+    """Fewer speeds than ranks: both ranks work on the one speed, each multiplying its own segment of the
+    Magnus steps (solve/floquet.py ``_product``); the multipliers equal the serial run's to 1e-12."""
+    import os
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    from clitools import BW, fkev
+    from fkev_slepc.sweep.floquet_run import read_floquet
+
+    args = ("floquet", BW, "--elements", "1", "--speeds", "650", "--angles", "0:360:90", "--no-critical")
+    serial = fkev(*args, "-o", tmp_path / "s.h5")
+    assert serial.returncode == 0, serial.stderr
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=str(ROOT),
+               OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    par = subprocess.run(["mpiexec", "-n", "2", sys.executable, "-m", "fkev_slepc", *map(str, args), "-o",
+                          str(tmp_path / "p.h5")], env=env, capture_output=True, text=True, timeout=600)
+    assert par.returncode == 0, par.stderr
+    assert "1 of 1 speed(s) to solve, each monodromy split over 2 ranks" in par.stderr
+    a, b = read_floquet(tmp_path / "s.h5"), read_floquet(tmp_path / "p.h5")
+    assert list(a.status) == list(b.status) and len(a.bands) == len(b.bands) == 1  # (w2-w1)/5 at 650 rad/s
+    mu_a, mu_b = a.multipliers[0], b.multipliers[0]
+    np.testing.assert_allclose(mu_b, mu_a, rtol=0, atol=1e-12 * np.nanmax(np.abs(mu_a)))

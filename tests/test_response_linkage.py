@@ -14,7 +14,7 @@ from fkev_slepc.model.operators import Model
 from fkev_slepc.scene import load_scene, with_elements
 from fkev_slepc.scene.model import Damping
 from fkev_slepc.solve.accuracy import with_element
-from fkev_slepc.solve.response import LinkageSystem
+from fkev_slepc.solve.periodic_system import PeriodicSystem
 from fkev_slepc.solve.response_hb import harmonic_balance
 from fkev_slepc.solve.response_shooting import shooting
 
@@ -27,7 +27,7 @@ def bar_tip(element, n, case, kL):
     sc = with_element(with_elements(load_scene(RUNS / "rotating-cantilever.toml"), n), element)
     model = Model(sc, cases=(case,))
     w = kL / L * np.sqrt(E / RHO)
-    r = harmonic_balance(LinkageSystem(model, case, w).coefficients, LinkageSystem(model, case, w).load, w,
+    r = harmonic_balance(PeriodicSystem(model, w, case).mck, PeriodicSystem(model, w, case).load, w,
                          harmonics=4)
     mech = model.mechanism
     d = mech.node_dofs[np.argmax(mech.node_s)]
@@ -62,8 +62,8 @@ def bw(elements=1, **kw):
 
 
 def hb_q(scene, w, H=24, case="full"):
-    s = LinkageSystem(Model(scene, cases=(case,)), case, w)
-    return harmonic_balance(s.coefficients, s.load, w, harmonics=H).q
+    s = PeriodicSystem(Model(scene, cases=(case,)), w, case)
+    return harmonic_balance(s.mck, s.load, w, harmonics=H).q
 
 
 def test_speed_modulus_invariance_and_density_identity():
@@ -89,9 +89,9 @@ def test_static_limit():
     model = Model(sc, cases=("full",))
     diffs = []
     for w in (10.0, 5.0):
-        s = LinkageSystem(model, "full", w)
-        r = harmonic_balance(s.coefficients, s.load, w, harmonics=64)
-        _, _, K = s.coefficients(r.theta)
+        s = PeriodicSystem(model, w, "full")
+        r = harmonic_balance(s.mck, s.load, w, harmonics=64)
+        _, _, K = s.mck(r.theta)
         static = np.linalg.solve(K, s.load(r.theta)[..., None])[..., 0]
         diffs.append(np.abs(r.q - static).max() / np.abs(static).max())
     assert diffs[0] < 2e-3 and 3.8 < diffs[0] / diffs[1] < 4.2
@@ -108,9 +108,9 @@ def test_shooting_equals_harmonic_balance_on_the_thesis_linkages(path, w, beta, 
     shooting's own limit at 24,576 Magnus steps (4.4e-8, 1.2e-7 at 16,384: order 6). The
     trajectory closes: ‖x(2π) - x(0)‖ < 1e-10 ‖x(0)‖ (measured 7e-14, 5e-14)."""
     sc = replace(with_elements(load_scene(RUNS / path), 1), damping=Damping(0.0, beta))
-    s = LinkageSystem(Model(sc, cases=("full",)), "full", w)
-    hb = harmonic_balance(s.coefficients, s.load, w, harmonics=H)
-    sh = shooting(s.coefficients, s.load, w, np.zeros(1), steps=steps)
+    s = PeriodicSystem(Model(sc, cases=("full",)), w, "full")
+    hb = harmonic_balance(s.mck, s.load, w, harmonics=H)
+    sh = shooting(s.mck, s.load, w, np.zeros(1), steps=steps)
     scale = np.abs(hb.q).max()
     assert np.abs(sh.q[0] - hb.q[0]).max() <= 1e-8 * scale
     assert np.abs(sh.dq[0] - hb.dq[0]).max() <= tol_dq * np.abs(hb.dq).max()

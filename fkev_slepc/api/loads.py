@@ -10,7 +10,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from fkev_slepc.model.joint_loads import POINT_NAMES, JointLoads, joint_loads
-from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.model.operating_point import checked_angles, operating_point_problems  # noqa: F401 (re-exported)
+from fkev_slepc.scene import Scene, SceneError
 
 LOADS_FORMAT = "fkev-loads"
 
@@ -30,9 +31,7 @@ class LoadsResult(JointLoads):
         from fkev_slepc.archive.labelled import write_labelled
 
         ends = [(lk, k) for here in self.attach for lk, k in here]
-        ef = np.stack([self.end_force[:, lk, k] for lk, k in ends], axis=1)
-        ea = np.stack([self.end_along[:, lk, k] for lk, k in ends], axis=1)
-        en = np.stack([self.end_normal[:, lk, k] for lk, k in ends], axis=1)
+        ef, ea, en = (_at(x, ends) for x in (self.end_force, self.end_along, self.end_normal))
         guides = [j for j in range(len(self.joint_names)) if not np.isnan(self.guide_reaction[:, j]).all()]
         coords = {
             "crank_angle_deg": (self.crank_angle_deg, "deg", "crank angle"),
@@ -60,49 +59,41 @@ class LoadsResult(JointLoads):
             "element_link": (("element",), self.elem_link, "1", "link index of the element (scene order)"),
             "element_s_m": (("element", "element_end"), self.elem_s, "m", "station along the element's beam"),
         }
+        variables["bearing_force_along_n"] = (("crank_angle_deg", "link_end"), _at(self.bearing_along, ends), "N",
+                                              "the pin's force on the link point along the link (root to tip); at a "
+                                              "slider the wrist pin's")
+        variables["bearing_force_normal_n"] = (("crank_angle_deg", "link_end"), _at(self.bearing_normal, ends), "N",
+                                               "the pin's force on the link point along the link's left normal")
         if guides:
             coords["guide_joint"] = ([self.joint_names[j] for j in guides], "1", "prismatic joints")
             variables["guide_reaction_n"] = (("crank_angle_deg", "guide_joint"), self.guide_reaction[:, guides],
                                              "N", "guide reaction along the guide's left normal")
+            variables["pin_force_n"] = (("crank_angle_deg", "guide_joint", "component"), self.pin_force[:, guides],
+                                        "N", "wrist-pin force: the link end's force on the slider block")
+        if self.process_names:
+            coords["process_load"] = (list(self.process_names), "1", "[[loads]] names")
+            variables["process_force_n"] = (("crank_angle_deg", "process_load", "component"), self.process_force,
+                                            "N", "process load force, ground frame")
+            variables["process_moment_n_m"] = (("crank_angle_deg", "process_load"), self.process_moment, "N m",
+                                               "process load moment")
+        variables["process_power_w"] = (("crank_angle_deg",), self.process_power, "W",
+                                        "power of the process loads (sum of F.v + M.omega)")
         meta = {"title": self.title, "scene_toml": self.scene_text, "speed_rad_s": self.speed,
                 "acceleration_rad_s2": self.accel, "gravity_m_s2": self.gravity.tolist(),
                 "link_names": list(self.link_names), "power_residual": self.power_residual, **(attrs or {})}
         return write_labelled(path, LOADS_FORMAT, coords, variables, meta)
 
-    def plot(self):
-        """Joint-force polar plot and driving torque vs crank angle (a matplotlib Figure)."""
+    def plot(self, polar: str = "ground"):
+        """Joint-force polar plot and driving torque vs crank angle (a matplotlib Figure);
+        ``polar="link"``: every pin's force on each link it joins, relative to that link."""
         from fkev_slepc.plots.loads import draw_loads
 
-        return draw_loads(self)
+        return draw_loads(self, polar)
 
 
-def operating_point_problems(speed_rad_s, accel_rad_s2, gravity_m_s2, names=None) -> list[Problem]:
-    """Problems of a speed (finite), acceleration (finite) and gravity (a finite [gx, gy])."""
-    names = names or {}
-    bad = []
-    for key, v in (("speed_rad_s", speed_rad_s), ("accel_rad_s2", accel_rad_s2)):
-        if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v)):
-            bad.append(Problem(names.get(key, key), f"must be a finite number (got {v!r})"))
-    g = np.asarray(gravity_m_s2, dtype=float) if np.ndim(gravity_m_s2) == 1 else None
-    if g is None or g.shape != (2,) or not np.isfinite(g).all():
-        bad.append(Problem(names.get("gravity_m_s2", "gravity_m_s2"),
-                           f"must be a ground-frame vector [gx, gy] of finite numbers, m/s² (got {gravity_m_s2!r})"))
-    return bad
-
-
-def checked_angles(scene: Scene, mech, angles_deg, name="angles_deg") -> np.ndarray:
-    """The crank angles (deg; default the scene's), refused where not finite or not assemblable."""
-    from fkev_slepc.model.kinematics import solve_kinematics
-
-    a = np.atleast_1d(np.asarray(scene.analysis.crank_angles_deg if angles_deg is None else angles_deg, float))
-    if a.size == 0 or not np.isfinite(a).all():
-        raise SceneError(scene.source, [Problem(name, f"must be finite crank angles, deg (got {list(a)})")])
-    ok = solve_kinematics(mech, np.radians(a)).ok
-    if not ok.all():
-        shown = ", ".join(f"{v:g}" for v in a[~ok][:5])
-        raise SceneError(scene.source, [Problem(name, f"the linkage cannot be assembled at {shown} deg "
-                                                      f"({int((~ok).sum())} of {a.size} angles)")])
-    return a
+def _at(x: np.ndarray, ends) -> np.ndarray:
+    """Per-link-point data (n, n_link, 3, ...) at the (link, point) pairs ``ends``: (n, n_end, ...)."""
+    return np.stack([x[:, lk, k] for lk, k in ends], axis=1)
 
 
 def study_loads(scene: Scene, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None,

@@ -11,7 +11,6 @@ import numpy as np
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 RESPONSE_FORMAT = "fkev-response"
-DEFAULT_ANGLES_DEG = tuple(float(a) for a in np.arange(0.0, 360.0, 5.0))
 
 
 @dataclass(frozen=True)
@@ -178,50 +177,21 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     (default every link's root, midspan and tip). Raises SceneError for a bad argument, a
     crank acceleration (constant speed only) or an exact resonance ((I − Φ) singular).
     """
-    from fkev_slepc.api.loads import operating_point_problems
     from fkev_slepc.model.joint_loads import joint_loads
     from fkev_slepc.model.kinematics import point_local
-    from fkev_slepc.model.operators import Model
-    from fkev_slepc.scene.cases import case_name
-    from fkev_slepc.solve.response import LinkageSystem, periodic_response
-    from fkev_slepc.solve.response_shooting import ResonanceError
+    from fkev_slepc.solve.response_stations import station_response
+    from fkev_slepc.solve.steady import checked_point, steady_solve, whole_link_stress
 
-    names = names or {}
-    gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
-    bad = operating_point_problems(speed_rad_s, 0.0, gravity, names)
-    try:
-        case = case_name(case)
-    except ValueError as err:
-        bad.append(Problem(names.get("case", "case"), str(err)))
-    if scene.driver.acceleration != 0.0:
-        bad.append(Problem("driver.acceleration_rad_s2", "the periodic response needs a constant crank speed "
-                           f"(got {scene.driver.acceleration:g} rad/s²)"))
-    if harmonics is not None and (int(harmonics) != harmonics or harmonics < 1):
-        bad.append(Problem(names.get("harmonics", "harmonics"), f"must be an integer >= 1 (got {harmonics!r})"))
-    if bad:
-        raise SceneError(scene.source, bad)
-    model = Model(scene, cases=(case,))
+    model, case, a, gravity = checked_point(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2,
+                                            harmonics=harmonics, names=names)
     mech = model.mechanism
-    from fkev_slepc.api.loads import checked_angles
-
-    a = checked_angles(scene, mech, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
-                       names.get("angles_deg", "angles_deg"))
-    full_turn = checked_angles(scene, mech, np.arange(0.0, 360.0, 1.0), names.get("angles_deg", "angles_deg"))
-    del full_turn  # the periodic response needs a crank that turns fully (refused above otherwise)
     chosen = chosen_stations(scene, mech, stations, names)
-    system = LinkageSystem(model, case, float(speed_rad_s), gravity)
-    try:
-        r = periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot)
-    except ResonanceError as err:
-        raise SceneError(scene.source, [Problem(names.get("speed_rad_s", "speed_rad_s"), str(err))]) from None
+    r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=tol, shoot=shoot, names=names)
     theta = np.radians(a)
     q = r.hb.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
-    from fkev_slepc.solve.link_stress import LinkStress
-    from fkev_slepc.solve.response_stations import element_end_stations, station_response
-
     st = station_response(model, theta, q, chosen, rigid)
-    whole = LinkStress.from_stations(station_response(model, theta, q, element_end_stations(mech)), mech.link_names, a)
+    whole = whole_link_stress(model, a, q)
     kin = model.angle_state(theta, with_loads=False).kinematics
     pos = point_local(kin, mech.node_link, mech.node_local)[0]
     disp = _node_displacement(mech, q)

@@ -65,17 +65,6 @@ class SpeedResponse:
         return draw_speed_response(self, bands)
 
 
-def mean_frequencies(system, n_modes: int, n_angles: int = 24) -> np.ndarray:
-    """Cycle-mean of the lowest ``n_modes`` frozen frequencies sqrt(eig(K(θ), M(θ))) of the
-    periodic coefficients (C left out), rad/s."""
-    import scipy.linalg as la
-
-    th = 2.0 * np.pi * np.arange(n_angles) / n_angles
-    M, _, K = system.coefficients(th)
-    w = np.stack([np.sort(np.sqrt(np.abs(la.eigvals(K[j], M[j]).real)))[:n_modes] for j in range(n_angles)])
-    return w.mean(axis=0)
-
-
 def forced_resonances(speeds, mean_w, orders: int = 6) -> list[dict]:
     """Speeds where n·Ω = ω̄ₖ(Ω) between two computed speeds (linear interpolation)."""
     out = []
@@ -110,14 +99,14 @@ def speed_peaks(scene: Scene, speed: float, case: str, modes: int, names=None, *
     result the :class:`~fkev_slepc.api.response.ResponseResult` (options as there)."""
     from fkev_slepc.api.response import study_response
     from fkev_slepc.model.operators import Model
-    from fkev_slepc.solve.response import LinkageSystem
+    from fkev_slepc.solve.cycle_mean import cycle_mean_frequencies
 
     r = study_response(scene, float(speed), case, names=names, **options)
     sr = r.stations
     peaks = [np.nanmax(np.abs(x), axis=0) for x in (sr.transverse, sr.transverse_chord, sr.moment)]
     peaks.append(np.max(sr.stress, axis=0))
     model = Model(scene, cases=(r.case,))
-    wbar = mean_frequencies(LinkageSystem(model, r.case, float(speed)), min(modes, model.n_free))
+    wbar = cycle_mean_frequencies(model, float(speed), r.case, min(modes, model.n_free))
     values = dict(zip(PEAK_FIELDS, peaks))
     values.update(max_abs_multiplier=r.max_abs_multiplier, harmonics=r.harmonics,
                   harmonic_balance_error=r.hb_error, mean_frequency_rad_s=wbar)

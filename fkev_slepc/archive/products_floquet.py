@@ -56,6 +56,9 @@ BAND_ROWS = (
         np.nan, source="peak_speed", **_BAND),
     Var("floquet/bands/peak_max_abs_multiplier", (F_BAND,), "f8", "1", "max|mu| there", np.nan,
         source="peak_max_abs", **_BAND),
+    Var("floquet/bands/suppressing_damping_ratio", (F_BAND,), "f8", "1",
+        "modal damping ratio that closes the band at its peak: 2 Re s/(w_j + w_k) (absent before this row existed)",
+        np.nan, source="suppressing_damping", **_BAND),
 )
 _ROW = dict(growable=True, chunks=(64,))
 SAMPLE_STATUS = Var("floquet/samples/status", (F_SAMPLE,), STATUS, "1", "outcome of the speed (as floquet/status; "

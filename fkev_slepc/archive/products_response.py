@@ -28,8 +28,8 @@ R_HARMONICS = Var("response/harmonics", R_UNIT, "i4", "1", "harmonics of the bal
 R_HB_ERROR = Var("response/harmonic_balance_error", R_UNIT, "f8", "1",
                  "estimated relative truncation error of the harmonic balance", np.nan, source="harmonic_balance_error")
 R_MEAN_FREQUENCY = Var("response/mean_frequency_rad_s", R_UNIT + (R_MODE,), "f8", "rad/s",
-                       "cycle-mean frozen frequency (eigenvalues of K(theta), M(theta) of the periodic coefficients, "
-                       "24 angles)", np.nan, required=True, source="mean_frequency_rad_s")
+                       "cycle-mean frozen frequency (Im lambda of the frozen QEP, damping included, "
+                       "angle-weighted over 24 angles of one revolution)", np.nan, required=True, source="mean_frequency_rad_s")
 R_STATUS = Var("response/status", R_UNIT, STATUS, "1", "outcome of the speed", 0, required=True, source="status",
                attrs={"description": "ok: the periodic response was solved (and attracts, or was not shot); unstable: "
                                      "solved, some |mu| > 1 beyond its error (it does not attract); not_converged: the "

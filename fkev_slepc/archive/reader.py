@@ -94,6 +94,11 @@ class SweepResults:
     status_flags: dict = field(default_factory=dict)  # status value -> name (CF flag_values/flag_meanings)
 
     # ---------------------------------------------------------------- selection by labels
+    @property
+    def default_case(self) -> str:
+        """``full`` if the archive has it, else its first case (what figures and margins show by default)."""
+        return "full" if "full" in self.cases else self.cases[0]
+
     def angle_index(self, angle_deg: float, tol: float = 1e-6) -> int:
         """Index of crank angle ``angle_deg`` (deg, compared modulo 360)."""
         d = np.abs((self.crank_angle_deg - angle_deg + 180.0) % 360.0 - 180.0)

@@ -130,7 +130,7 @@ def lines(o: dict) -> list[str]:
     for b in o["bands"]:
         res = f"{b['resonance']} = {b['predicted_rad_s']:.6g} rad/s" if b["resonance"] else "no resonance in range"
         out.append(f"    {_edges(b, o['edge_rtol'])}{_unstable_at(b)}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} "
-                   f"at {b['peak_rad_s']:g} rad/s")
+                   f"at {b['peak_rad_s']:g} rad/s{_damping_needed(b)}")
     out += _reduction_lines(o) + _resolution_lines(o) + _gap_lines(o)
     crit = o.get("frozen_time_critical")
     if crit:
@@ -141,6 +141,14 @@ def lines(o: dict) -> list[str]:
                    f"{show(crit['divergence_speed_rad_s'], crit['divergence_angle_deg'])}, flutter "
                    f"{show(crit['flutter_speed_rad_s'], crit['flutter_angle_deg'])}")
     return out
+
+
+def _damping_needed(b: dict) -> str:
+    """'(Re s = x 1/s; closed by modal damping ζ >= z)' for a labelled band (docs/stability.md)."""
+    rate, zeta = b.get("growth_rate_1_s"), b.get("suppressing_damping_ratio")
+    if rate is None:
+        return ""
+    return f" (Re s = {rate:.3g} 1/s" + ("" if zeta is None else f"; closed by modal damping ζ >= {zeta:.2g}") + ")"
 
 
 def _plural(n: int, word: str) -> str:

@@ -22,9 +22,11 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "loads", help="joint forces and driving torque over the crank cycle (kinetostatics)",
         description="Rigid-body kinetostatics at one crank speed: every joint's force (ground frame, and along/"
-        "normal to each link), the sliders' guide reactions, each link's axial force, and the driving torque "
-        "with the power check τΩ = dE/dt. Ground joints report the bearing reaction on the linkage; a moving "
-        "pin the force on the first link end its connects names.")
+        "normal to each link), the sliders' guide reactions and wrist-pin forces (the block a body of its own), "
+        "every pin's force on each link it joins in that link's frame, each link's axial force, and the driving "
+        "torque with the power check τΩ + P_process = dE/dt; the scene's [[loads]] (process loads) included. "
+        "Ground joints report the bearing reaction on the linkage; a moving pin the force on the first link end "
+        "its connects names.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
     p.add_argument("--accel", type=float, metavar="A", help="crank acceleration, rad/s² (default: the scene's)")
@@ -36,6 +38,9 @@ def add_parser(sub) -> None:
     p.add_argument("--csv", metavar="PATH", help="write every angle's forces as CSV ('-': stdout)")
     p.add_argument("--output", "-o", metavar="PATH.h5", help="archive the loads (HDF5, xarray-readable)")
     p.add_argument("--plot", metavar="PATH.png", help="joint-force polar plot and torque vs crank angle")
+    p.add_argument("--polar", choices=("ground", "link"), default="ground",
+                   help="the polar plot's frame: ground (each joint's force) or link (every pin's force on each "
+                   "link it joins, relative to that link's axis: what a journal bearing on the link sees)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
 
@@ -61,7 +66,7 @@ def run(args) -> int:
     if args.output:
         loads.save(args.output, {"command_line": " ".join(sys.argv)})
     if args.plot:
-        loads.plot().savefig(args.plot, dpi=120)
+        loads.plot(args.polar).savefig(args.plot, dpi=120)
     if args.csv:
         _csv(loads, args.csv)
     buckling = _buckling(scene, loads)
@@ -94,13 +99,22 @@ def _csv(loads, path) -> None:
     head = ["crank_angle_deg", "driving_torque_n_m", "power_w"]
     for name in loads.joint_names:
         head += [f"{name}_fx_n", f"{name}_fy_n", f"{name}_magnitude_n"]
-    w.writerow(head)
+    sliders = [jj for jj in range(len(loads.joint_names)) if not np.isnan(loads.pin_force[:, jj]).all()]
+    pairs = [(jj, lk, k) for jj, here in enumerate(loads.attach) for lk, k in here]
+    head += [f"{loads.joint_names[jj]}_pin_{c}_n" for jj in sliders for c in ("fx", "fy")]
+    head += [f"{loads.joint_names[jj]}_in_{loads.link_names[lk]}_{c}_n" for jj, lk, _ in pairs for c in ("along", "normal")]
+    head += [f"{name}_{c}" for name in loads.process_names for c in ("fx_n", "fy_n", "moment_n_m")]
+    w.writerow(head + ["process_power_w"])
     mag = loads.joint_magnitude
     for a in range(loads.theta.size):
         row = [loads.crank_angle_deg[a], loads.torque[a], loads.power[a]]
         for jj in range(len(loads.joint_names)):
             row += [*loads.joint_force[a, jj], mag[a, jj]]
-        w.writerow([f"{v:.10g}" for v in row])
+        row += [v for jj in sliders for v in loads.pin_force[a, jj]]
+        row += [v for _, lk, k in pairs for v in (loads.bearing_along[a, lk, k], loads.bearing_normal[a, lk, k])]
+        for i in range(len(loads.process_names)):
+            row += [*loads.process_force[a, i], loads.process_moment[a, i]]
+        w.writerow([f"{v:.10g}" for v in row + [loads.process_power[a]]])
     if out is not sys.stdout:
         out.close()
 
@@ -115,12 +129,33 @@ def _table(loads) -> None:
     for a in range(loads.theta.size):
         print("  " + f"{loads.crank_angle_deg[a]:8.2f} {loads.torque[a]:12.5g} "
               + " ".join(f"{m:14.6g}" for m in mag[a]))
+    deg = loads.crank_angle_deg
     for jj, name in enumerate(names):
         k = int(np.nanargmax(mag[:, jj]))
-        print(f"  joint {name} ({d['joints'][name]['kind']}): peak |F| {mag[k, jj]:.6g} N at θ = "
-              f"{loads.crank_angle_deg[k]:g}°")
+        kind = d["joints"][name]["kind"]
+        print(f"  joint {name} ({kind}): peak |F| {mag[k, jj]:.6g} N at θ = {deg[k]:g}°"
+              + (" (guide reaction)" if kind == "prismatic" else ""))
+        if kind == "prismatic":
+            pin = np.hypot(*loads.pin_force[:, jj].T)
+            k = int(np.nanargmax(pin))
+            print(f"    wrist pin (link end on the block): peak |F| {pin[k]:.6g} N at θ = {deg[k]:g}°")
+        for lk, pt in loads.attach[jj]:
+            along, normal = loads.bearing_along[:, lk, pt], loads.bearing_normal[:, lk, pt]
+            print(f"    on {loads.link_names[lk]}, its frame: along {_range(along, deg)}; normal {_range(normal, deg)}")
+    for i, name in enumerate(loads.process_names):
+        f = np.hypot(*loads.process_force[:, i].T)
+        k = int(np.nanargmax(f))
+        print(f"  process load {name}: peak |F| {f[k]:.6g} N at θ = {deg[k]:g}°, peak |M| "
+              f"{np.nanmax(np.abs(loads.process_moment[:, i])):.6g} N m")
     for lk, name in enumerate(loads.link_names):
         _, N = loads.link_axial(lk)
         print(f"  link {name}: axial force from {np.nanmin(N):.6g} to {np.nanmax(N):.6g} N (tension > 0)")
     print(f"  driving torque from {np.nanmin(loads.torque):.6g} to {np.nanmax(loads.torque):.6g} N m; "
-          f"power check max|τΩ − dE/dt| / max|τΩ| = {loads.power_residual:.2e}")
+          f"power check max|τΩ{' + P_process' if loads.process_names else ''} − dE/dt| / max|τΩ| = "
+          f"{loads.power_residual:.2e}")
+
+
+def _range(x, deg) -> str:
+    """``from a (θ°) to b N (θ°)``: the extremes of a force over the angles and where."""
+    lo, hi = int(np.nanargmin(x)), int(np.nanargmax(x))
+    return f"{x[lo]:.6g} N ({deg[lo]:g}°) to {x[hi]:.6g} N ({deg[hi]:g}°)"

@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "response", help="steady periodic elastic response: deflection and stress over the cycle",
         description="The periodic solution of M(θ)q̈ + C(θ)q̇ + K(θ)q = f(θ) at a constant crank speed, with the "
-        "exact periodic coefficients and the rigid-body inertia loads (and gravity), by harmonic balance, cross-"
+        "exact periodic coefficients and the rigid-body inertia loads (gravity and the scene's [[loads]] too), by harmonic balance, cross-"
         "checked by shooting on the monodromy, whose Floquet multipliers say whether the response attracts.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")

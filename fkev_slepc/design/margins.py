@@ -135,9 +135,7 @@ def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_or
     ArchiveError
         A speed not on the grid (or not > 0), an unknown case or mode, a bad ``n_orders``.
     """
-    from fkev_slepc.plots.common import default_case
-
-    case = default_case(res) if case is None else case
+    case = res.default_case if case is None else case
     ci, si = res.case_index(case), res.speed_index(speed_rad_s)
     speed = float(res.speed_rad_s[si])
     if not speed > 0:

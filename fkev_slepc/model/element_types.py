@@ -158,6 +158,19 @@ class ElementType:
         return B, w
 
 
+def point_load(xi: np.ndarray, l: np.ndarray, n_dof: int, f: np.ndarray) -> np.ndarray:
+    """Consistent element loads Nᵀ(u, v) f_uv + (dN_v/dx)ᵀ m of point forces and moments
+    ``f`` (..., n_pt, 3: f_u, f_v along and normal to the element, m) at element coordinates
+    ``xi`` (n_pt,) of elements of length ``l`` (n_pt,): (..., n_pt, n_dof) on the local DOFs
+    (docs/theory.md §5.1: the shape functions of the mass matrix; rotations per unit l)."""
+    xi, l = np.asarray(xi, float), np.asarray(l, float)
+    d = _scale(l, n_dof)
+    Nu = _axial(xi, n_dof, 0) * d
+    Nv = _bending(xi, n_dof, 0) * d
+    dNv = _bending(xi, n_dof, 1) * d / l[:, None]
+    return f[..., 0:1] * Nu + f[..., 1:2] * Nv + f[..., 2:3] * dNv
+
+
 _N_DOF = {"thesis": 6, "cubic": 8}
 ELEMENT_TYPES = {name: ElementType(name, _N_DOF[name]) for name in ELEMENT_NAMES}
 

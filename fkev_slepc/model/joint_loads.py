@@ -30,6 +30,7 @@ import numpy as np
 from fkev_slepc.model.kinematics import Kinematics, _perp, _unit, point_local, solve_kinematics
 from fkev_slepc.model.kinetostatics import solve_loads
 from fkev_slepc.model.mechanism import Mechanism
+from fkev_slepc.model.process_loads import process_kinetostatics, process_points
 
 POINT_NAMES = ("root", "tip", "third")
 
@@ -64,6 +65,16 @@ class JointLoads:
     power: np.ndarray  # (n,) τΩ, W
     energy_rate: np.ndarray  # (n,) dE_k/dt + dE_p/dt from the accelerations, W
     angle_deg: np.ndarray | None = None  # the crank angles as requested, deg (default: from theta)
+    # the slider block as a body, and every pin as its links' bearings see it (docs/response.md §1.1)
+    pin_force: np.ndarray | None = None  # (n, n_joint, 2) N, the link end's force on a slider block; NaN: no slider
+    bearing_force: np.ndarray | None = None  # (n, n_link, 3, 2) N, the pin's force on each link point
+    bearing_along: np.ndarray | None = None  # (n, n_link, 3) bearing_force along the link, root -> tip
+    bearing_normal: np.ndarray | None = None  # (n, n_link, 3) along the link's left normal
+    # process loads ([[loads]], docs/response.md §1.2)
+    process_names: tuple[str, ...] = ()
+    process_force: np.ndarray | None = None  # (n, n_load, 2) N, ground frame
+    process_moment: np.ndarray | None = None  # (n, n_load) N m
+    process_power: np.ndarray | None = None  # (n,) W, Σ F·v + M ω
 
     @property
     def crank_angle_deg(self) -> np.ndarray:
@@ -78,8 +89,9 @@ class JointLoads:
     def power_residual(self) -> float:
         """max |τΩ − dE/dt| / max |τΩ| over the assembled angles (0 if no power flows)."""
         ok = self.ok
-        scale = max(np.abs(self.power[ok]).max(initial=0.0), np.abs(self.energy_rate[ok]).max(initial=0.0))
-        return float(np.abs(self.power[ok] - self.energy_rate[ok]).max(initial=0.0) / scale) if scale else 0.0
+        put_in = self.power if self.process_power is None else self.power + self.process_power
+        scale = max(np.abs(put_in[ok]).max(initial=0.0), np.abs(self.energy_rate[ok]).max(initial=0.0))
+        return float(np.abs(put_in[ok] - self.energy_rate[ok]).max(initial=0.0) / scale) if scale else 0.0
 
     def axial_force(self, xi: float | np.ndarray = (0.0, 1.0)) -> np.ndarray:
         """Axial force (n, n_el, n_xi) at element coordinates ``xi`` (0: left node, 1: right)."""
@@ -97,6 +109,13 @@ class JointLoads:
     def end_label(self, link: int, point: int) -> str:
         return f"{self.link_names[link]}.{POINT_NAMES[point]}"
 
+    def _peak(self, key: str, magnitude: np.ndarray) -> dict:
+        """``{key}_n`` and ``{key}_crank_angle_deg``: the largest value and where (None if none)."""
+        if not np.isfinite(magnitude).any():
+            return {f"{key}_n": None, f"{key}_crank_angle_deg": None}
+        k = int(np.nanargmax(magnitude))
+        return {f"{key}_n": float(magnitude[k]), f"{key}_crank_angle_deg": float(self.crank_angle_deg[k])}
+
     def as_dict(self) -> dict:
         """The JSON of ``fkev loads --json`` (lists over the crank angles; SI units)."""
         mag = self.joint_magnitude
@@ -108,8 +127,15 @@ class JointLoads:
                     self.guide_reaction[:, jj]).all() else "pin"),
                 "on": "ground reaction on the linkage" if self.joint_ground[jj] else self.end_label(lk, k),
                 "fx_n": _list(self.joint_force[:, jj, 0]), "fy_n": _list(self.joint_force[:, jj, 1]),
-                "magnitude_n": _list(mag[:, jj]),
+                "magnitude_n": _list(mag[:, jj]), **self._peak("peak", mag[:, jj]),
+                "in_link": {self.link_names[l2]: {"along_n": _list(self.bearing_along[:, l2, k2]),
+                                                  "normal_n": _list(self.bearing_normal[:, l2, k2])}
+                            for l2, k2 in self.attach[jj]},
             }
+            if not np.isnan(self.pin_force[:, jj]).all():
+                joints[name].update(pin_fx_n=_list(self.pin_force[:, jj, 0]), pin_fy_n=_list(self.pin_force[:, jj, 1]),
+                                    pin_magnitude_n=_list(np.hypot(*self.pin_force[:, jj].T)),
+                                    **self._peak("pin_peak", np.hypot(*self.pin_force[:, jj].T)))
         ends = {}
         for jj, here in enumerate(self.attach):
             for lk, k in here:
@@ -129,6 +155,10 @@ class JointLoads:
             "joints": joints, "link_ends": ends, "links": links, "guide_reaction_n": guides,
             "driving_torque_n_m": _list(self.torque), "power_w": _list(self.power),
             "energy_rate_w": _list(self.energy_rate), "power_residual": self.power_residual,
+            "process_loads": {name: {"fx_n": _list(self.process_force[:, i, 0]), "fy_n": _list(self.process_force[:, i, 1]),
+                                     "moment_n_m": _list(self.process_moment[:, i])}
+                              for i, name in enumerate(self.process_names)},
+            "process_power_w": _list(self.process_power),
         }
 
 
@@ -179,6 +209,11 @@ def joint_loads(mech: Mechanism, theta, speed: float, accel: float = 0.0, gravit
     coef = w2 * element_axial_coefficients(mech, kin, loads, 0) + acc * element_axial_coefficients(mech, kin, loads, 1)
     if grav is not None:
         coef = coef + element_axial_coefficients(mech, gravity_kinematics(kin, g), grav, 0)
+    points = process_points(mech)
+    proc = process_kinetostatics(mech, kin, points) if points.size else None
+    if proc is not None:
+        end, torque, guide = end + proc.end_force, torque + proc.torque, guide + np.nan_to_num(proc.guide_reaction)
+        coef = coef + proc.axial_coef
 
     present = ~np.isnan(mech.link_points[..., 0])  # (n_link, 3)
     end = np.where(present[None, :, :, None], end, np.nan)
@@ -196,6 +231,8 @@ def joint_loads(mech: Mechanism, theta, speed: float, accel: float = 0.0, gravit
             lk, k = here[0]
             jforce[:, jj] = end[:, lk, k]
 
+    pin, bearing = _slider_blocks(mech, kin, end, w2, acc, g, points, proc)
+    b_along, b_normal = (bearing * e).sum(-1), (bearing * _perp(e)).sum(-1)
     E, rate = _energy(mech, kin, float(speed), acc, g)
     axis_beam = np.zeros(mech.beam_link.size, dtype=bool)
     axis_beam[np.unique(mech.beam_link, return_index=True)[1]] = True
@@ -206,7 +243,32 @@ def joint_loads(mech: Mechanism, theta, speed: float, accel: float = 0.0, gravit
         end_normal=normal, joint_force=jforce, guide_reaction=guide, torque=torque, elem_link=mech.elem_link,
         elem_axis=axis_beam[mech.elem_beam], elem_s=np.stack([s0, s0 + mech.elem_length], axis=1),
         axial_coef=coef, kinetic_energy=E, power=torque * float(speed), energy_rate=rate,
+        pin_force=pin, bearing_force=bearing, bearing_along=b_along, bearing_normal=b_normal,
+        process_names=points.names, process_force=None if proc is None else proc.force,
+        process_moment=None if proc is None else proc.moment,
+        process_power=np.zeros(n) if proc is None else float(speed) * proc.power_per_speed,
     )
+
+
+def _slider_blocks(mech: Mechanism, kin: Kinematics, end, w2, acc, g, points, proc):
+    """The slider blocks as bodies of their own: the force of the link end on each block
+    (pin_force, (n, n_joint, 2), NaN at other joints) from the block's D'Alembert equation
+    P + R n + F_process + m g = m a, with R n the guide's force (the end force of the merged
+    link + block); and the pins' forces on every link point (``end``, the block's pin force
+    reversed at a slider)."""
+    n, nj = kin.theta.size, len(mech.joint_names)
+    pin = np.full((n, nj, 2), np.nan)
+    bearing = end.copy()
+    for jj in np.flatnonzero(~np.isnan(mech.joint_guide[:, 0])):
+        lk, k = mech.attach[jj][0]
+        m = mech.scene.joints[jj].slider_mass
+        a = w2 * kin.ddpos[:, jj] + acc * kin.dpos[:, jj]
+        on_block = m * (a - g) - end[:, lk, k]
+        if proc is not None:
+            on_block = on_block - proc.force[:, points.joint == jj].sum(axis=1)
+        pin[:, jj] = on_block
+        bearing[:, lk, k] = -on_block
+    return pin, bearing
 
 
 def _energy(mech: Mechanism, kin: Kinematics, speed: float, accel: float, g: np.ndarray):

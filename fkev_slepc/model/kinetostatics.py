@@ -64,19 +64,14 @@ def unknowns(mech: Mechanism) -> tuple[np.ndarray, dict[int, int], int]:
     return coef, reaction, n_unk + 1
 
 
-def solve_loads(mech: Mechanism, kin: Kinematics, plan=None) -> Loads:
-    """Joint forces, driving torque, guide reactions and element axial forces (§7) at every angle
-    of ``kin``. ``plan``: :func:`unknowns` of ``mech`` when the caller keeps it (it does not
-    depend on the angle; a Model builds it once)."""
-    coef, reaction, n_unk = unknowns(mech) if plan is None else plan
+def _equations(mech: Mechanism, kin: Kinematics, coef: np.ndarray, n_unk: int) -> np.ndarray:
+    """The matrix (n_ang, 3 n_link, n_unk) of the D'Alembert equations of every link (force x, y
+    and moment about its centroid) in the unknowns of :func:`unknowns`."""
     n_ang, n_link = kin.theta.size, mech.n_link
     if 3 * n_link != n_unk:
         raise ValueError(f"kinetostatics: {3 * n_link} equations for {n_unk} unknowns")
-    links = np.arange(n_link)
-    G = point_local(kin, links, mech.body_centroid)
     pts = np.nan_to_num(mech.link_points - mech.body_centroid[:, None, :])  # absent points: coef is 0
     arm = _rotate(kin.phi[:, :, None], pts[None])  # (n, l, 3, 2) from the centroid to each point
-
     A = np.zeros((n_ang, 3 * n_link, n_unk))
     A[:, 0::3] = coef[None, :, :, 0, :].sum(axis=2)
     A[:, 1::3] = coef[None, :, :, 1, :].sum(axis=2)
@@ -84,6 +79,30 @@ def solve_loads(mech: Mechanism, kin: Kinematics, plan=None) -> Loads:
         "alk,lkx->alx", arm[..., 1], coef[:, :, 0, :]
     )
     A[:, 3 * mech.driver + 2, -1] = 1.0
+    return A
+
+
+def _solve(A: np.ndarray, rhs: np.ndarray, good: np.ndarray, coef: np.ndarray, reaction: dict[int, int],
+           n_joint: int):
+    """Unknowns u of A u = rhs at the ``good`` angles (NaN elsewhere), as (link-point forces
+    (n, l, 3, 2), driving torque (n,), guide reactions (n, n_joint))."""
+    u = np.full(rhs.shape[:1] + (A.shape[-1],), np.nan)
+    if good.any():
+        u[good] = np.linalg.solve(A[good], rhs[good][..., None])[..., 0]
+    guide = np.full((u.shape[0], n_joint), np.nan)
+    for jj, s in reaction.items():
+        guide[:, jj] = u[:, s]
+    return np.einsum("lkcx,ax->alkc", coef, u), u[:, -1], guide
+
+
+def solve_loads(mech: Mechanism, kin: Kinematics, plan=None) -> Loads:
+    """Joint forces, driving torque, guide reactions and element axial forces (§7) at every angle
+    of ``kin``. ``plan``: :func:`unknowns` of ``mech`` when the caller keeps it (it does not
+    depend on the angle; a Model builds it once)."""
+    coef, reaction, n_unk = unknowns(mech) if plan is None else plan
+    n_ang, n_link = kin.theta.size, mech.n_link
+    A = _equations(mech, kin, coef, n_unk)
+    G = point_local(kin, np.arange(n_link), mech.body_centroid)
 
     mid_local = 0.5 * (mech.node_local[mech.elem_nodes[:, 0]] + mech.node_local[mech.elem_nodes[:, 1]])
     P_mid = point_local(kin, mech.elem_link, mid_local)
@@ -96,27 +115,42 @@ def solve_loads(mech: Mechanism, kin: Kinematics, plan=None) -> Loads:
         acc_G, acc_phi = G[part], (kin.ddphi if part == 2 else kin.dphi)
         rhs = np.stack([mech.body_mass * acc_G[..., 0], mech.body_mass * acc_G[..., 1],
                         mech.body_inertia * acc_phi], axis=-1).reshape(n_ang, 3 * n_link)
-        u = np.full((n_ang, n_unk), np.nan)
-        if good.any():
-            u[good] = np.linalg.solve(A[good], rhs[good][..., None])[..., 0]
-        end_force = np.einsum("lkcx,ax->alkc", coef, u)
-        guide = np.full((n_ang, len(mech.joint_names)), np.nan)
-        for jj, s in reaction.items():
-            guide[:, jj] = u[:, s]
-        axial = _axial_right(mech, end_force, P_mid[part], P_mass[part], e_beam)
+        end_force, torque, guide = _solve(A, rhs, good, coef, reaction, len(mech.joint_names))
+        axial = axial_right(mech, end_force, P_mid[part], P_mass[part], e_beam)
         beam_acc = np.einsum("abc,abc->ab", P_beam[part], e_beam)
-        results.append((end_force, u[:, -1], guide, axial, beam_acc))
+        results.append((end_force, torque, guide, axial, beam_acc))
     return Loads(*(tuple(r[i] for r in results) for i in range(5)))
 
 
-def _axial_right(mech: Mechanism, end_force, acc_mid, acc_mass, e_beam) -> np.ndarray:
+def solve_external(mech: Mechanism, kin: Kinematics, link: np.ndarray, point: np.ndarray, force: np.ndarray,
+                   moment: np.ndarray, plan=None):
+    """Joint forces, driving torque and guide reactions that hold the links, without inertia,
+    against external forces ``force`` (n_ang, n_load, 2, ground frame) at link-frame points
+    ``point`` (n_load, 2) of links ``link`` (n_load,) and moments ``moment`` (n_ang, n_load)
+    (docs/response.md §1.2): the equations of :func:`solve_loads` with right-hand side -ΣF and
+    -Σ(r × F + M) about each centroid. Returns (link-point forces, torque, guide reactions)."""
+    coef, reaction, n_unk = unknowns(mech) if plan is None else plan
+    n_ang, n_link = kin.theta.size, mech.n_link
+    A = _equations(mech, kin, coef, n_unk)
+    arm = _rotate(kin.phi[:, link], np.asarray(point, float) - mech.body_centroid[link])  # centroid -> point
+    per = np.stack([force[..., 0], force[..., 1],
+                    arm[..., 0] * force[..., 1] - arm[..., 1] * force[..., 0] + moment], axis=-1)
+    rhs = np.zeros((n_ang, n_link, 3))
+    np.add.at(rhs, (slice(None), np.asarray(link, int)), -per)
+    return _solve(A, rhs.reshape(n_ang, 3 * n_link), kin.ok, coef, reaction, len(mech.joint_names))
+
+
+def axial_right(mech: Mechanism, end_force, acc_mid, acc_mass, e_beam, nodal=None) -> np.ndarray:
     """Axial force (tension > 0) just inside the right node of every element: the component
     along the beam of all forces on the part beyond the cut (joint forces, D'Alembert forces
-    of the elements and particles there, and of a ternary branch starting there)."""
+    of the elements and particles there, and of a ternary branch starting there). ``nodal``:
+    optional (nodes, forces (n_ang, n, 2)) of further concentrated forces (process loads)."""
     n_ang, n_node = end_force.shape[0], mech.node_local.shape[0]
     point = np.zeros((n_ang, n_node, 2))  # concentrated forces on each node
     has = mech.point_node >= 0
     np.add.at(point, (slice(None), mech.point_node[has]), end_force[:, has])
+    if nodal is not None:
+        np.add.at(point, (slice(None), nodal[0]), nodal[1])
     np.add.at(point, (slice(None), mech.mass_nodes), -mech.mass_value[None, :, None] * acc_mass)
     dist = -(mech.elem_rho_a * mech.elem_length)[None, :, None] * acc_mid  # over each element
     right, beam = mech.elem_nodes[:, 1], mech.elem_beam

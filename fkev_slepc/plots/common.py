@@ -37,8 +37,8 @@ CASE_STYLE = {
 
 # ------------------------------------------------------------------ option resolution
 def default_case(res: SweepResults) -> str:
-    """``full`` if the archive has it, else its first case."""
-    return "full" if "full" in res.cases else res.cases[0]
+    """``full`` if the archive has it, else its first case (``SweepResults.default_case``)."""
+    return res.default_case
 
 
 def pick_angle(res: SweepResults, angle_deg: float | None) -> int:

@@ -218,6 +218,7 @@ class Scene:
     solver: Solver = field(default_factory=Solver)
     damping: Damping = field(default_factory=Damping)
     materials: tuple[Material, ...] = ()
+    process_loads: tuple = ()  # [[loads]]: scene/process_loads.py ProcessLoad items
     source_text: str = ""  # the TOML text, verbatim (archived)
     source: str = "<scene>"  # file name, for messages
 

@@ -15,6 +15,7 @@ from fkev_slepc.scene import settings
 from fkev_slepc.scene.damping import read_damping
 from fkev_slepc.scene.materials import read_materials
 from fkev_slepc.scene.model import Problem, Scene, SceneError
+from fkev_slepc.scene.process_loads import read_process_loads
 from fkev_slepc.scene.schema import Reader
 
 
@@ -116,6 +117,7 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
     analysis = settings.read_analysis(r, doc)
     solver = settings.read_solver(r, doc)
     damping = read_damping(r, doc)
+    process = read_process_loads(r, doc, links, joints)
     if topology_ok and links:
         sec.check_topology(r, links, joints)
     if r.problems:
@@ -130,6 +132,7 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
         solver=solver,
         damping=damping,
         materials=tuple(mats.values()) if mats else (),
+        process_loads=tuple(process),
         source_text=text,
         source=source,
     )

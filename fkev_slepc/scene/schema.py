@@ -79,12 +79,13 @@ class Reader:
         for key in table:
             if key in allowed:
                 continue
+            exact = next((s for s, keys in self.sections.items() if s and s != path and key in keys), None)
             close = difflib.get_close_matches(key, allowed, n=2, cutoff=0.6)
-            if close:
+            if close and exact is None:  # a key of another section verbatim is misplaced, not misspelt
                 spelled = " or ".join(f"'{join(path, c)}'" for c in close)
                 self.add(join(path, key), f"unknown key (did you mean {spelled}?)")
                 continue
-            home = self._section_of(key, exclude=path)
+            home = join(exact, key) if exact is not None else self._section_of(key, exclude=path)
             extra = hint(key) if hint else None
             if home is not None:
                 section = home.rpartition(".")[0]

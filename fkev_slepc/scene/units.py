@@ -55,8 +55,9 @@ DIMENSIONS = {
     "fibre_distance_out_of_plane_m": (1, 0, 0), "shear_modulus_pa": (-2, 1, 0), "yield_pa": (-2, 1, 0),
     "ultimate_pa": (-2, 1, 0), "endurance_pa": (-2, 1, 0),
     "mass_kg": (0, 0, 1), "slider_mass_kg": (0, 0, 1), "inertia_kg_m2": (2, 0, 1),
+    "fx_n": (0, 1, 0), "fy_n": (0, 1, 0), "moment_n_m": (1, 1, 0),
 }
-CONVERTED_SECTIONS = ("materials", "link_defaults", "links", "joints", "masses")  # where dimensional keys live
+CONVERTED_SECTIONS = ("materials", "link_defaults", "links", "joints", "masses", "loads")  # where dimensional keys live
 
 
 def read_units(r, doc) -> tuple[float, float, float] | None:
@@ -105,6 +106,8 @@ def to_si(doc: dict, factors: tuple[float, float, float]) -> dict:
     """A copy of ``doc`` without ``[units]``, every dimensional value (:data:`DIMENSIONS`) of the
     linkage sections multiplied by its SI factor; values of the wrong type are left for the
     reader to report."""
+    from fkev_slepc.scene.process_loads import split_station
+
     length, force, mass = factors
 
     def factor(key):
@@ -118,6 +121,12 @@ def to_si(doc: dict, factors: tuple[float, float, float]) -> dict:
             return [convert(v, key) for v in node]
         if key in DIMENSIONS and isinstance(node, (int, float)) and not isinstance(node, bool):
             return float(f"{node * factor(key):.15g}")  # 7.87e-9 t/mm³ -> 7870.0, not 7869.999999999999
+        station = split_station(node) if key == "at" and isinstance(node, str) else None
+        if station is not None:  # [[loads]] at = "LINK:S": S in the length unit
+            try:
+                return f"{station[0]}:{float(station[1]) * length:.15g}"
+            except ValueError:
+                return node  # reported by the reader
         return node
 
     return {k: (convert(v) if k in CONVERTED_SECTIONS else v) for k, v in doc.items() if k != "units"}

@@ -23,7 +23,7 @@ Public API (shapes with n the state size, k the number of θ values; θ in the c
 radians of crank angle for a linkage; exponents in 1/[θ])
 
 ``monodromy(generator, period=2π, *, forcing=None, order=6, steps=None, tol=1e-10,
-start=0.0, max_steps=2**16) -> Monodromy``
+start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps over MPI ranks)
     ``generator(theta)``: theta (k,) -> A (k, n, n), vectorised over θ.
     ``forcing(theta)``: theta (k,) -> b (k, n) or (k, n, m) for m load cases; optional.
 ``Monodromy`` (frozen dataclass)
@@ -40,9 +40,13 @@ start=0.0, max_steps=2**16) -> Monodromy``
 ``trajectory(generator, x0, thetas, *, forcing=None, order=6, steps) -> x (len(thetas), n[, m])``
     the state at the given θ (increasing, first = start) from x(thetas[0]) = x0, by the same
     Magnus steps (``steps`` per period P = thetas[-1] - thetas[0] unless ``period`` is given).
-``second_order(coefficients, n=None) -> generator``, ``second_order_forcing(coefficients, f)``
+``second_order(coefficients) -> generator``, ``second_order_forcing(mass, load)``
     adapters for M q'' + C q' + K q = f: ``coefficients(theta)`` -> (M, C, K) each (k, n, n)
-    dense; A = [[0, I], [-M⁻¹K, -M⁻¹C]], b = [0, M⁻¹f].
+    dense; A = [[0, I], [-M⁻¹K, -M⁻¹C]] (``state_matrix(M, C, K)``, the one state-space form),
+    b = [0, M⁻¹f].
+``TrigInterpolant(start, samples)``: the trigonometric interpolant (callable θ -> (len(θ), n, n))
+    of a smooth 2π-periodic matrix function sampled at k (even) equispaced angles from start;
+    ``to_dense(pattern, data)``: (k, nnz) CSR data -> (k, n, n).
 ``match_multipliers(a, b) -> (i, j)``: the pairing minimising Σ|a_i - b_j| (Hungarian).
 """
 
@@ -124,8 +128,27 @@ def step_exponentials(generator, a: float, b: float, steps: int, *, forcing=None
         yield s0, la.expm(Om)
 
 
-def _product(generator, a, b, steps, forcing, order):
-    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps."""
+def _product(generator, a, b, steps, forcing, order, comm=None):
+    """Φ (and the particular columns) over [a, b]: the ordered product of the step maps.
+
+    With an MPI ``comm`` of several ranks the steps are split into one contiguous segment per rank
+    (the same step length, segment k starting at a + h·(first step of k)); each rank multiplies its
+    own segment and the segment propagators are multiplied in order on every rank (exact up to
+    round-off: the same steps, grouped differently)."""
+    if comm is not None and comm.size > 1:
+        h = (b - a) / steps
+        counts = np.full(comm.size, steps // comm.size)
+        counts[: steps % comm.size] += 1
+        first = np.concatenate([[0], np.cumsum(counts)])
+        mine = None
+        if counts[comm.rank]:
+            lo, hi = first[comm.rank], first[comm.rank + 1]
+            mine = _product(generator, a + h * lo, a + h * hi, int(hi - lo), forcing, order)
+        total = None
+        for part in comm.allgather(mine):
+            if part is not None:
+                total = part if total is None else part @ total
+        return total
     total = None
     for _, E in step_exponentials(generator, a, b, steps, forcing=forcing, order=order):
         # pairwise (tree) products inside a block keep the Python loop at log2(block) levels;
@@ -190,14 +213,17 @@ def _split(total, n, m):
 
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
               steps: int | None = None, tol: float = 1e-10, start: float = 0.0,
-              max_steps: int = 2**16, min_steps: int = 16) -> Monodromy:
+              max_steps: int = 2**16, min_steps: int = 16, comm=None) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
     ``steps=None`` starts at ``min_steps`` (rounded up to a power of 2) and doubles until the estimated relative error of Φ <= ``tol``
     or ``max_steps`` is reached (then ``converged`` is False). The multiplier estimate
     ``error`` follows Φ's for simple multipliers (times their condition number) but only as its
-    square root at a defective one (a double multiplier ±1 on a transition curve)."""
+    square root at a defective one (a double multiplier ±1 on a transition curve).
+
+    ``comm``: an MPI communicator whose ranks share the steps of every product (collective: every
+    rank calls with the same arguments and gets the same result; see ``_product``)."""
     if not np.isfinite(period) or period <= 0.0:
         raise ValueError(f"period: must be a positive finite number, got {period!r}")
     if steps is not None and (int(steps) != steps or steps < 2 or steps % 2):
@@ -211,7 +237,7 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         m = 1 if fb.ndim == 2 else fb.shape[2]
 
     def run(N):
-        phi, part = _split(_product(generator, a, b, N, forcing, order), n, m)
+        phi, part = _split(_product(generator, a, b, N, forcing, order, comm), n, m)
         return phi, part
 
     scale = 2.0**order - 1.0
@@ -283,18 +309,23 @@ def trajectory(generator, x0, thetas, *, forcing=None, order: int = 6, steps: in
     return Y[:, :, 0] if vec and (m is None or m == 1) else Y
 
 
+def state_matrix(M, C, K) -> np.ndarray:
+    """A = [[0, I], [-M⁻¹K, -M⁻¹C]] (k, 2n, 2n) of M x'' + C x' + K x = 0 from dense stacks
+    (k, n, n): the generator of the state (x, x'), in the units of the equation's derivative."""
+    M, C, K = (np.asarray(x, dtype=float) for x in (M, C, K))
+    k, n, _ = M.shape
+    A = np.zeros((k, 2 * n, 2 * n))
+    A[:, :n, n:] = np.eye(n)
+    A[:, n:, :] = -np.linalg.solve(M, np.concatenate([K, C], axis=2))
+    return A
+
+
 def second_order(coefficients):
-    """Generator θ -> A = [[0, I], [-M⁻¹K, -M⁻¹C]] from ``coefficients(theta)`` -> (M, C, K),
-    each a dense stack (k, n, n). The state is x = (q, q')."""
+    """Generator θ -> A = [[0, I], [-M⁻¹K, -M⁻¹C]] (:func:`state_matrix`) from
+    ``coefficients(theta)`` -> (M, C, K), each a dense stack (k, n, n). The state is x = (q, q')."""
 
     def generator(theta):
-        M, C, K = (np.asarray(x, dtype=float) for x in coefficients(theta))
-        k, n, _ = M.shape
-        A = np.zeros((k, 2 * n, 2 * n))
-        A[:, :n, n:] = np.eye(n)
-        rhs = np.concatenate([K, C], axis=2)
-        A[:, n:, :] = -np.linalg.solve(M, rhs)
-        return A
+        return state_matrix(*coefficients(theta))
 
     return generator
 
@@ -312,3 +343,40 @@ def second_order_forcing(mass, load):
         return b[:, :, 0] if f.ndim == 2 else b
 
     return forcing
+
+
+def to_dense(pattern, data: np.ndarray) -> np.ndarray:
+    """(k, nnz) CSR data on ``pattern`` (a :class:`fkev_slepc.model.assembly.Pattern`) -> (k, n, n)."""
+    rows = np.repeat(np.arange(pattern.n), np.diff(pattern.indptr))
+    out = np.zeros((data.shape[0], pattern.n, pattern.n))
+    out[:, rows, pattern.indices] = data
+    return out
+
+
+def _dirichlet(theta: np.ndarray, k: int) -> np.ndarray:
+    """Weights (len(θ), k) of the trigonometric interpolant on the k (even) nodes 2πj/k:
+    D(x) = sin(kx/2) cot(x/2)/k at x = θ - 2πj/k, by angle addition (sin(kθ_j/2) = 0,
+    cos(kθ_j/2) = (-1)^j), so only O(len(θ) + k) transcendental evaluations."""
+    half, node = 0.5 * theta[:, None], np.pi * np.arange(k)[None, :] / k
+    sx = np.sin(half) * np.cos(node) - np.cos(half) * np.sin(node)  # sin(x/2)
+    cx = np.cos(half) * np.cos(node) + np.sin(half) * np.sin(node)  # cos(x/2)
+    sk = np.sin(k * half) * np.where(np.arange(k) % 2, -1.0, 1.0)[None, :]  # sin(kx/2)
+    small = np.abs(sx) < 1e-12
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = sk * cx / (k * np.where(small, 1.0, sx))
+    return np.where(small, np.sign(cx) ** k, w)
+
+
+class TrigInterpolant:
+    """θ -> (len(θ), n, n): the trigonometric interpolant of ``samples`` (k even, (k, n, n)) taken
+    at start + 2πj/k, j = 0..k-1 (period 2π)."""
+
+    def __init__(self, start, samples: np.ndarray):
+        self.start, self.S = start, samples
+        self.k = samples.shape[0]
+
+    def __call__(self, theta):
+        theta = np.asarray(theta, dtype=float)
+        W = _dirichlet(theta - self.start, self.k)
+        n = self.S.shape[1]
+        return (W @ self.S.reshape(self.k, -1)).reshape(theta.size, n, n)

@@ -90,10 +90,16 @@ class Band:
     resonance: str = ""  # e.g. "2ω̄1/1", "(ω̄1+ω̄2)/3"
     predicted_speed: float = float("nan")  # the labelled resonance's speed, rad/s
     mean_frequencies: tuple[float, ...] = field(default_factory=tuple)  # ω̄ₖ at the band centre, rad/s
+    suppressing_damping: float = float("nan")  # ζ* of :func:`suppressing_damping` at the peak (NaN: not labelled)
 
     @property
     def centre(self) -> float:
         return 0.5 * (self.lower + self.upper)
+
+    @property
+    def growth_rate(self) -> float:
+        """Re s = ln(max|μ|)·Ω/2π at the band's peak grid speed, 1/s: the amplitude grows like e^(Re s·t)."""
+        return growth_rate(self.peak_max_abs, self.peak_speed)
 
     def as_dict(self) -> dict:
         """JSON: an edge that was not located is null: open (the band reaches the end of the
@@ -106,7 +112,25 @@ class Band:
                 "unstable_down_to_rad_s": num(self.lower) if self.lower_open else None,
                 "unstable_up_to_rad_s": num(self.upper) if self.upper_open else None,
                 "predicted_rad_s": num(self.predicted_speed), "peak_rad_s": num(self.peak_speed),
-                "peak_max_abs_multiplier": num(self.peak_max_abs)}
+                "peak_max_abs_multiplier": num(self.peak_max_abs), "growth_rate_1_s": num(self.growth_rate),
+                "suppressing_damping_ratio": num(self.suppressing_damping)}
+
+
+def growth_rate(max_abs: float, speed: float) -> float:
+    """The largest Floquet exponent's real part, 1/s, from max|μ| over one revolution at ``speed`` rad/s."""
+    return float(np.log(max_abs) * abs(speed) / (2.0 * np.pi)) if max_abs > 0 and np.isfinite(speed) else float("nan")
+
+
+def suppressing_damping(rate: float, modes: Sequence[int], mean_freq: Sequence[float]) -> float:
+    """ζ*, the modal damping ratio that suppresses a band growing at ``rate`` (1/s) (docs/stability.md,
+    "What damping a band needs"): light modal damping ζ on modes j, k shifts the Floquet exponents of
+    their resonance by -ζ(ω̄ⱼ + ω̄ₖ)/2 (-ζω̄ₖ for a parametric one), to first order in ζ, so the band closes
+    at its peak for ζ >= ζ* = 2 Re s/(ω̄ⱼ + ω̄ₖ). NaN when the modes are unknown."""
+    w = [float(mean_freq[m - 1]) for m in modes if 0 < m <= len(mean_freq)]
+    if not w or not np.isfinite(rate):
+        return float("nan")
+    w = w * 2 if len(w) == 1 else w
+    return float(2.0 * rate / (w[0] + w[1]))
 
 
 def scan(speeds: Sequence[float], evaluate: Callable[[float], SpeedPoint]) -> list[SpeedPoint]:
@@ -273,7 +297,8 @@ def label(bands: Sequence[Band], mean_frequencies: Callable[[float], Sequence[fl
         w = tuple(float(x) for x in mean_frequencies(b.centre))
         r = nearest_resonance(b, w, max_order)
         out.append(replace(b, resonance=r.label if r else "", predicted_speed=r.speed if r else float("nan"),
-                           mean_frequencies=w))
+                           mean_frequencies=w,
+                           suppressing_damping=suppressing_damping(b.growth_rate, r.modes, w) if r else float("nan")))
     return out
 
 

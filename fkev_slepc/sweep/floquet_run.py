@@ -48,7 +48,7 @@ log = logging.getLogger(__name__)
 MONODROMY_TOL = 1e-10  # relative error of Φ asked of the integrator
 RESONANCE_ORDER = 3  # candidates n <= this between stable grid speeds are reported (and probed if asked)
 BAND_ATTRS = ("lower", "upper", "lower_open", "upper_open", "resonance", "predicted_speed", "peak_speed",
-              "peak_max_abs")
+              "peak_max_abs", "suppressing_damping")
 
 
 @dataclass(frozen=True)
@@ -64,16 +64,17 @@ class FloquetRequest(ProductRequest):
     reduce: int | str | None = None  # frozen-mode reduction: None (full model), "auto" or r modes per angle
 
 
-def _evaluator(model, case: str, tol: float, reduce=None):
+def _evaluator(model, case: str, tol: float, reduce=None, comm=None):
     """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised). Reduced
     (``reduce``), the point's error adds the truncation change of max|μ| (so that it enters the verdict's
-    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures."""
+    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures. ``comm``: the
+    ranks that share each monodromy's steps (collective evaluation)."""
     from fkev_slepc.solve.floquet_linkage import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
     def evaluate(speed: float) -> tuple[SpeedPoint, str]:
         try:
-            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce)
+            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce, comm=comm)
         except recoverable_errors() as exc:
             return SpeedPoint(float(speed), np.zeros(0, complex), float("nan"), False), f"{type(exc).__name__}: {exc}"
         point, t = SpeedPoint.of(speed, res), res.truncation
@@ -126,26 +127,31 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     speeds = np.asarray(sc.driver.speeds, dtype=float)
     evaluate = evaluator(model, request.case, request.monodromy_tol) if evaluator else _evaluator(
         model, request.case, request.monodromy_tol, request.reduce)
+    todo = pending(status)
+    # fewer speeds than ranks: every rank works on each speed, its monodromy's steps split over them
+    split = evaluator is None and comm.size > 1 and 0 < int(todo.sum()) < comm.size
+    grid_evaluate = _evaluator(model, request.case, request.monodromy_tol, request.reduce, comm) if split else evaluate
 
     def solve(unit, mask):
         js, jc = unit
-        point, message = evaluate(speeds[js])
+        point, message = grid_evaluate(speeds[js])
         code = _status(point, message, request.tol)
         mu = np.full(n_index, P.CNAN)
         mu[: point.multipliers.size] = point.multipliers
         data = {P.MULTIPLIER.path: mu, P.MAX_ABS_MULTIPLIER.path: np.array(point.max_abs),
                 P.MULTIPLIER_ERROR.path: np.array(point.error)}
-        reduced = getattr(evaluate, "reduction", {}).get(float(speeds[js]))
+        reduced = getattr(grid_evaluate, "reduction", {}).get(float(speeds[js]))
         if reduced:
             data.update({v.path: np.array(reduced[v.source], dtype=v.dtype) for v in REDUCTION_ROWS})
         errors = [((js, jc), code, message or "monodromy did not reach its tolerance")] if code in (
             Status.FAILED.code, Status.NOT_CONVERGED.code) else []
         return Block(unit, mask, data, np.array(code, np.uint8), errors)
 
-    todo = pending(status)
     if notify is not None and comm.rank == 0:
-        notify(f"floquet: {int(todo.sum())} of {todo.size} speed(s) to solve")
-    solve_pending(part, out, P.FLOQUET, todo, solve, comm, n_unit_axes=2, notify=notify, label="speeds")
+        notify(f"floquet: {int(todo.sum())} of {todo.size} speed(s) to solve"
+               + (f", each monodromy split over {comm.size} ranks" if split else ""))
+    solve_pending(part, out, P.FLOQUET, todo, solve, comm, n_unit_axes=2, notify=notify, label="speeds",
+                  collective=split)
     grid = _read_grid(part, speeds) if comm.rank == 0 else None
     grid = comm.bcast(grid, root=0)
     mean = _mean_frequencies(part) if comm.rank == 0 else None
@@ -199,17 +205,17 @@ def _read_grid(part, speeds) -> list[SpeedPoint]:
 
 
 def _mean_frequencies(part):
-    """speed -> ω̄ₖ (rad/s): the frozen sweep's sorted Im λ averaged over the converged crank
-    angles at each grid speed (case 0), interpolated linearly in speed."""
+    """speed -> ω̄ₖ (rad/s): the frozen sweep's sorted Im λ at each grid speed (case 0) averaged
+    over one revolution by :func:`fkev_slepc.solve.cycle_mean.cycle_mean` (angle-weighted, 0° and
+    360° counted once, unconverged angles left out), interpolated linearly in speed."""
+    from fkev_slepc.solve.cycle_mean import cycle_mean
     from fkev_slepc.status import CONVERGED, codes
 
     with h5py.File(part, "r") as f:
         freq = f[P.FREQUENCY.path][:, :, 0, :]  # (angle, speed, mode), Hz
         conv = np.isin(np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8), codes(CONVERGED))
-        speeds = f[P.SPEED][()]
-    w = 2.0 * np.pi * np.where(conv[..., None], freq, np.nan)
-    with np.errstate(invalid="ignore"):
-        mean = np.nanmean(w, axis=0)  # (speed, mode)
+        speeds, angles = f[P.SPEED][()], f[P.ANGLE][()]
+    mean = cycle_mean(angles, 2.0 * np.pi * np.where(conv[..., None], freq, np.nan), 360.0)  # (speed, mode)
 
     def at(speed: float):
         return [float(np.interp(speed, speeds[np.isfinite(col)], col[np.isfinite(col)]))
@@ -238,11 +244,11 @@ def read_floquet(path) -> FloquetResults:
     path = Path(path)
     with h5py.File(path, "r") as f:
         g = f[P.FLOQUET.name]
-        cols = {v.source: f[v.path][()] for v in P.BAND_ROWS if v.source}
+        cols = {v.source: f[v.path][()] for v in P.BAND_ROWS if v.source and v.path in f}  # older: fewer rows
         n = f[P.F_BAND].shape[0]
         bands = tuple(Band(**{k: (_text(cols[k][i]) if k == "resonance" else
-                                  bool(cols[k][i]) if k.endswith("_open") else float(cols[k][i])) for k in BAND_ATTRS})
-                      for i in range(n))
+                                  bool(cols[k][i]) if k.endswith("_open") else float(cols[k][i]))
+                              for k in BAND_ATTRS if k in cols}) for i in range(n))
         st = np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8)
         frozen = np.mean(np.isin(st, [Status.UNSTABLE.code, Status.DIVERGENT.code]), axis=0)
         tol, order = float(g.attrs["tol"]), int(g.attrs.get("resonance_order", RESONANCE_ORDER))

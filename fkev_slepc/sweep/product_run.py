@@ -74,9 +74,10 @@ def open_product(out: Path, product, values: dict, settings: dict, resume: bool,
 
 
 def solve_pending(part: Path, out: Path, product, todo: np.ndarray, solve: Callable, comm, n_unit_axes: int, notify=None,
-                  label: str = "units", progress: Callable | None = None) -> int:
-    """Collective: solve the units of ``todo`` (``run_units``) into ``part``; returns the number
-    solved. Raises SweepInterrupted on every rank after Ctrl-C/SIGTERM (the lock released)."""
+                  label: str = "units", progress: Callable | None = None, collective: bool = False) -> int:
+    """Collective: solve the units of ``todo`` (``run_units``; ``collective``: each unit by all ranks
+    together) into ``part``; returns the number solved. Raises SweepInterrupted on every rank after
+    Ctrl-C/SIGTERM (the lock released)."""
     from fkev_slepc.archive.writer import Writer
     from fkev_slepc.sweep.interrupt import StopRequest, SweepInterrupted
     from fkev_slepc.sweep.units import run_units
@@ -90,7 +91,8 @@ def solve_pending(part: Path, out: Path, product, todo: np.ndarray, solve: Calla
     writer = Writer(part, comm, product=product)
     try:
         with stop:
-            done = run_units(todo, solve, writer, comm, n_unit_axes=n_unit_axes, progress=progress, stop=stop)
+            done = run_units(todo, solve, writer, comm, n_unit_axes=n_unit_axes, progress=progress, stop=stop,
+                             collective=collective)
     finally:
         writer.close()
     if stop.stopped:

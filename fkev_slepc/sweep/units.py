@@ -35,7 +35,7 @@ def assign(todo: np.ndarray, rank: int, size: int, n_unit_axes: int = 1) -> tupl
 
 
 def run_units(todo: np.ndarray, solve: Callable, writer, comm, n_unit_axes: int = 1, progress=None,
-              stop=None) -> int:
+              stop=None, collective: bool = False) -> int:
     """Collective over ``comm``: solve the points of ``todo`` unit by unit. Returns the number
     of points solved by all ranks.
 
@@ -49,15 +49,19 @@ def run_units(todo: np.ndarray, solve: Callable, writer, comm, n_unit_axes: int 
     stop : :class:`~fkev_slepc.sweep.interrupt.StopRequest`, polled at every sync: when any rank was
         signalled, every rank leaves after that sync (the points synced so far are in the
         archive) and ``stop.stopped`` is set.
+    collective : every rank solves every unit together (``solve`` is collective, e.g. one monodromy
+        split over the ranks when there are fewer units than ranks) and rank 0 writes the block.
     """
     unit_shape = todo.shape[:n_unit_axes]
-    mine, n_rounds = assign(todo, comm.rank, comm.size, n_unit_axes)
+    mine, n_rounds = assign(todo, 0, 1, n_unit_axes) if collective else assign(todo, comm.rank, comm.size, n_unit_axes)
     total, done = int(np.count_nonzero(todo)), 0
     log.info("%d points to solve on %d rank(s): %d unit(s) here, %d rounds", total, comm.size, mine.size, n_rounds)
     for rnd in range(n_rounds):
         if rnd < mine.size:
             unit = tuple(int(i) for i in np.unravel_index(int(mine[rnd]), unit_shape))
-            writer.write_block(solve(unit, todo[unit]))
+            block = solve(unit, todo[unit])
+            if not collective or comm.rank == 0:
+                writer.write_block(block)
         if writer.end_round() or rnd == n_rounds - 1:
             done += writer.sync()
             if progress is not None and comm.rank == 0:

@@ -1,0 +1,178 @@
+"""One periodic system of a linkage at constant crank speed, for Floquet and the response
+(docs/theory.md §18.7, docs/response.md §3).
+
+``PeriodicSystem(model, omega, case="full", *, damping=True, gravity=(0, 0), basis=None,
+start=0.0)`` holds everything both periodic analyses need, built once on the model's pieces
+(:func:`fkev_slepc.model.periodic.periodic_pieces`, :meth:`Model.load_pieces`):
+
+``coefficients(θ) -> Coefficients``
+    dense per-angle M, C, K of M q̈ + C q̇ + K q = f (time form, Rayleigh damping from the scene
+    when ``damping``) and the canonical N = Ω N₁, V = K₀ + Ω² V₂, C_d, K_d = Ω K_d (§18.2-18.5);
+    with ``basis`` (co-rotated V̂, :mod:`fkev_slepc.solve.floquet_reduce`) the Galerkin-reduced ones.
+``mck(θ) -> (M, C, K)``
+    the three stacks alone (the generic interface of :mod:`~fkev_slepc.solve.response_hb` and
+    :mod:`~fkev_slepc.solve.response_shooting`).
+``load(θ) -> f (len(θ), n)``
+    the rigid-body inertia loads Ω² f₂(θ) and the gravity ``gravity`` = (g_x, g_y) (m/s², ground
+    frame) through :meth:`fkev_slepc.model.loads.LoadPieces.total` (the one gravity of the model).
+``generator(θ) -> A (len(θ), 2n, 2n)``
+    the first-order generator in 1/rad (d/dθ = d/dt / |Ω|): canonical (q, p), p = M q̇ + N q, for
+    the Lagrangian cases (Hamiltonian undamped), else (q, q̇) by
+    :func:`fkev_slepc.solve.floquet.state_matrix`; both scaled DOF by DOF (q̂ᵢ = dᵢqᵢ,
+    dᵢ = (Mᵢᵢ Kᵢᵢ)^¼; p̂ᵢ = pᵢ/dᵢ, or q̇ᵢ scaled by dᵢ/ωᵢ, ωᵢ² = Kᵢᵢ/Mᵢᵢ). ``scaling`` (2n,) is
+    decided ONCE per system, from the mean diagonals over ``SCALING_ANGLES`` equispaced angles,
+    and used for every batch of angles (issue 27: a per-batch scaling made the samples and the
+    midpoints disagree and the interpolation check stall).
+``interpolant(samples=16, tol=1e-12, max_samples=1024) -> Interpolated``
+    the trigonometric interpolant of the generator: samples double until the interpolant matches
+    the exact generator at the midpoints to ``tol`` (relative to max|A|); ``error`` the last
+    measured value (the midpoints then join the samples).
+
+The crank angle runs θ = start + sign(Ω)·τ, τ ∈ [0, 2π] the angle the generator and the
+interpolant take (a negative Ω turns the crank backwards).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from fkev_slepc.model.periodic import periodic_pieces
+from fkev_slepc.model.process_loads import process_load_vectors
+from fkev_slepc.solve.floquet import TrigInterpolant, state_matrix, to_dense
+from fkev_slepc.solve.floquet_reduce import reduced_coefficients
+
+TWO_PI = 2.0 * np.pi
+SCALING_ANGLES = 16  # angles whose mean diagonals fix the DOF scaling of the generator
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    """Dense per-angle matrices (k, n, n) of one speed (see the module docstring)."""
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    N: np.ndarray | None  # Ω N₁ (canonical form), None for a non-Lagrangian case
+    V: np.ndarray | None  # K₀ + Ω² V₂
+    Cd: np.ndarray | None  # Rayleigh C_d
+    Kd: np.ndarray | None  # Ω K_d
+
+
+@dataclass(frozen=True)
+class Interpolated:
+    """The generator's trigonometric interpolant (callable τ -> A), its measured relative error
+    at the last midpoints, and the number of samples it holds."""
+
+    generator: TrigInterpolant
+    error: float
+    samples: int
+
+    @property
+    def peak(self) -> float:
+        """max |A_ij| over the samples (1/rad): the scale of ``error``."""
+        return float(np.max(np.abs(self.generator.S)))
+
+
+class PeriodicSystem:
+    """The periodic system of ``model`` at crank speed ``omega`` (rad/s) for ``case``."""
+
+    def __init__(self, model, omega: float, case: str = "full", *, damping: bool = True,
+                 gravity=(0.0, 0.0), basis: np.ndarray | None = None, start: float = 0.0):
+        self.model, self.omega, self.case = model, float(omega), case
+        self.damping, self.basis, self.start = bool(damping), basis, float(start)
+        self.gravity = np.asarray(gravity, dtype=float).reshape(2)
+        self.n = int(model.n_free) if basis is None else int(basis.shape[1])
+
+    def angle(self, tau) -> np.ndarray:
+        """The crank angle θ (rad) of the generator's τ."""
+        return self.start + np.sign(self.omega) * np.asarray(tau, dtype=float)
+
+    def coefficients(self, theta) -> Coefficients:
+        """Dense coefficients at the crank angles ``theta`` (rad)."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        p = periodic_pieces(self.model, theta, self.case)
+        w = self.omega
+        damped = self.damping and p.damping is not None
+        if self.basis is not None:
+            return Coefficients(*reduced_coefficients(self.model, p, theta, w, self.damping, self.basis))
+        M, C, K = p.coefficients(w) if damped else (p.mass, w * p.gyro, p.stiffness + w * w * p.speed_stiffness)
+        N = V = Cd = Kd = None
+        if p.lagrangian:
+            N, V = w * p.coupling, p.stiffness + w * w * p.potential
+        if damped:
+            Cd, Kd = p.damping, w * p.damping_stiffness
+        pat = self.model.pattern
+        return Coefficients(*(None if x is None else to_dense(pat, x) for x in (M, C, K, N, V, Cd, Kd)))
+
+    def mck(self, theta):
+        """(M, C, K) dense stacks at ``theta`` (rad): the response solvers' interface."""
+        c = self.coefficients(theta)
+        return c.M, c.C, c.K
+
+    def load(self, theta) -> np.ndarray:
+        """f (len(θ), n_free): Ω² f₂(θ) plus gravity (g_x, g_y) (ground frame, m/s²) plus the scene's
+        process loads ``[[loads]]`` (model/process_loads.py; zero without)."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        gx, gy = self.gravity  # LoadPieces: gravity of 1 m/s² along -X, -Y
+        f = self.model.load_pieces(theta).total(self.omega, 0.0, -gy, -gx)
+        return f + process_load_vectors(self.model, theta)
+
+    @cached_property
+    def reference(self) -> Coefficients:
+        """The coefficients at the ``SCALING_ANGLES`` angles the scaling is taken from."""
+        return self.coefficients(self.angle(TWO_PI * np.arange(SCALING_ANGLES) / SCALING_ANGLES))
+
+    @cached_property
+    def scaling(self) -> np.ndarray:
+        """s (2n,): the generator is diag(s) A diag(s)⁻¹ (see the module docstring); fixed once."""
+        c = self.reference
+        m = np.abs(np.mean(np.diagonal(c.M, axis1=1, axis2=2), axis=0))
+        k = np.abs(np.mean(np.diagonal(c.K, axis1=1, axis2=2), axis=0))
+        k = np.where(k > 0, k, np.max(k))
+        d = (m * k) ** 0.25
+        if c.N is not None:
+            return np.concatenate([d, 1.0 / d])
+        return np.concatenate([d, d / np.sqrt(k / m)])
+
+    @property
+    def dof_scaling(self) -> np.ndarray:
+        """d (n,): q̂ = d q, the first half of :attr:`scaling`."""
+        return self.scaling[: self.n]
+
+    def generator_of(self, c: Coefficients) -> np.ndarray:
+        """The scaled generator (1/rad) from coefficients ``c`` (see the module docstring)."""
+        n = c.M.shape[1]
+        if c.N is not None:  # (q, p): q̇ = M⁻¹(p - Nq), ṗ = (Nᵀ - C_d) q̇ - (V + K_d) q
+            Minv = np.linalg.inv(c.M)
+            G = np.swapaxes(c.N, 1, 2) - (0.0 if c.Cd is None else c.Cd)
+            A = np.empty((c.M.shape[0], 2 * n, 2 * n))
+            A[:, :n, :n] = -Minv @ c.N
+            A[:, :n, n:] = Minv
+            A[:, n:, :n] = -G @ Minv @ c.N - c.V - (0.0 if c.Kd is None else c.Kd)
+            A[:, n:, n:] = G @ Minv
+        else:  # (q, q̇)
+            A = state_matrix(c.M, c.C, c.K)
+        s = self.scaling
+        return A * (s[None, :, None] / s[None, None, :]) / abs(self.omega)
+
+    def generator(self, tau) -> np.ndarray:
+        """A (len(τ), 2n, 2n) in 1/rad at the generator angles ``tau`` (crank angle start ± τ)."""
+        return self.generator_of(self.coefficients(self.angle(tau)))
+
+    def interpolant(self, samples: int = 16, tol: float = 1e-12, max_samples: int = 1024) -> Interpolated:
+        """The generator's trigonometric interpolant, samples doubled until its relative error at
+        the midpoints is <= ``tol`` or ``max_samples`` are held (see the module docstring)."""
+        k = max(4, 2 * (int(samples) // 2))
+        S = self.generator(TWO_PI * np.arange(k) / k)
+        while True:
+            tau_mid = TWO_PI * (np.arange(k) + 0.5) / k
+            mid = self.generator(tau_mid)
+            err = float(np.max(np.abs(TrigInterpolant(0.0, S)(tau_mid) - mid)) / np.max(np.abs(S)))
+            both = np.empty((2 * k,) + S.shape[1:])
+            both[0::2], both[1::2] = S, mid
+            S, k = both, 2 * k
+            if err <= tol or k >= max_samples:
+                return Interpolated(TrigInterpolant(0.0, S), err, k)
