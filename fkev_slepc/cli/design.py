@@ -88,7 +88,8 @@ def run(args) -> int:
         notify = None if args.quiet else (lambda m: print(f"fkev design: {m}", file=sys.stderr, flush=True))
         checks = CheckOptions(args.stress, args.sensitivity, args.criterion, args.harmonics)
         run_design(scene, grid, output, comm, resume=args.resume, force=args.force, solver=args.solver,
-                   notify=notify, command_line=" ".join(["fkev", *sys.argv[1:]]), checks=checks)
+                   notify=notify, command_line=" ".join(["fkev", *sys.argv[1:]]), checks=checks,
+                   names={**CLI_NAMES, "angles_deg": "--angles", "harmonics": "--harmonics", "criterion": "--criterion"})
     except SweepInterrupted as err:  # the notice with what to do is already printed
         return err.exit_code
     except (SceneError, RunRefused) as err:  # every rank raised it; rank 0 says it

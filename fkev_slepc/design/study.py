@@ -179,11 +179,11 @@ class DesignSolver:
 
 def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: bool = False, force: bool = False,
                solver: str | None = None, notify=None, progress: bool = False, command_line: str = "",
-               checks: CheckOptions | None = None) -> Path:
+               checks: CheckOptions | None = None, names=None) -> Path:
     """Collective over ``comm`` (default this process alone): the base sweep of ``scene`` (its grid
     already configured) into ``output``, then every pending design point into its ``/design``,
     with the design check's columns of ``checks`` (fkev_slepc/design/point_checks.py; default
-    the kinetostatic ones only).
+    the kinetostatic ones only). ``names`` maps argument names to the caller's in messages.
 
     Raises
     ------
@@ -210,7 +210,7 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     note = notify if (notify is not None and comm.rank == 0) else (lambda _m: None)
     checks = checks or CheckOptions()
     scenes = design_scenes(scene, grid)  # every design point valid, or nothing is done
-    bad = stress_problems(scenes, scene.analysis.crank_angles_deg, scene.analysis.cases, checks)
+    bad = stress_problems(scenes, scene.analysis.crank_angles_deg, scene.analysis.cases, checks, names)
     if bad:
         raise SceneError(scene.source, bad)
     base_resume = resume and (output.exists() or store.partial_path(output).exists())
