@@ -157,10 +157,11 @@ def _columns(row: dict, prefixes: dict) -> list[tuple[str, str, float]]:
 
 
 def _table(rows, keys, cols) -> None:
+    """One line per design point (its number first, as /design/point): key values, then ``cols``."""
     width = [max(12, len(label) + 1) for _, label, _ in cols]
-    print(" ".join([f"{k:>18}" for k in keys] + [f"{label:>{w}}" for (_, label, _), w in zip(cols, width)]))
-    for r in rows:
-        vals = [f"{r[k]:>18.6g}" for k in keys]
+    print(" ".join(["point"] + [f"{k:>18}" for k in keys] + [f"{label:>{w}}" for (_, label, _), w in zip(cols, width)]))
+    for ip, r in enumerate(rows):
+        vals = [f"{ip:>5}"] + [f"{r[k]:>18.6g}" for k in keys]
         vals += ["-".rjust(w) if r[c] is None else f"{r[c] / scale:>{w}.5g}" for (c, _, scale), w in zip(cols, width)]
         print(" ".join(vals))
 

@@ -63,6 +63,10 @@ def kinetostatic_columns(scene: Scene, angles_deg, speeds) -> dict[str, np.ndarr
     rows = []
     for w in np.asarray(speeds, float):
         jl = joint_loads(mech, theta, float(w), scene.driver.acceleration, scene.analysis.gravity_m_s2)
+        if not jl.ok.any():  # assembles at none of the angles: nothing to report
+            rows.append((np.nan, np.nan, np.full(len(mech.joint_names), np.nan), np.full(len(mech.joint_names), np.nan),
+                         np.full(mech.n_link, np.nan), np.full(mech.n_link, np.nan)))
+            continue
         pin = np.hypot(jl.pin_force[..., 0], jl.pin_force[..., 1])  # NaN at joints that are not prismatic
         b = weak_axis_buckling(mech, jl)
         rows.append((np.nanmin(jl.torque), np.nanmax(jl.torque), np.nanmax(jl.joint_magnitude, axis=0),
@@ -73,7 +77,8 @@ def kinetostatic_columns(scene: Scene, angles_deg, speeds) -> dict[str, np.ndarr
 
 def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOptions) -> dict[str, np.ndarray]:
     """Per (speed, case, link) the design check's peak |σ|, static and fatigue factors (NaN where
-    the check gives none), keyed by the design product's dataset paths."""
+    the check gives none, or at an exact resonance, where the response has no periodic solution),
+    keyed by the design product's dataset paths."""
     from fkev_slepc.archive import products as P
     from fkev_slepc.design.check import check_links
     from fkev_slepc.model.joint_loads import joint_loads
@@ -85,7 +90,11 @@ def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOption
     for js, w in enumerate(np.asarray(speeds, float)):
         for jc, case in enumerate(cases):
             model, case, a, gravity = checked_point(scene, float(w), case, angles_deg, harmonics=options.harmonics)
-            r = steady_solve(model, float(w), case, gravity, harmonics=options.harmonics, tol=options.tol, shoot=False)
+            try:
+                r = steady_solve(model, float(w), case, gravity, harmonics=options.harmonics, tol=options.tol,
+                                 shoot=False)
+            except SceneError:  # (I − Φ) singular: an exact resonance at this speed
+                continue
             theta = np.radians(a)
             ls = whole_link_stress(model, a, r.hb.at(theta))
             jl = joint_loads(model.mechanism, theta, float(w), 0.0, gravity)

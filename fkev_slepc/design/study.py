@@ -10,7 +10,9 @@ is solved) and is one unit of work of the archive's ``design`` product
 the sweep's grid (crank angles x speeds x cases) is solved by the sweep's own solver
 (:class:`fkev_slepc.sweep.runner.Sweep`, sorted modes) and the lowest divergence (buckling)
 speed over the crank angles of every motion case is computed (K(Ω) = K₀ + Ω²K₂ singular,
-:func:`fkev_slepc.solve.critical.divergence_speed`).
+:func:`fkev_slepc.solve.critical.divergence_speed`), and the design check's columns at every
+speed (:mod:`fkev_slepc.design.point_checks`: torque range, peak joint and wrist-pin forces,
+weak-axis buckling factors; optionally stresses, safety factors and sensitivities).
 
 The archive is an ordinary sweep archive of the scene as written (the root datasets, so every
 ``fkev`` command reads it) with the group ``/design`` beside it. It is resumable: the base
