@@ -13,9 +13,8 @@ import pytest
 from clitools import ROOT, fkev
 
 from fkev_slepc.api.loads import study_loads
-from fkev_slepc.design.check import design_check
 from fkev_slepc.design.fatigue import fatigue_factor
-from fkev_slepc.scene import Material, load_scene, parse_scene, with_elements
+from fkev_slepc.scene import Material, parse_scene, with_elements
 
 SCENE = ROOT / "runs" / "slider-crank-design.toml"
 SMALL = ("--elements", "2", "--angles", "0:330:30", "--harmonics", "8")
@@ -23,8 +22,11 @@ STEEL = Material("s", 2.05e11, 7870.0, 0.29, yield_strength=5.3e8, ultimate_stre
 
 
 def small_check(text=None, **options):
-    scene = load_scene(SCENE) if text is None else parse_scene(text, "d.toml")
-    return design_check(with_elements(scene, 2), 100.0, angles_deg=np.arange(0.0, 360.0, 30.0), harmonics=8, **options)
+    """The check at 100 rad/s on 2 elements per link, 12 angles, 8 harmonics (``Study.design_check``)."""
+    import fkev_slepc as fk
+
+    study = fk.load(SCENE, elements=2) if text is None else fk.Study(with_elements(parse_scene(text, "d.toml"), 2))
+    return study.design_check(100.0, angles_deg=np.arange(0.0, 360.0, 30.0), harmonics=8, **options)
 
 
 @pytest.mark.parametrize("criterion", ["goodman", "soderberg", "gerber"])
@@ -42,6 +44,8 @@ def test_fatigue_factor_is_the_hand_formula_of_the_tools_own_stresses(criterion)
     assert lk["fatigue_sf"] == pytest.approx(hand[criterion], rel=1e-12)
     assert lk["fatigue_criterion"] == criterion
     assert lk["static_sf"] == pytest.approx(sy / lk["peak_stress_pa"], rel=1e-12)
+    per_point = np.array([lk["points"]["fatigue_sf"][face] for face in ("plus", "minus")], dtype=float)
+    assert np.nanmin(per_point) == lk["fatigue_sf"] and len(lk["points"]["s_m"]) == per_point.shape[1]
 
 
 def test_fatigue_factor_conventions():
@@ -113,3 +117,16 @@ def test_check_and_loads_report_the_weak_axis_margin(tmp_path):
     p_cr = math.pi**2 * 2.05e11 * (0.020 * 0.005**3 / 12) / (2.0 * 0.3) ** 2
     assert d["buckling"]["rod"]["euler_load_n"] == pytest.approx(p_cr, rel=1e-14)
     assert d["buckling"]["rod"]["buckling_sf"] == pytest.approx(p_cr / abs(n_min), rel=1e-12)
+
+
+def test_no_stress_gives_no_factor_and_strict_json():
+    """At rest without gravity nothing is stressed: no finite safety factor (None, not ∞), no
+    compression, and the JSON has no NaN or infinity."""
+    import fkev_slepc as fk
+
+    d = fk.load(SCENE, elements=2).design_check(0.0, angles_deg=[0.0, 90.0], harmonics=2).as_dict()
+    json.dumps(d, allow_nan=False)
+    for name in ("crank", "rod"):
+        lk = d["links"][name]
+        assert lk["peak_stress_pa"] == 0.0 and lk["static_sf"] is None and lk["fatigue_sf"] is None
+        assert lk["buckling_sf"] is None

@@ -4,6 +4,7 @@ load against closed forms, and the faces, means and alternating parts the output
 
 import numpy as np
 import pytest
+from clitools import ROOT
 
 from fkev_slepc.api.response import study_response
 from fkev_slepc.scene import parse_scene
@@ -11,25 +12,14 @@ from fkev_slepc.scene import parse_scene
 RHO, E, L, OMEGA = 7850.0, 2.1e11, 0.5, 100.0
 B, H = 0.01, 0.02  # out of plane, in plane
 A, I, C = B * H, B * H**3 / 12, H / 2
-BAR = f"""title = "bar"
-[[links]]
-name = "beam"
-length_m = {L}
-elements = 4
-youngs_modulus_pa = {E}
-density_kg_m3 = {RHO}
-section = {{shape = "rectangle", width_m = {B}, height_m = {H}}}
-[[joints]]
-name = "hub"
-connects = ["ground", "beam.root"]
-position_m = [0.0, 0.0]
-[driver]
-link = "beam"
-speeds_rad_s = [{OMEGA}]
-[analysis]
-crank_angles_deg = [0.0]
-cases = ["full"]
-"""
+# runs/rotating-cantilever.toml made a 0.5 m, 4-element rectangular bar with a fibre distance
+BAR = (ROOT / "runs" / "rotating-cantilever.toml").read_text().replace("length_m = 1.0", f"length_m = {L}").replace(
+    "elements = 16", "elements = 4").replace("youngs_modulus_pa = 2.07e11", f"youngs_modulus_pa = {E}").replace(
+    "density_kg_m3 = 7760.0", f"density_kg_m3 = {RHO}").replace(
+    "area_m2 = 2.0e-5\nsecond_moment_m4 = 6.666666666666667e-12",
+    f'section = {{shape = "rectangle", width_m = {B}, height_m = {H}}}').replace(
+    "speeds_rad_s = [0.0, 5.96380837, 11.9276167, 17.8914251, 23.8552335, 29.8190419, 35.7828502]",
+    f"speeds_rad_s = [{OMEGA}]").replace('cases = ["full", "structure"]', 'cases = ["full"]')
 
 
 def rotating(element, case):

@@ -84,3 +84,39 @@ def test_band_bars_span_each_band(archive):
     assert heights == sorted(np.round((hi - lo).ravel(), 6))
     with pytest.raises(ArchiveError):
         band_campbell(res, case="no_normal")
+
+
+def test_per_order_rows_and_tracking_label(archive, tmp_path, capsys):
+    """One row per mode and order (default 1×, 2×, 3×): mode 1 has 3Ω inside its band (margin 0,
+    the crossing angles) and 2Ω below it at the closest-order table's margin; a chosen order set
+    gives those rows only. The modes are 'tracked' only where /tracking/fallback is 0 at that line:
+    the same archive with the flag set says 'sorted' (and is reported as changed since the run)."""
+    import shutil
+
+    import h5py
+
+    from fkev_slepc.archive.reader import DamagedArchiveWarning
+
+    res = fk.open(archive)
+    table = margins(res, W)
+    rows = {(m.mode, a.order): a for m, a in table.per_order}
+    assert sorted({o for _, o in rows}) == [1, 2, 3] and len(rows) == 3 * len(table.modes)
+    m1 = table.modes[0]
+    assert rows[(1, 3)].margin_percent == 0.0 and rows[(1, 3)].angles_deg == m1.crossings[3]
+    assert rows[(1, 2)].margin_percent == pytest.approx(m1.below.margin_percent, rel=1e-15)
+    assert rows[(1, 1)].frequency_hz == pytest.approx(ORDER_HZ, rel=1e-15)
+    assert [a.order for _, a in margins(res, W, per_order=(4,)).per_order] == [4] * len(table.modes)
+    assert table.order == "tracked" and not table.tracking_fell_back
+    copy = tmp_path / "fallback.h5"
+    shutil.copy(archive, copy)
+    with h5py.File(copy, "r+") as f:
+        f["tracking/fallback"][...] = 1
+    with pytest.warns(DamagedArchiveWarning, match="tracking/fallback"):
+        fell = margins(fk.open(copy), W)
+    assert fell.order == "sorted" and fell.tracking_fell_back
+    with pytest.warns(DamagedArchiveWarning):
+        assert main(["margins", str(copy), "--speed", "150", "--per-order", "2,3", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["tracking_fell_back"] and {r["order"] for r in got["per_order"]} == {2, 3}
+    with pytest.raises(ArchiveError, match="--per-order"):
+        margins(res, W, per_order=(0,))

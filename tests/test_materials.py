@@ -89,23 +89,18 @@ def test_explicit_out_of_plane_keys_inherit_and_default_the_polar_moment():
 
 
 def test_material_in_link_defaults_and_units():
-    """[link_defaults] material applies to every link (a link's own E wins, key by key); in
-    mm-N-t the strengths convert like a modulus (N/mm² = MPa)."""
+    """[link_defaults] material applies to every link (a link's own E wins, key by key); with
+    [units] the strengths convert like a modulus (kN/m² here)."""
     text = BASE.replace("youngs_modulus_pa = 2.07e11\ndensity_kg_m3 = 7850.0", 'material = "steel"')
     sc = parse_scene(text.replace('name = "rod"                # A -> P (gudgeon pin)',
                                   'name = "rod"\nyoungs_modulus_pa = 2.0e11') + "\n" + STEEL, "d.toml")
     assert [lk.material for lk in sc.links] == ["steel", "steel"]
     assert [lk.youngs_modulus for lk in sc.links] == [2.1e11, 2.0e11] and sc.links[1].density == 7850.0
-    mm = parse_scene((ROOT / "runs" / "slider-crank.toml").read_text().replace(
-        "youngs_modulus_pa = 2.07e11\ndensity_kg_m3 = 7850.0", 'material = "s"').replace(
-        "area_m2 = 4.2e-4", "area_m2 = 420").replace("second_moment_m4 = 3.15e-8", "second_moment_m4 = 31500").replace(
-        "area_m2 = 1.8e-4", "area_m2 = 180").replace("second_moment_m4 = 4.86e-9", "second_moment_m4 = 4860").replace(
-        "length_m = 0.045", "length_m = 45").replace("length_m = 0.15", "length_m = 150").replace(
-        "position_m = 0.01875", "position_m = 18.75").replace("mass_kg = 0.12", "mass_kg = 0.12e-3").replace(
-        "slider_mass_kg = 0.45", "slider_mass_kg = 0.45e-3").replace("inertia_kg_m2 = 2.0e-5", "inertia_kg_m2 = 20")
-        + '\n[units]\nsystem = "mm-N-t"\n[materials.s]\nyoungs_modulus_pa = 207000\ndensity_kg_m3 = 7.85e-9\nyield_pa = 530\n', "mm.toml")
-    assert mm.links[0].youngs_modulus == pytest.approx(2.07e11) and mm.material("s").yield_strength == pytest.approx(5.3e8)
-    assert mm.links[1].density == pytest.approx(7850.0)
+    kn = parse_scene(BASE.replace("youngs_modulus_pa = 2.07e11\ndensity_kg_m3 = 7850.0", 'material = "s"')
+                     + '\n[units]\nforce = "kN"\n[materials.s]\nyoungs_modulus_pa = 2.07e8\ndensity_kg_m3 = 7850.0\n'
+                     'yield_pa = 5.3e5\nendurance_pa = 2.8e5\n', "kn.toml")  # stresses in kN/m²
+    assert kn.links[0].youngs_modulus == pytest.approx(2.07e11, rel=1e-15) and kn.links[1].density == 7850.0
+    assert (kn.material("s").yield_strength, kn.material("s").endurance_limit) == pytest.approx((5.3e8, 2.8e8), rel=1e-15)
 
 
 @pytest.mark.parametrize("rod_text,head,message", [

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 
 class RunningSpeed:
-    """``Study.loads``, ``Study.response`` and ``Study.floquet`` (``self.scene`` is the study's scene)."""
+    """``Study.loads``, ``Study.response``, ``Study.design_check`` and ``Study.floquet`` (``self.scene`` is
+    the study's scene)."""
 
     def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
         """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
@@ -22,6 +23,14 @@ class RunningSpeed:
         from fkev_slepc.api.response import study_response
 
         return study_response(self.scene, speed_rad_s, case, angles_deg, **options)
+
+    def design_check(self, speed_rad_s: float, criterion: str = "goodman", **options):
+        """Per link peak |σ|, static and fatigue safety factors, weak-axis buckling factor and peak
+        pin loads (``fkev design-check``): :func:`fkev_slepc.design.check.design_check` (options
+        ``case``, ``angles_deg``, ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``)."""
+        from fkev_slepc.design.check import design_check
+
+        return design_check(self.scene, speed_rad_s, criterion=criterion, **options)
 
     def response_vs_speed(self, speeds_rad_s, case="full", output=None, **options):
         """Peak response of every station over a speed range (``fkev response --speeds``):

@@ -90,8 +90,8 @@ def print_buckling(scene: Scene) -> list[str]:
     for b in rows:
         margin = "no compression" if b.min_axial_force_n >= 0 else "no out-of-plane section" if b.factor is None \
             else f"factor {b.factor:.4g}"
-        print(f"  {b.link:<12} P_cr {b.euler_load_n:10.5g} N (K = {b.length_factor:g})  N_min {b.min_axial_force_n:10.5g} N"
-              f"  {margin}")
+        print(f"  {b.link:<12} P_cr {b.euler_load_n:10.5g} N (K = {b.length_factor:g})  "
+              f"N_min {b.min_axial_force_n:10.5g} N  {margin}")
     return [w for b in rows for w in [b.warning()] if w]
 
 

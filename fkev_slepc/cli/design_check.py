@@ -104,7 +104,8 @@ def _table(d: dict, rpm: bool) -> None:
     print(f"  {'link':<10} {'material':<12} {'peak |σ| (MPa)':>14} {'static SF':>9} {'fatigue SF':>10} "
           f"{'σm (MPa)':>9} {'σa (MPa)':>9} {'buckling SF':>11} {'N_min (N)':>10}  peak pin loads (N)")
     for name, lk in d["links"].items():
-        mpa = [None if lk[k] is None else lk[k] / 1e6 for k in ("peak_stress_pa", "sigma_mean_pa", "sigma_alternating_pa")]
+        mpa = [None if lk[k] is None else lk[k] / 1e6
+               for k in ("peak_stress_pa", "sigma_mean_pa", "sigma_alternating_pa")]
         pins = ", ".join(f"{j} {p['peak_n']:.5g}" for j, p in lk["pin_loads"].items())
         print(f"  {name:<10} {lk['material'] or '-':<12} {_num(mpa[0], '.5g', 14)} {_num(lk['static_sf'], '.3g', 9)} "
               f"{_num(lk['fatigue_sf'], '.3g', 10)} {_num(mpa[1], '.4g', 9)} {_num(mpa[2], '.4g', 9)} "
@@ -112,10 +113,11 @@ def _table(d: dict, rpm: bool) -> None:
     for name, lk in d["links"].items():
         p = lk["peak"]
         if p:
-            print(f"  {name}: peak |σ| at s = {p['s_m']:g} m, face {p['face']}, θ = {p['crank_angle_deg']:g}°", end="")
+            where = f"s = {p['s_m']:g} m, face {p['face']}, θ = {p['crank_angle_deg']:g}°"
+            print(f"  {name}: peak |σ| at {where}", end="")
             c = lk["critical_point"]
             print(f"; fatigue-critical point s = {c['s_m']:g} m, face {c['face']}" if c else "")
         for note in lk["notes"]:
             print(f"  {name}: {note}")
-    print(f"  buckling SF: weak-axis Euler load π²E·I_out/(K·L)² over the most compressive kinetostatic axial force "
-          f"(- : never in compression or no out-of-plane section); warning below {d['buckling_threshold']:g}")
+    print("  buckling SF: weak-axis Euler load π²E·I_out/(K·L)² over the most compressive kinetostatic axial "
+          f"force (- : never in compression or no out-of-plane section); warning below {d['buckling_threshold']:g}")

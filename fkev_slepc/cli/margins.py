@@ -29,6 +29,8 @@ def add_parser(sub) -> None:
                    help="modes followed along θ (default when archived) or the k-th lowest at each θ")
     p.add_argument("--modes", type=lambda t: [int(v) for v in t.split(",") if v.strip()], metavar="I[,J]",
                    help="1-based modes (default all archived)")
+    p.add_argument("--per-order", type=lambda t: [int(v) for v in t.split(",") if v.strip()], default=[1, 2, 3],
+                   metavar="N[,M]", help="orders of the per-order table, one row per mode and order (default 1,2,3)")
     p.add_argument("--plot", type=Path, metavar="FILE", help="also draw the band Campbell diagram (.png/.pdf/.svg)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
@@ -44,7 +46,7 @@ def run(args) -> int:
             check_output(args.plot, (".png", ".pdf", ".svg"), "--plot")
         res = load(args.archive)
         speed = args.speed if args.speed is not None else args.speed_rpm * RAD_S_PER_RPM
-        table = margins(res, speed, args.case, args.orders, args.order, args.modes)
+        table = margins(res, speed, args.case, args.orders, args.order, args.modes, args.per_order)
         fig = None
         if args.plot is not None:
             from fkev_slepc.plots.bands import band_campbell
@@ -87,3 +89,11 @@ def print_table(title: str, o: dict) -> None:
               f" {m['margin_percent']:>6.1f}%  {where:<28} {_approach(m['below']):<26} {_approach(m['above']):<26}")
     print(f"margin: distance of n·Ω/2π from the band, % of the band edge it approaches (0: inside, crossed "
           f"every revolution at the angles shown); near: within {o['near_percent']:g} %")
+    if o["tracking_fell_back"]:
+        print("modes in sorted order: tracking fell back at this speed (ambiguous MAC, /tracking/fallback)")
+    print(f"{'mode':>4} {'order':>5} {'n·Ω/2π [Hz]':>12} {'band [Hz]':>19} {'margin':>7}  "
+          f"{'θ (deg): crossed, or closest':<30}")
+    for r in o["per_order"]:
+        where = ", ".join(f"{x:.1f}" for x in r["angles_deg"][:4]) + ("…" if len(r["angles_deg"]) > 4 else "")
+        print(f"{r['mode']:>4} {str(r['order']) + '×':>5} {r['frequency_hz']:>12.2f} {r['f_min_hz']:>9.2f}-"
+              f"{r['f_max_hz']:<9.2f} {r['margin_percent']:>6.1f}%  {where:<30}")

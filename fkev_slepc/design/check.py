@@ -37,16 +37,18 @@ class LinkCheck:
     buckling: Buckling
     pins: dict[str, dict]  # joint name -> {"peak_n", "crank_angle_deg"}: the force on this link there
     notes: tuple[str, ...]
+    points: dict | None = None  # per point: s_m, and per face static_sf, fatigue_sf (lists)
 
     def as_dict(self, criterion: str) -> dict:
         crit = self.critical or {}
         return {"material": "/".join(self.materials) or None,
                 "peak_stress_pa": None if self.peak is None else self.peak["stress_pa"], "peak": self.peak,
-                "static_sf": self.static_sf, "fatigue_sf": self.fatigue_sf, "fatigue_criterion": criterion,
+                "static_sf": _finite(self.static_sf), "fatigue_sf": _finite(self.fatigue_sf),
+                "fatigue_criterion": criterion,
                 "sigma_mean_pa": crit.get("sigma_mean_pa"), "sigma_alternating_pa": crit.get("sigma_alternating_pa"),
                 "critical_point": self.critical, "buckling_sf": self.buckling.factor,
                 "min_axial_force_n": self.buckling.min_axial_force_n, "buckling": self.buckling.as_dict(),
-                "pin_loads": self.pins, "notes": list(self.notes)}
+                "pin_loads": self.pins, "notes": list(self.notes), "points": self.points}
 
 
 @dataclass(frozen=True)
@@ -64,8 +66,8 @@ class DesignCheck:
 
     def as_dict(self) -> dict:
         return {"scene": self.title, "speed_rad_s": self.speed, "case": self.case, "fatigue_criterion": self.criterion,
-                "buckling_threshold": self.threshold, "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links},
-                "warnings": self.warnings}
+                "buckling_threshold": self.threshold, "warnings": self.warnings,
+                "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links}}
 
 
 def point_strengths(scene: Scene, mech, ls) -> SimpleNamespace:
@@ -84,6 +86,7 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
     notes = []
     peak = ls.peak(lk)
     static = fatigue = critical = None
+    points = {"s_m": ls.point_s[sel].tolist()}
     if peak is None:
         notes.append("no stress: the section gives no fibre distance")
     elif not names:
@@ -96,6 +99,7 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
             notes.append("no static factor: the material has no yield_pa")
         else:
             static = float(np.nanmin(n_static))
+            points["static_sf"] = _faces(n_static)
         lacking = sorted({k for n in names for k in missing_strengths(scene.material(n), criterion)})
         if lacking:
             notes.append(f"no {criterion} fatigue factor: the material lacks {', '.join(lacking)}")
@@ -103,6 +107,7 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
             n_fat = fatigue_factor(mean, alt, st, criterion)
             k, f = np.unravel_index(np.nanargmin(n_fat), n_fat.shape)
             fatigue = float(n_fat[k, f])
+            points["fatigue_sf"] = _faces(n_fat)
             critical = {"s_m": float(ls.point_s[sel[k]]), "face": FACES[f], "sigma_mean_pa": float(mean[k, f]),
                         "sigma_alternating_pa": float(alt[k, f]), "sigma_max_pa": float(hi[k, f]),
                         "sigma_min_pa": float(lo[k, f])}
@@ -113,7 +118,18 @@ def _link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
                 mag = np.hypot(*np.moveaxis(jl.end_force[:, lk, point], -1, 0))
                 a = int(np.nanargmax(mag))
                 pins[jl.joint_names[jj]] = {"peak_n": float(mag[a]), "crank_angle_deg": float(jl.crank_angle_deg[a])}
-    return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes))
+    return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes),
+                     points)
+
+
+def _finite(x: float | None) -> float | None:
+    """``x``, or None for None and ∞ (no stress: no finite factor; JSON has no infinity)."""
+    return None if x is None or not np.isfinite(x) else x
+
+
+def _faces(x: np.ndarray) -> dict:
+    """{face: list} of a (n_pt, 2) array; NaN and ∞ as None (JSON)."""
+    return {face: [float(v) if np.isfinite(v) else None for v in x[:, f]] for f, face in enumerate(FACES)}
 
 
 def check_links(scene: Scene, mech, ls, jl, criterion: str) -> tuple[LinkCheck, ...]:

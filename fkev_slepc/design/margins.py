@@ -13,6 +13,11 @@ does not show; an order outside it is at a **margin** from the band:
 frequency at its closest approach), with the crank angles where that closest approach happens.
 Orders inside a band have margin 0 and their crossing angles (linear interpolation between grid
 angles). Bands come from a sweep archive at one speed, over the converged points only.
+
+Beside each mode's closest order, the table has one row per mode and chosen order (default 1×,
+2×, 3×: ``per_order``) with the band and that order's margin. Modes are labelled ``tracked``
+only where tracking held at that (speed, case) line; where it fell back to sorted order
+(``/tracking/fallback``, fkev_slepc/sweep/tracking.py) the table says ``sorted``.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import numpy as np
 from fkev_slepc.archive.reader import ArchiveError, SweepResults
 
 NEAR_PERCENT = 10.0  # an order within this margin of a band is "near" it
+PER_ORDER = (1, 2, 3)  # the orders of the per-order rows by default
 
 
 @dataclass(frozen=True)
@@ -77,11 +83,16 @@ class MarginTable:
     n_orders: int
     modes: tuple[ModeMargin, ...]
     n_angles: int
+    per_order: tuple[tuple[ModeMargin, Approach], ...] = ()  # (mode, its approach to one chosen order)
+    tracking_fell_back: bool = False  # tracked order asked, but tracking fell back to sorted at this line
 
     def as_dict(self) -> dict:
+        rows = [{"mode": m.mode, "f_min_hz": m.f_min_hz, "f_max_hz": m.f_max_hz, "inside": a.margin_percent == 0.0,
+                 **a.as_dict()} for m, a in self.per_order]
         return {"speed_rad_s": self.speed_rad_s, "crank_order_hz": self.speed_rad_s / (2 * math.pi),
-                "case": self.case, "order": self.order, "orders": self.n_orders, "near_percent": NEAR_PERCENT,
-                "n_angles": self.n_angles, "modes": [m.as_dict() for m in self.modes]}
+                "case": self.case, "order": self.order, "tracking_fell_back": self.tracking_fell_back,
+                "orders": self.n_orders, "near_percent": NEAR_PERCENT,
+                "n_angles": self.n_angles, "modes": [m.as_dict() for m in self.modes], "per_order": rows}
 
 
 def crossing_angles(angles: np.ndarray, f: np.ndarray, level: float) -> tuple[float, ...]:
@@ -114,7 +125,7 @@ def _approach(n: int, fn: float, angles, f, fmin, fmax) -> Approach:
 
 
 def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_orders: int | None = None,
-            order: str | None = None, modes=None) -> MarginTable:
+            order: str | None = None, modes=None, per_order=PER_ORDER) -> MarginTable:
     """The margin table of ``res`` at one archived crank speed (see the module docstring).
 
     Parameters
@@ -129,19 +140,28 @@ def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_or
         Modes followed along θ (default when the archive has them) or the k-th lowest at each θ.
     modes : sequence of int, optional
         1-based modes (default all archived).
+    per_order : sequence of int, optional
+        The orders of the per-order rows (default 1, 2, 3).
 
     Raises
     ------
     ArchiveError
-        A speed not on the grid (or not > 0), an unknown case or mode, a bad ``n_orders``.
+        A speed not on the grid (or not > 0), an unknown case or mode, a bad ``n_orders`` or ``per_order``.
     """
+    from fkev_slepc.archive.tracks import read_tracking
+
     case = res.default_case if case is None else case
     ci, si = res.case_index(case), res.speed_index(speed_rad_s)
     speed = float(res.speed_rad_s[si])
     if not speed > 0:
         raise ArchiveError(f"--speed: the crank orders need a speed > 0 rad/s (got {speed:g})")
+    per_order = tuple(per_order)
+    if not per_order or any(isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1 for n in per_order):
+        raise ArchiveError(f"--per-order: must be orders >= 1 (got {','.join(map(str, per_order)) or 'none'})")
     if order is None:
         order = "tracked" if np.isfinite(res.tracked_frequency_hz).any() else "sorted"
+    fallback = read_tracking(res.path)["fallback"] if order == "tracked" else None
+    fell_back = bool(fallback is not None and fallback[si, ci])
     f_all = res.frequency(order=order)[:, si, ci, :]  # (angle, mode), NaN where not converged
     picked = [res.mode_index(m) for m in modes] if modes is not None else list(range(res.modes.size))
     angles = np.asarray(res.crank_angle_deg, float)
@@ -153,7 +173,10 @@ def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_or
         raise ArchiveError(f"--orders: must be >= 1 (got {n_orders})")
     orders = np.arange(1, n_orders + 1)
     rows = [_mode_margin(int(res.modes[k]), angles, f_all[:, k], orders, base) for k in picked]
-    return MarginTable(speed, res.cases[ci], order, int(n_orders), tuple(rows), angles.size)
+    chosen = tuple((m, _approach(n, n * base, angles, f_all[:, k], m.f_min_hz, m.f_max_hz))
+                   for m, k in zip(rows, picked) if m.f_min_hz is not None for n in per_order)
+    return MarginTable(speed, res.cases[ci], "sorted" if fell_back else order, int(n_orders), tuple(rows),
+                       angles.size, chosen, fell_back)
 
 
 def _mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarray, base: float) -> ModeMargin:

@@ -155,9 +155,9 @@ def _section_arrays(pieces) -> dict[str, np.ndarray]:
         return np.array([np.nan if getattr(p, name) is None else getattr(p, name) for p in pieces], dtype=float)
 
     e_mod, rho = field("youngs_modulus"), field("density")
-    return {"elem_rho_a": rho * field("area"), "elem_ea": e_mod * field("area"), "elem_ei": e_mod * field("second_moment"),
-            "elem_ei_out": e_mod * field("second_moment_out"), "elem_gj": field("shear_modulus") * field("torsion_constant"),
-            "elem_rho_ip": rho * field("polar_moment")}
+    return {"elem_rho_a": rho * field("area"), "elem_ea": e_mod * field("area"),
+            "elem_ei": e_mod * field("second_moment"), "elem_ei_out": e_mod * field("second_moment_out"),
+            "elem_gj": field("shear_modulus") * field("torsion_constant"), "elem_rho_ip": rho * field("polar_moment")}
 
 
 def rigid_body(mesh: Mesh, n_link: int, particles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -31,5 +31,6 @@ from fkev_slepc.scene.reader import load_scene, parse_scene
 __all__ = [
     "DAMPING_TOL", "IMAG_TOL", "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Damping", "Driver", "Joint",
     "Link", "LinkEnd",
-    "LumpedMass", "Material", "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene", "parse_scene",
+    "LumpedMass", "Material", "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene",
+    "parse_scene",
 ]

@@ -13,7 +13,9 @@ it). σ₊ and σ₋ are the signed stresses of the faces at +c and −c along t
 with M = EI v'' positive where the link bends concave towards its left normal, the fibre at +c is
 shortened, hence the minus sign (docs/response.md §4). Over the cycle every point (station or
 element end, and face) has σ_max, σ_min, the mean (σ_max + σ_min)/2 and the alternating part
-(σ_max − σ_min)/2 (:func:`cycle_parts`). N and M are the elastic model's internal forces: in the quasi-static limit of a statically
+(σ_max − σ_min)/2 (:func:`cycle_parts`).
+
+N and M are the elastic model's internal forces: in the quasi-static limit of a statically
 determinate linkage N tends to the rigid-body kinetostatic axial force, which is reported beside
 it (``axial_force_rigid_n``); their difference is the elastic correction of the axial load the
 link's joints see.
