@@ -46,7 +46,8 @@ class CheckOptions:
 
 
 def _factor(x) -> float:
-    return np.nan if x is None else float(x)
+    """A factor of the check as a float: NaN for None (not available) and ∞ (nothing stressed)."""
+    return np.nan if x is None or not np.isfinite(x) else float(x)
 
 
 def kinetostatic_columns(scene: Scene, angles_deg, speeds) -> dict[str, np.ndarray]:
