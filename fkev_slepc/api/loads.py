@@ -10,9 +10,10 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from fkev_slepc.model.joint_loads import POINT_NAMES, JointLoads, joint_loads
-from fkev_slepc.model.kinematics import solve_kinematics
-from fkev_slepc.model.mechanism import build_mechanism
-from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.model.operating_point import (  # noqa: F401 (re-exported)
+    checked_angles, full_turn_problem, operating_point_problems,
+)
+from fkev_slepc.scene import Scene, SceneError
 
 LOADS_FORMAT = "fkev-loads"
 
@@ -95,51 +96,6 @@ class LoadsResult(JointLoads):
 def _at(x: np.ndarray, ends) -> np.ndarray:
     """Per-link-point data (n, n_link, 3, ...) at the (link, point) pairs ``ends``: (n, n_end, ...)."""
     return np.stack([x[:, lk, k] for lk, k in ends], axis=1)
-
-
-def operating_point_problems(speed_rad_s, accel_rad_s2, gravity_m_s2, names=None) -> list[Problem]:
-    """Problems of a speed (finite), acceleration (finite) and gravity (a finite [gx, gy])."""
-    names = names or {}
-    bad = []
-    for key, v in (("speed_rad_s", speed_rad_s), ("accel_rad_s2", accel_rad_s2)):
-        if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v)):
-            bad.append(Problem(names.get(key, key), f"must be a finite number (got {v!r})"))
-    g = np.asarray(gravity_m_s2, dtype=float) if np.ndim(gravity_m_s2) == 1 else None
-    if g is None or g.shape != (2,) or not np.isfinite(g).all():
-        bad.append(Problem(names.get("gravity_m_s2", "gravity_m_s2"),
-                           f"must be a ground-frame vector [gx, gy] of finite numbers, m/s² (got {gravity_m_s2!r})"))
-    return bad
-
-
-def checked_angles(scene: Scene, mech, angles_deg, name="angles_deg") -> np.ndarray:
-    """The crank angles (deg; default the scene's), refused where not finite or not assemblable."""
-    a = np.atleast_1d(np.asarray(scene.analysis.crank_angles_deg if angles_deg is None else angles_deg, float))
-    if a.size == 0 or not np.isfinite(a).all():
-        raise SceneError(scene.source, [Problem(name, f"must be finite crank angles, deg (got {list(a)})")])
-    ok = solve_kinematics(mech, np.radians(a)).ok
-    if not ok.all():
-        shown = ", ".join(f"{v:g}" for v in a[~ok][:5])
-        raise SceneError(scene.source, [Problem(name, f"the linkage cannot be assembled at {shown} deg "
-                                                      f"({int((~ok).sum())} of {a.size} angles)")])
-    return a
-
-
-FULL_TURN_STEP_DEG = 0.25  # the crank angles at which a full revolution is checked before a periodic analysis
-
-
-def full_turn_problem(scene: Scene, mech=None) -> Problem | None:
-    """None where the linkage assembles at every crank angle of a revolution (every
-    ``FULL_TURN_STEP_DEG``), else the Problem naming the scene's driver: the periodic analyses
-    (``fkev floquet``, ``fkev response``) need a crank that turns fully, refused before any work."""
-    a = np.arange(0.0, 360.0, FULL_TURN_STEP_DEG)
-    ok = solve_kinematics(build_mechanism(scene) if mech is None else mech, np.radians(a)).ok
-    if ok.all():
-        return None
-    edges = np.flatnonzero(np.diff(np.r_[True, ok, True].astype(int)))  # starts and ends of the failed runs
-    spans = ", ".join(f"{a[i]:g}-{a[j - 1]:g}" for i, j in zip(edges[0::2], edges[1::2]))
-    return Problem("driver.link", f"the crank cannot turn fully: the linkage cannot be assembled at crank angles "
-                                  f"{spans} deg; the periodic analyses need a full revolution (check the link lengths "
-                                  "against Grashof's condition, or use fkev run/point over the angles it reaches)")
 
 
 def study_loads(scene: Scene, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None,

@@ -11,7 +11,6 @@ import numpy as np
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 RESPONSE_FORMAT = "fkev-response"
-DEFAULT_ANGLES_DEG = tuple(float(a) for a in np.arange(0.0, 360.0, 5.0))
 
 
 @dataclass(frozen=True)
@@ -179,35 +178,21 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     (default every link's root, midspan and tip). Raises SceneError for a bad argument, a
     crank acceleration (constant speed only) or an exact resonance ((I − Φ) singular).
     """
-    from fkev_slepc.api.loads import checked_angles, operating_point_problems
     from fkev_slepc.model.joint_loads import joint_loads
     from fkev_slepc.model.kinematics import point_local
-    from fkev_slepc.solve.periodic_system import PeriodicSystem
-    from fkev_slepc.solve.response import periodic_response
-    from fkev_slepc.solve.response_shooting import ResonanceError
+    from fkev_slepc.solve.response_stations import station_response
+    from fkev_slepc.solve.steady import checked_point, steady_solve, whole_link_stress
 
-    names = names or {}
-    gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
-    bad = operating_point_problems(speed_rad_s, 0.0, gravity, names)
-    model = checked_response(scene, case, harmonics, names, bad)
-    case = model.cases[0]
+    model, case, a, gravity = checked_point(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2,
+                                            harmonics=harmonics, names=names)
     mech = model.mechanism
-    a = checked_angles(scene, mech, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
-                       names.get("angles_deg", "angles_deg"))
     chosen = chosen_stations(scene, mech, stations, names)
-    system = PeriodicSystem(model, float(speed_rad_s), case, gravity=gravity)
-    try:
-        r = periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot)
-    except ResonanceError as err:
-        raise SceneError(scene.source, [Problem(names.get("speed_rad_s", "speed_rad_s"), str(err))]) from None
+    r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=tol, shoot=shoot, names=names)
     theta = np.radians(a)
     q = r.hb.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
-    from fkev_slepc.solve.link_stress import LinkStress
-    from fkev_slepc.solve.response_stations import element_end_stations, station_response
-
     st = station_response(model, theta, q, chosen, rigid)
-    whole = LinkStress.from_stations(station_response(model, theta, q, element_end_stations(mech)), mech.link_names, a)
+    whole = whole_link_stress(model, a, q)
     kin = model.angle_state(theta, with_loads=False).kinematics
     pos = point_local(kin, mech.node_link, mech.node_local)[0]
     disp = _node_displacement(mech, q)
@@ -217,50 +202,6 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
         float("nan") if sh is None else sh.closure, mech.elem_nodes, whole)
-
-
-def checked_response(scene: Scene, case: str, harmonics, names=None, bad=None):
-    """The Model of a periodic response of ``case``, or SceneError listing ``bad`` and every problem
-    found before any work (docs/response.md §3): the case, a constant crank speed, a crank that
-    turns fully, ``harmonics`` an integer >= 2 (the error estimate compares H with H/2), and the
-    dense harmonic balance within ``response_hb.MAX_UNKNOWNS`` ((2H + 1)·n unknowns at the fixed
-    H, or at H = 16, the first level doubled from 8; not asked of a lone rotating link, one static
-    solve)."""
-    from fkev_slepc.api.loads import full_turn_problem
-    from fkev_slepc.model.operators import Model
-    from fkev_slepc.scene.cases import case_name
-    from fkev_slepc.solve.periodic_system import PeriodicSystem
-    from fkev_slepc.solve.response_hb import MAX_UNKNOWNS
-
-    names, bad = names or {}, list(bad or [])
-    h_name = names.get("harmonics", "harmonics")
-    try:
-        case = case_name(case)
-    except ValueError as err:
-        bad.append(Problem(names.get("case", "case"), str(err)))
-    if scene.driver.acceleration != 0.0:
-        bad.append(Problem("driver.acceleration_rad_s2", "the periodic response needs a constant crank speed "
-                           f"(got {scene.driver.acceleration:g} rad/s²)"))
-    if harmonics is not None and (isinstance(harmonics, bool) or not np.isfinite(harmonics)
-                                  or int(harmonics) != harmonics or harmonics < 2):
-        bad.append(Problem(h_name, f"must be an integer >= 2: the error estimate compares H with H/2 "
-                           f"(got {harmonics!r})"))
-        harmonics = None
-    turn = full_turn_problem(scene)
-    if turn is not None:
-        bad.append(turn)
-    if bad:
-        raise SceneError(scene.source, bad)
-    model = Model(scene, cases=(case,))
-    H = 16 if harmonics is None else int(harmonics)
-    size = (2 * H + 1) * int(model.n_free)
-    if size > MAX_UNKNOWNS and PeriodicSystem(model, 1.0, case).link_frame() is None:
-        gb = 16.0 * size * size / 1e9  # the complex LU
-        raise SceneError(scene.source, [Problem(
-            h_name if harmonics is not None else names.get("elements", "elements"),
-            f"the dense harmonic balance would solve {2 * H + 1} harmonics x {model.n_free} DOFs = {size} unknowns "
-            f"({gb:.3g} GB of complex LU), past its limit of {MAX_UNKNOWNS}: use fewer harmonics or elements")])
-    return model
 
 
 def chosen_stations(scene: Scene, mech, stations, names=None):

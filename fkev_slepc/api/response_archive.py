@@ -128,13 +128,13 @@ def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *,
     """:func:`fkev_slepc.api.response_speeds.response_vs_speed` archived in ``output`` over the ranks of ``comm``
     (:func:`run_response`: one speed per unit of work, resumable);
     the same numbers, read back from the archive."""
-    from fkev_slepc.api.response import checked_response
+    from fkev_slepc.solve.steady import checked_model
     from fkev_slepc.api.response_speeds import checked_speeds
     from fkev_slepc.sweep.grid import configure
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
-    case = checked_response(scene, case, options.get("harmonics"), names).cases[0]  # before the frozen sweep
+    case = checked_model(scene, case, options.get("harmonics"), names).cases[0]  # before the frozen sweep
     sc = configure(scene, speeds=[float(w) for w in speeds], cases=[case])
     out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line, options=options, modes=modes), comm,
                        notify=notify, progress=progress)

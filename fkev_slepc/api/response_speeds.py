@@ -122,11 +122,11 @@ def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: 
     """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; the
     default tolerance here 1e-6), the station peaks, and the forced-resonance speeds; in this
     process (the archived run over MPI ranks: :func:`fkev_slepc.api.response_archive.run_response`)."""
-    from fkev_slepc.api.response import checked_response
+    from fkev_slepc.solve.steady import checked_model
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
-    checked_response(scene, case, options.get("harmonics"), names)  # before the first speed
+    checked_model(scene, case, options.get("harmonics"), names)  # before the first speed
     options = {**SCAN_DEFAULTS, **options}
     rows = []
     for w in speeds:

@@ -28,8 +28,8 @@ class Var:
     ``scale``: the dataset is a dimension scale (its ``NAME`` is its last path component).
     ``growable``: its first axis grows (error rows); ``chunks`` its chunk shape then.
     ``needs``: the option of the run it exists with ("" always; ``mechanism``, ``node_axis``,
-    ``signatures``, ``shapes``, ``transmission``, ``tracked``, ``speed_tracked``, ``refined``). ``required``: a reader refuses an archive
-    without it. ``source``: the attribute of a point result (:class:`fkev_slepc.solve.modes.PointModes`)
+    ``signatures``, ``shapes``, ``transmission``, ``tracked``, ``speed_tracked``, ``refined``; a design
+    study's ``stress``, ``sensitivity``). ``required``: a reader refuses an archive without it. ``source``: the attribute of a point result (:class:`fkev_slepc.solve.modes.PointModes`)
     or of the mechanism it holds; ``rows``: a dimension whose values select the rows of that
     attribute (the tracked DOFs of an eigenvector). ``values``: the fixed values of a scale
     (``U, V, Phi``). ``attrs``: further attributes.

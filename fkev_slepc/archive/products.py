@@ -173,14 +173,49 @@ D_DIVERGENCE = Var("design/divergence_speed_rad_s", (D_POINT, CASE), "f8", "rad/
 D_DIVERGENCE_ANGLE = Var("design/divergence_angle_deg", (D_POINT, CASE), "f8", "degree",
                          "crank angle where that lowest divergence speed occurs", np.nan, source="divergence_angle")
 D_ERRORS = error_table("design/errors", ("design", "angle", "speed", "case"))
+# The design check of each design point over the study's crank angles (fkev_slepc/design/point_checks.py):
+# kinetostatic columns always, the stress ones with --stress, d/d(design key) of the smooth ones with --sensitivity.
+D_LINK, D_JOINT = "design/link", "design/joint"
+
+
+def _column(name, dims, units, long_name, needs=""):
+    return Var("design/" + name, (D_POINT,) + dims, "f8", units, long_name, np.nan, needs=needs, source=name)
+
+
+D_TORQUE_MIN = _column("torque_min_n_m", (SPEED,), "N m", "smallest driving torque over the crank angles (fkev loads)")
+D_TORQUE_MAX = _column("torque_max_n_m", (SPEED,), "N m", "largest driving torque over the crank angles (fkev loads)")
+D_JOINT_PEAK = _column("peak_joint_force_n", (SPEED, D_JOINT), "N",
+                       "largest |joint force| over the crank angles (fkev loads peak_n)")
+D_PIN_PEAK = _column("peak_pin_force_n", (SPEED, D_JOINT), "N", "largest |wrist-pin force| of a prismatic joint over "
+                     "the crank angles (fkev loads pin_peak_n; NaN at other joints)")
+D_BUCKLING = _column("buckling_sf", (SPEED, D_LINK), "1", "weak-axis Euler factor P_cr/|N_min| (NaN: never in "
+                     "compression or no out-of-plane section)")
+D_MIN_AXIAL = _column("min_axial_force_n", (SPEED, D_LINK), "N",
+                      "most compressive kinetostatic axial force N_min over the link and the crank angles")
+D_PEAK_STRESS = _column("peak_stress_pa", (SPEED, CASE, D_LINK), "Pa", "peak |sigma| of the periodic response along "
+                        "the link over the crank angles (fkev design-check)", needs="stress")
+D_STATIC_SF = _column("static_sf", (SPEED, CASE, D_LINK), "1", "static safety factor against yield (fkev design-check; "
+                      "NaN: no yield strength or no stress)", needs="stress")
+D_FATIGUE_SF = _column("fatigue_sf", (SPEED, CASE, D_LINK), "1", "fatigue safety factor at the link's critical point "
+                       "(fkev design-check; criterion in the attribute fatigue_criterion)", needs="stress")
+D_SMOOTH = (D_TORQUE_MIN, D_TORQUE_MAX, D_JOINT_PEAK, D_PIN_PEAK, D_BUCKLING)  # the columns with sensitivities
+D_SENSITIVITY = tuple(Var("design/sensitivity/" + v.name, (D_POINT, D_KEY) + v.dims[1:], "f8", v.units + " per key unit",
+                          "derivative with respect to the design key (central difference) of " + v.name, np.nan,
+                          needs="sensitivity", source="d_" + v.name) for v in D_SMOOTH)
 DESIGN = Product(
     name="design", unit_dims=(D_POINT,), point_dims=(ANGLE, SPEED, CASE), status=D_STATUS.path,
     variables=(Var(D_POINT, (D_POINT,), "i4", "1", "design point number", scale=True),
                Var(D_KEY, (D_KEY,), STRING, "1", "design key (a scene key path, e.g. links[1].length_m)", scale=True),
-               D_VALUE, D_FREQUENCY, D_EIGENVALUE, D_DAMPING, D_MAX_REAL, D_STATUS, D_DIVERGENCE, D_DIVERGENCE_ANGLE)
+               D_VALUE, D_FREQUENCY, D_EIGENVALUE, D_DAMPING, D_MAX_REAL, D_STATUS, D_DIVERGENCE, D_DIVERGENCE_ANGLE,
+               Var(D_LINK, (D_LINK,), STRING, "1", "link names in scene order", scale=True),
+               Var(D_JOINT, (D_JOINT,), STRING, "1", "joint names in scene order", scale=True),
+               D_TORQUE_MIN, D_TORQUE_MAX, D_JOINT_PEAK, D_PIN_PEAK, D_BUCKLING, D_MIN_AXIAL,
+               D_PEAK_STRESS, D_STATIC_SF, D_FATIGUE_SF) + D_SENSITIVITY
     + D_ERRORS.rows, errors=D_ERRORS,
     groups={"design": "a design study (fkev design): the sweep's grid at each design point (values of scene keys); "
-                      "the root sweep is the scene as written", "design/errors": "messages of failed design points"},
+                      "the root sweep is the scene as written", "design/errors": "messages of failed design points",
+            "design/sensitivity": "derivatives of the kinetostatic columns with respect to each design key "
+                                  "(fkev design --sensitivity)"},
 )
 
 

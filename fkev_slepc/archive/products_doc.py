@@ -18,7 +18,8 @@ _DTYPES = {"f8": "float64", "c16": "complex128", "i4": "int32", "i8": "int64", "
 _NEEDS = {"": "always", "mechanism": "always (`fkev run`)", "node_axis": "always (`fkev run`)",
           "signatures": "more than one angle or speed", "shapes": "`--mode-shapes`",
           "transmission": "always (`fkev run`)", "tracked": "after tracking", "speed_tracked": "after tracking",
-          "refined": "where tracking refined"}
+          "refined": "where tracking refined", "stress": "`fkev design --stress`",
+          "sensitivity": "`fkev design --sensitivity`"}
 
 
 def _fill(v: P.Var) -> str:

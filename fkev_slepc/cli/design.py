@@ -1,21 +1,29 @@
 """``fkev design SCENE --set KEY=VALUES ...``: the sweep repeated over a grid of scene-key values
 (fkev_slepc/design/study.py), MPI-parallel over design points, into one resumable archive
 (the base sweep of the scene as written, and ``/design``), with a summary table per design point:
-the lowest frequency of each mode over the crank cycle at the top speed and the divergence speed."""
+the lowest frequency of each mode over the crank cycle at the top speed and the divergence speed, and
+the design check's columns (torque range, peak joint and wrist-pin forces, weak-axis buckling factors;
+with --stress peak |σ|, static and fatigue factors; with --sensitivity d/d(key) of the kinetostatic
+ones) per design point, as text, --json or --csv (fkev_slepc/design/point_checks.py)."""
 
 from __future__ import annotations
 
+import csv
+import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.design.results import design_rows
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
 from .common import add_speeds_arguments
 
 
 def add_parser(sub) -> None:
+    from fkev_slepc.design.fatigue import CRITERIA
+
     p = sub.add_parser(
         "design", help="design study: the sweep over a grid of scene-key values (MPI-parallel)",
         description="Solve the scene's sweep grid at every design point, the product of the values given "
@@ -34,6 +42,15 @@ def add_parser(sub) -> None:
     p.add_argument("--resume", action="store_true", help="continue an interrupted design study of the same grid")
     p.add_argument("--force", action="store_true", help="replace an existing archive (refused otherwise)")
     p.add_argument("--np", type=int, metavar="N", help="start N MPI ranks (runs mpiexec itself, as fkev run --np)")
+    p.add_argument("--stress", action="store_true", help="per link the design check's peak |σ|, static and fatigue "
+                   "factors at every speed and case (one periodic response each: costs far more than the frequencies)")
+    p.add_argument("--criterion", default="goodman", choices=CRITERIA, help="fatigue criterion of --stress")
+    p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the --stress responses (default: doubled "
+                   "from 8 until converged)")
+    p.add_argument("--sensitivity", action="store_true", help="d/d(design key) of the torque range, peak joint and "
+                   "pin forces and buckling factors (central differences of the kinetostatics)")
+    p.add_argument("--json", action="store_true", help="print one row per design point and speed as JSON")
+    p.add_argument("--csv", metavar="PATH", help="write one row per design point and speed as CSV ('-': stdout)")
     p.set_defaults(func=run)
 
 
@@ -52,6 +69,7 @@ def parse_sets(sets: list[str]) -> dict:
 
 
 def run(args) -> int:
+    from fkev_slepc.design.point_checks import CheckOptions
     from fkev_slepc.design.results import open_design
     from fkev_slepc.design.study import design_grid, run_design
     from fkev_slepc.scene import load_scene
@@ -68,8 +86,10 @@ def run(args) -> int:
         scene = configure(load_scene(args.scene), angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm, cases=args.cases,
                           modes=args.modes, names=CLI_NAMES)
         notify = None if args.quiet else (lambda m: print(f"fkev design: {m}", file=sys.stderr, flush=True))
+        checks = CheckOptions(args.stress, args.sensitivity, args.criterion, args.harmonics)
         run_design(scene, grid, output, comm, resume=args.resume, force=args.force, solver=args.solver,
-                   notify=notify, command_line=" ".join(["fkev", *sys.argv[1:]]))
+                   notify=notify, command_line=" ".join(["fkev", *sys.argv[1:]]), checks=checks,
+                   names={**CLI_NAMES, "angles_deg": "--angles", "harmonics": "--harmonics", "criterion": "--criterion"})
     except SweepInterrupted as err:  # the notice with what to do is already printed
         return err.exit_code
     except (SceneError, RunRefused) as err:  # every rank raised it; rank 0 says it
@@ -78,8 +98,72 @@ def run(args) -> int:
             print(str(err) if bad_scene else f"fkev design: {err}", file=sys.stderr, flush=True)
         return EXIT_BAD_INPUT if bad_scene else err.exit_code
     if rank0:
-        print_summary(open_design(output), output)
+        ds = open_design(output)
+        if args.csv:
+            write_csv(ds, args.csv)
+        if args.json:
+            json.dump({"archive": str(output), "design_keys": list(ds.attrs["design_keys"]),
+                       "rows": design_rows(ds)}, sys.stdout)
+            print()
+        elif args.csv != "-":
+            print_summary(ds, output)
+            print_checks(ds)
     return EXIT_OK
+
+
+def write_csv(ds, path: str) -> None:
+    """:func:`~fkev_slepc.design.results.design_rows` as CSV (empty cells for None)."""
+    rows = design_rows(ds)
+    out = sys.stdout if path == "-" else open(path, "w", newline="")
+    w = csv.DictWriter(out, fieldnames=list(rows[0]) if rows else [])
+    w.writeheader()
+    w.writerows({k: "" if v is None else v for k, v in r.items()} for r in rows)
+    if out is not sys.stdout:
+        out.close()
+
+
+def print_checks(ds) -> None:
+    """The design check per design point at the top speed (first case): torque range, peak joint
+    forces (and wrist pins), buckling factors, with --stress peak |σ| and the safety factors;
+    with --sensitivity the derivatives of the kinetostatic columns."""
+    keys = list(ds.attrs["design_keys"])
+    top, case = float(ds.speed_rad_s.max()), str(ds.case.values[0])
+    rows = [r for r in design_rows(ds) if r["speed_rad_s"] == top]
+    smooth = {"torque_min_n_m": ("τ min [N m]", 1), "torque_max_n_m": ("τ max [N m]", 1),
+              "peak_joint_force_n": ("|F| {} [N]", 1), "peak_pin_force_n": ("pin {} [N]", 1),
+              "buckling_sf": ("buckling SF {}", 1)}
+    stress = {f"peak_stress_pa.{case}": ("σ {} [MPa]", 1e6), f"static_sf.{case}": ("static SF {}", 1),
+              f"fatigue_sf.{case}": ("fatigue SF {}", 1)}
+    criterion = ds.fatigue_sf.attrs.get("fatigue_criterion", "") if "fatigue_sf" in ds else ""
+    print(f"design check at Ω = {top:g} rad/s over the crank angles"
+          + (f"; stress case {case}, fatigue by {criterion}" if criterion else "") + ":")
+    _table(rows, keys, _columns(rows[0], smooth | stress))
+    if "sensitivity_torque_max_n_m" in ds:
+        for key in keys:
+            print(f"d/d({key}) at Ω = {top:g} rad/s, per unit of the key (central differences of the kinetostatics):")
+            _table(rows, keys, _columns(rows[0], {f"sensitivity_{p}.{key}": ("d " + label, scale)
+                                                  for p, (label, scale) in smooth.items()}))
+
+
+def _columns(row: dict, prefixes: dict) -> list[tuple[str, str, float]]:
+    """(column, label, scale) of the columns of ``row`` named ``prefix`` or ``prefix.NAME``."""
+    out = []
+    for c in row:
+        for p, (label, scale) in prefixes.items():
+            rest = c[len(p) + 1:]
+            if c == p or (c.startswith(p + ".") and "." not in rest):
+                out.append((c, label.format(rest).replace("  ", " "), scale))
+    return out
+
+
+def _table(rows, keys, cols) -> None:
+    """One line per design point (its number first, as /design/point): key values, then ``cols``."""
+    width = [max(12, len(label) + 1) for _, label, _ in cols]
+    print(" ".join(["point"] + [f"{k:>18}" for k in keys] + [f"{label:>{w}}" for (_, label, _), w in zip(cols, width)]))
+    for ip, r in enumerate(rows):
+        vals = [f"{ip:>5}"] + [f"{r[k]:>18.6g}" for k in keys]
+        vals += ["-".rjust(w) if r[c] is None else f"{r[c] / scale:>{w}.5g}" for (c, _, scale), w in zip(cols, width)]
+        print(" ".join(vals))
 
 
 def print_summary(ds, output) -> None:

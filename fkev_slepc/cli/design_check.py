@@ -52,7 +52,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from fkev_slepc.api.design_check import design_check
+    from fkev_slepc.design.check import design_check
 
     flags = {**FLAGS, "speed_rad_s": "--speed-rpm"} if args.speed_rpm is not None else FLAGS
     try:

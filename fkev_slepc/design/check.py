@@ -16,9 +16,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from fkev_slepc.design.fatigue import fatigue_factor, missing_strengths, static_factor
-from fkev_slepc.model.buckling import Buckling
-from fkev_slepc.scene import Scene
+from fkev_slepc.design.fatigue import CRITERIA, fatigue_factor, missing_strengths, static_factor
+from fkev_slepc.model.buckling import WARN_BELOW, Buckling, weak_axis_buckling
+from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.solve.link_stress import FACES
 
 STRENGTHS = ("yield_strength", "ultimate_strength", "endurance_limit")
@@ -130,3 +130,49 @@ def _finite(x: float | None) -> float | None:
 def _faces(x: np.ndarray) -> dict:
     """{face: list} of a (n_pt, 2) array; NaN and ∞ as None (JSON)."""
     return {face: [float(v) if np.isfinite(v) else None for v in x[:, f]] for f, face in enumerate(FACES)}
+
+
+def check_links(scene: Scene, mech, ls, jl, criterion: str) -> tuple[LinkCheck, ...]:
+    """The :class:`LinkCheck` of every link from the whole-link stress ``ls``
+    (:class:`~fkev_slepc.solve.link_stress.LinkStress`) and the kinetostatics ``jl``
+    (:class:`~fkev_slepc.model.joint_loads.JointLoads`) at the same angles."""
+    buckling = weak_axis_buckling(mech, jl)
+    return tuple(link_check(scene, mech, ls, lk, criterion, buckling[lk], jl) for lk in range(mech.n_link))
+
+
+def check_problems(criterion, threshold, names=None) -> list[Problem]:
+    """Problems of a fatigue criterion (one of :data:`~fkev_slepc.design.fatigue.CRITERIA`) and
+    a buckling warning threshold (finite, > 0)."""
+    names = names or {}
+    bad = []
+    if criterion not in CRITERIA:
+        bad.append(Problem(names.get("criterion", "criterion"), f"must be one of {', '.join(CRITERIA)} "
+                           f"(got {criterion!r})"))
+    if not (isinstance(threshold, (int, float)) and np.isfinite(threshold) and threshold > 0):
+        bad.append(Problem(names.get("threshold", "threshold"), f"must be a finite number > 0 (got {threshold!r})"))
+    return bad
+
+
+def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
+                 angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float = 1e-8,
+                 threshold: float = WARN_BELOW, names=None) -> DesignCheck:
+    """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
+    ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
+    weak-axis factor below which a warning is given. The response is that of ``fkev response``
+    (fkev_slepc/solve/steady.py, the monodromy skipped), the loads those of ``fkev loads``
+    without crank acceleration. Raises SceneError naming a bad argument."""
+    from fkev_slepc.model.joint_loads import joint_loads
+    from fkev_slepc.solve.steady import checked_point, steady_solve, whole_link_stress
+
+    bad = check_problems(criterion, threshold, names)
+    if bad:
+        raise SceneError(scene.source, bad)
+    model, case, a, gravity = checked_point(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2,
+                                            harmonics=harmonics, names=names)
+    r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=tol, shoot=False,
+                     names=names)
+    ls = whole_link_stress(model, a, r.hb.at(np.radians(a)))
+    mech = model.mechanism
+    jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
+    links = check_links(scene, mech, ls, jl, criterion)
+    return DesignCheck(scene.title, float(speed_rad_s), case, criterion, float(threshold), links)

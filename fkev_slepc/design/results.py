@@ -7,6 +7,12 @@ as dimensions.
 ``frequency_max_hz`` (the band of each sorted mode at each speed, fkev_slepc/design/margins.py),
 and per (keys, case) the lowest divergence speed ``divergence_speed_rad_s`` with its crank
 angle ``divergence_angle_deg``. The design values are the coordinates of their dimensions.
+
+The design check's columns (fkev_slepc/design/point_checks.py) over (keys, ``speed_rad_s``, ...):
+``torque_min_n_m``, ``torque_max_n_m``; over ``joint``: ``peak_joint_force_n``,
+``peak_pin_force_n``; over ``link``: ``buckling_sf``, ``min_axial_force_n``; with ``--stress``
+over (``case``, ``link``): ``peak_stress_pa``, ``static_sf``, ``fatigue_sf``; with
+``--sensitivity`` ``sensitivity_<column>`` over a leading ``design_key`` dimension.
 """
 
 from __future__ import annotations
@@ -18,6 +24,10 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.reader import ArchiveError
+
+
+_CHECKS = (P.D_TORQUE_MIN, P.D_TORQUE_MAX, P.D_JOINT_PEAK, P.D_PIN_PEAK, P.D_BUCKLING, P.D_MIN_AXIAL,
+           P.D_PEAK_STRESS, P.D_STATIC_SF, P.D_FATIGUE_SF) + P.D_SENSITIVITY
 
 
 def _strings(ds) -> list[str]:
@@ -55,6 +65,8 @@ def open_design(path):
         ok = np.isin(status, converged_codes())
         get = {v: f[v.path][()] for v in (P.D_FREQUENCY, P.D_DAMPING, P.D_EIGENVALUE, P.D_DIVERGENCE,
                                           P.D_DIVERGENCE_ANGLE)}
+        checks = {v: (f[v.path][()], dict(f[v.path].attrs)) for v in _CHECKS if v.path in f}
+        names = {d: _strings(f[d]) for d in (P.D_LINK, P.D_JOINT) if d in f}
     lookup = {s.code: s.value for s in Status}
     status_names = np.vectorize(lambda c: lookup.get(int(c), f"unknown_{c}"))(status)
     grid = keys + [P.ANGLE, P.SPEED, P.CASE]
@@ -76,6 +88,42 @@ def open_design(path):
                                    {"units": "rad/s", "long_name": P.D_DIVERGENCE.long_name}),
         "divergence_angle_deg": (keys + [P.CASE], r(get[P.D_DIVERGENCE_ANGLE]), {"units": "degree"}),
     }
+    dim = {P.D_KEY: "design_key", P.D_LINK: "link", P.D_JOINT: "joint", P.SPEED: P.SPEED, P.CASE: P.CASE}
+    for v, (x, attrs) in checks.items():
+        name = ("sensitivity_" if v.group.endswith("sensitivity") else "") + v.name
+        extra = {k: str(a) for k, a in attrs.items() if k == "fatigue_criterion"}
+        data[name] = (keys + [dim[d] for d in v.dims[1:]], r(x),
+                      {"units": v.units, "long_name": v.long_name, **extra})
     coords = {k: np.asarray(a) for k, a in zip(keys, axes)}
     coords.update({P.ANGLE: angles, P.SPEED: speeds, P.CASE: cases, P.MODE: modes})
+    coords.update({dim[d]: n for d, n in names.items()})
+    if any(v in checks for v in P.D_SENSITIVITY):
+        coords["design_key"] = list(keys)
     return xr.Dataset(data, coords=coords, attrs={"design_keys": list(keys), "source": str(path)})
+
+
+ROW_VARS = ("frequency_min_hz", "frequency_max_hz", "divergence_speed_rad_s") + tuple(v.name for v in _CHECKS[:9])
+
+
+def design_rows(ds) -> list[dict]:
+    """One row per (design point, speed) of a design Dataset (:func:`open_design`): the key
+    values, ``speed_rad_s`` and every per-speed column flattened as ``name.label...`` (e.g.
+    ``peak_stress_pa.full.rod``, ``frequency_min_hz.full.1``,
+    ``sensitivity_torque_max_n_m.links[rod].length_m``), None for NaN; a column NaN in every row
+    is left out. The rows of ``fkev design --json`` and ``--csv``."""
+    keys = list(ds.attrs["design_keys"])
+    names = [n for n in ds.data_vars if n in ROW_VARS or n.startswith("sensitivity_")]
+    rows = []
+    for idx in np.ndindex(*[ds.sizes[k] for k in keys]):
+        point = ds.isel(dict(zip(keys, idx)))
+        for w in ds[P.SPEED].values:
+            row = {k: float(point[k]) for k in keys} | {P.SPEED: float(w)}
+            for name in names:
+                da = point[name].sel({P.SPEED: w}) if P.SPEED in point[name].dims else point[name]
+                for j in np.ndindex(*da.shape):
+                    label = ".".join([name] + [str(da[d].values[i]) for d, i in zip(da.dims, j)])
+                    x = float(da.values[j])
+                    row[label] = x if np.isfinite(x) else None
+            rows.append(row)
+    kept = [c for c in rows[0] if any(r[c] is not None for r in rows)] if rows else []
+    return [{c: r[c] for c in kept} for r in rows]

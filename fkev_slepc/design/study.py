@@ -10,7 +10,9 @@ is solved) and is one unit of work of the archive's ``design`` product
 the sweep's grid (crank angles x speeds x cases) is solved by the sweep's own solver
 (:class:`fkev_slepc.sweep.runner.Sweep`, sorted modes) and the lowest divergence (buckling)
 speed over the crank angles of every motion case is computed (K(Ω) = K₀ + Ω²K₂ singular,
-:func:`fkev_slepc.solve.critical.divergence_speed`).
+:func:`fkev_slepc.solve.critical.divergence_speed`), and the design check's columns at every
+speed (:mod:`fkev_slepc.design.point_checks`: torque range, peak joint and wrist-pin forces,
+weak-axis buckling factors; optionally stresses, safety factors and sensitivities).
 
 The archive is an ordinary sweep archive of the scene as written (the root datasets, so every
 ``fkev`` command reads it) with the group ``/design`` beside it. It is resumable: the base
@@ -27,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.design.point_checks import CheckOptions, stress_problems
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 
@@ -105,12 +108,14 @@ def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
 class DesignSolver:
     """Solves one design point (a unit of work of the ``design`` product) into a writer Block."""
 
-    def __init__(self, scenes: list[Scene], base: Scene, engine, n_modes: int):
+    def __init__(self, scenes: list[Scene], base: Scene, engine, n_modes: int, grid: DesignGrid | None = None,
+                 checks: CheckOptions | None = None):
         from fkev_slepc.archive.products import Grid
         from fkev_slepc.sweep.runner import SweepOptions
 
         an = base.analysis
         self.scenes, self.engine = scenes, engine
+        self.design, self.checks = grid, checks or CheckOptions()
         self.grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(base.driver.speeds, float),
                          tuple(an.cases), int(n_modes))
         self.opts = SweepOptions(int(n_modes), an.imag_tol, an.damping_tol)
@@ -157,13 +162,30 @@ class DesignSolver:
                 k = int(np.nanargmin(div[jc]))
                 lowest[jc], angle[jc] = div[jc, k], grid.angles_deg[k]
         data[P.D_DIVERGENCE.path], data[P.D_DIVERGENCE_ANGLE.path] = lowest, angle
+        data.update(self.check_columns(ip))
         return Block((ip,), np.asarray(mask, bool), data, status, errors)
+
+    def check_columns(self, ip: int) -> dict:
+        """The design-check columns of design point ``ip`` (fkev_slepc/design/point_checks.py)."""
+        from fkev_slepc.design import point_checks as pc
+
+        scene, grid = self.scenes[ip], self.grid
+        out = pc.kinetostatic_columns(scene, grid.angles_deg, grid.speeds)
+        if self.checks.stress:
+            out.update(pc.stress_columns(scene, grid.angles_deg, grid.speeds, grid.cases, self.checks))
+        if self.checks.sensitivity and self.design is not None:
+            out.update(pc.sensitivity_columns(scene, self.design.keys, self.design.points[ip], grid.angles_deg,
+                                              grid.speeds, out))
+        return out
 
 
 def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: bool = False, force: bool = False,
-               solver: str | None = None, notify=None, progress: bool = False, command_line: str = "") -> Path:
+               solver: str | None = None, notify=None, progress: bool = False, command_line: str = "",
+               checks: CheckOptions | None = None, names=None) -> Path:
     """Collective over ``comm`` (default this process alone): the base sweep of ``scene`` (its grid
-    already configured) into ``output``, then every pending design point into its ``/design``.
+    already configured) into ``output``, then every pending design point into its ``/design``,
+    with the design check's columns of ``checks`` (fkev_slepc/design/point_checks.py; default
+    the kinetostatic ones only). ``names`` maps argument names to the caller's in messages.
 
     Raises
     ------
@@ -188,7 +210,11 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     comm = local(comm)
     output = Path(output)
     note = notify if (notify is not None and comm.rank == 0) else (lambda _m: None)
+    checks = checks or CheckOptions()
     scenes = design_scenes(scene, grid)  # every design point valid, or nothing is done
+    bad = stress_problems(scenes, scene.analysis.crank_angles_deg, scene.analysis.cases, checks, names)
+    if bad:
+        raise SceneError(scene.source, bad)
     base_resume = resume and (output.exists() or store.partial_path(output).exists())
     run_sweep(SweepRequest(scene, output, resume=base_resume, force=force and not resume, solver=solver,
                            command_line=command_line or "fkev design"), comm, notify=notify, progress=progress)
@@ -196,7 +222,7 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     if comm.rank == 0:
         hold(output)
         try:
-            plan = _open_design(output, grid, resume)
+            plan = _open_design(output, grid, resume, scene, checks)
         except RunRefused as err:
             release(output)
             plan = err
@@ -212,7 +238,7 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
                                                 f"finished so far stay in {part}; continue with --resume"))
     try:
         writer = Writer(part, comm, product=P.DESIGN)
-        ds = DesignSolver(scenes, scene, engine, scene.analysis.modes)
+        ds = DesignSolver(scenes, scene, engine, scene.analysis.modes, grid, checks)
         report = (lambda done, total: note(f"{done}/{total} design-study points")) if progress else None
         with stop:  # Ctrl-C/SIGTERM: every rank leaves after the same sync, the .part resumable (sweep.interrupt)
             done = run_units(todo, ds.solve, writer, comm, n_unit_axes=1, progress=report, stop=stop)
@@ -234,7 +260,8 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
 
 def study_design(study, params: dict, speeds=None, cases=None, angles=None, output=None, *, modes: int | None = None,
                  resume: bool = False, force: bool = False, comm=None, solver: str | None = None,
-                 progress: bool = False):
+                 progress: bool = False, stress: bool = False, sensitivity: bool = False, criterion: str = "goodman",
+                 harmonics: int | None = None):
     """:meth:`Study.design <fkev_slepc.api.study.Study.design>`.
 
     Parameters
@@ -249,13 +276,21 @@ def study_design(study, params: dict, speeds=None, cases=None, angles=None, outp
     resume, force, comm, solver, progress
         As ``Study.sweep``: continue an interrupted study of the same grid; replace an archive;
         ``MPI.COMM_WORLD`` under ``mpirun`` (design points dealt over the ranks).
+    stress, criterion, harmonics
+        Per link the design check's peak |σ|, static and fatigue (``criterion``: goodman,
+        soderberg, gerber) factors at every speed and case: one periodic response each
+        (``harmonics`` fixed, default doubled until converged), far more than the frequencies.
+    sensitivity
+        d/dp of the kinetostatic columns for every design key p (central differences).
 
     Returns
     -------
     xarray.Dataset
         :func:`fkev_slepc.design.results.open_design`: the design keys are dimensions;
         ``frequency_min_hz`` is each mode's lowest frequency over the crank cycle,
-        ``divergence_speed_rad_s`` the lowest divergence speed over the crank angles.
+        ``divergence_speed_rad_s`` the lowest divergence speed over the crank angles; the design
+        check's columns (``torque_min_n_m``, ``peak_joint_force_n``, ``buckling_sf``, ...,
+        fkev_slepc/design/point_checks.py).
 
     Raises
     ------
@@ -274,7 +309,8 @@ def study_design(study, params: dict, speeds=None, cases=None, angles=None, outp
             raise SceneError(study.scene.source, [Problem("output", "required for a study made from text")])
         output = Path(study.path).parent / "out" / f"{Path(study.path).stem}-design.h5"
     run_design(scene, grid, output, comm, resume=resume, force=force, solver=solver,
-               notify=logging.getLogger(__name__).info, progress=progress, command_line="Study.design")
+               notify=logging.getLogger(__name__).info, progress=progress, command_line="Study.design",
+               checks=CheckOptions(stress, sensitivity, criterion, harmonics))
     return open_design(output)
 
 
@@ -284,9 +320,9 @@ def _n_free(scenes: list[Scene]) -> int:
     return max(build_mechanism(s).n_free for s in scenes)
 
 
-def _open_design(output: Path, grid: DesignGrid, resume: bool):
+def _open_design(output: Path, grid: DesignGrid, resume: bool, scene: Scene, checks: CheckOptions):
     """Rank 0: (part, todo) of the design product -- created in a reopened copy of the finished
-    base archive, or continued; a resume of another design grid is refused."""
+    base archive, or continued; a resume of another design grid or other columns is refused."""
     import h5py
 
     from fkev_slepc.archive import products as P
@@ -300,14 +336,26 @@ def _open_design(output: Path, grid: DesignGrid, resume: bool):
         if have:
             keys = tuple(k.decode() if isinstance(k, bytes) else str(k) for k in f[P.D_KEY][()])
             values = f[P.D_VALUE.path][()]
+            had = (P.D_TORQUE_MIN.path in f, P.D_PEAK_STRESS.path in f, P.D_SENSITIVITY[0].path in f,
+                   f[P.D_FATIGUE_SF.path].attrs.get("fatigue_criterion") if P.D_FATIGUE_SF.path in f else None)
     points = grid.points
     same = have and keys == grid.keys and values.shape == points.shape and np.array_equal(values, points)
+    wanted = (True, checks.stress, checks.sensitivity, checks.criterion if checks.stress else None)
+    if have and resume and same and had != wanted:
+        part.unlink()
+        raise RunRefused(f"{output}: --resume with other design-check columns (--stress, --criterion, "
+                         "--sensitivity) than the archive's (use another -o, or --force to start over)")
     if have and resume and not same:
         part.unlink()
         raise RunRefused(f"{output}: --resume of a design study over other values: the archive has "
                          f"{', '.join(keys)} at {len(values)} point(s), this run {', '.join(grid.keys)} at "
                          f"{len(points)} (use another -o, or --force to start over)")
     if not (have and same and resume):
-        store.add_product(part, P.DESIGN, {P.D_POINT: np.arange(len(points), dtype="i4"), P.D_KEY: list(grid.keys)},
-                          {P.D_VALUE.path: points})
+        store.add_product(part, P.DESIGN, {P.D_POINT: np.arange(len(points), dtype="i4"), P.D_KEY: list(grid.keys),
+                                           P.D_LINK: [lk.name for lk in scene.links],
+                                           P.D_JOINT: [j.name for j in scene.joints]},
+                          {P.D_VALUE.path: points}, needs=checks.needs)
+        if checks.stress:
+            with h5py.File(part, "r+") as f:
+                f[P.D_FATIGUE_SF.path].attrs["fatigue_criterion"] = checks.criterion
     return part, pending(store.read_status(part, P.DESIGN))

@@ -37,8 +37,8 @@ JOINT_KEYS = ("name", "type", "connects", "position_m", "assembly", *parts.PRISM
 JOINT_TYPES = ("revolute", "prismatic")
 ASSEMBLIES = ("left", "right")
 DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
-TOP_KEYS = ("title", "materials", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver", "damping",
-            "units", "loads")
+TOP_KEYS = ("title", "materials", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver",
+            "damping", "units", "loads")
 GROUND = "ground"
 # Where a misplaced key belongs (``modes`` under [solver] -> analysis.modes).
 SECTIONS = {

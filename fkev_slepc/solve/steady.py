@@ -1,0 +1,106 @@
+"""The steady periodic response of a scene at one crank speed, checked and solved: the one code
+path of ``fkev response`` (fkev_slepc/api/response.py), the design check and the design study's
+stress columns (fkev_slepc/design/check.py, docs/response.md §3-4).
+
+:func:`checked_point` refuses a bad operating point (naming the caller's field) before any
+work; :func:`steady_solve` is harmonic balance (and with ``shoot`` the monodromy);
+:func:`whole_link_stress` the signed stress at both ends of every axis element over the output
+angles (fkev_slepc/solve/link_stress.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fkev_slepc.scene import Problem, Scene, SceneError
+
+DEFAULT_ANGLES_DEG = tuple(float(a) for a in np.arange(0.0, 360.0, 5.0))  # output angles of a response
+
+
+def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
+                  harmonics=None, names=None):
+    """``(model, case, angles_deg, gravity)`` of a response at ``speed_rad_s``, or one SceneError
+    naming every bad argument: a speed or gravity that is not finite, and every problem of
+    :func:`checked_model`; then the output angles (default :data:`DEFAULT_ANGLES_DEG`) where the
+    linkage does not assemble."""
+    from fkev_slepc.model.operating_point import checked_angles, operating_point_problems
+
+    names = names or {}
+    gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
+    model = checked_model(scene, case, harmonics, names, operating_point_problems(speed_rad_s, 0.0, gravity, names))
+    a = checked_angles(scene, model.mechanism, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
+                       names.get("angles_deg", "angles_deg"))
+    return model, model.cases[0], a, np.asarray(gravity, float)
+
+
+def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None):
+    """The Model of a periodic response of ``case``, or SceneError listing ``bad`` and every problem
+    found before any work (docs/response.md §3): the case, a constant crank speed, a crank that
+    turns fully, ``harmonics`` an integer >= 2 (the error estimate compares H with H/2), and the
+    dense harmonic balance within ``response_hb.MAX_UNKNOWNS`` ((2H + 1)·n unknowns at the fixed
+    H, or at H = 16, the first level doubled from 8; not asked of a lone rotating link, one static
+    solve)."""
+    from fkev_slepc.model.operating_point import full_turn_problem
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.scene.cases import case_name
+    from fkev_slepc.solve.periodic_system import PeriodicSystem
+    from fkev_slepc.solve.response_hb import MAX_UNKNOWNS
+
+    names, bad = names or {}, list(bad or [])
+    h_name = names.get("harmonics", "harmonics")
+    try:
+        case = case_name(case)
+    except ValueError as err:
+        bad.append(Problem(names.get("case", "case"), str(err)))
+    if scene.driver.acceleration != 0.0:
+        bad.append(Problem("driver.acceleration_rad_s2", "the periodic response needs a constant crank speed "
+                           f"(got {scene.driver.acceleration:g} rad/s²)"))
+    if harmonics is not None and (isinstance(harmonics, bool) or not np.isfinite(harmonics)
+                                  or int(harmonics) != harmonics or harmonics < 2):
+        bad.append(Problem(h_name, f"must be an integer >= 2: the error estimate compares H with H/2 "
+                           f"(got {harmonics!r})"))
+        harmonics = None
+    turn = full_turn_problem(scene)
+    if turn is not None:
+        bad.append(turn)
+    if bad:
+        raise SceneError(scene.source, bad)
+    model = Model(scene, cases=(case,))
+    H = 16 if harmonics is None else int(harmonics)
+    size = (2 * H + 1) * int(model.n_free)
+    if size > MAX_UNKNOWNS and PeriodicSystem(model, 1.0, case).link_frame() is None:
+        gb = 16.0 * size * size / 1e9  # the complex LU
+        raise SceneError(scene.source, [Problem(
+            h_name if harmonics is not None else names.get("elements", "elements"),
+            f"the dense harmonic balance would solve {2 * H + 1} harmonics x {model.n_free} DOFs = {size} unknowns "
+            f"({gb:.3g} GB of complex LU), past its limit of {MAX_UNKNOWNS}: use fewer harmonics or elements")])
+    return model
+
+
+def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=None, tol: float = 1e-8,
+                 shoot: bool = True, names=None):
+    """:func:`fkev_slepc.solve.response.periodic_response` of the model's
+    :class:`~fkev_slepc.solve.periodic_system.PeriodicSystem`; an exact resonance is a SceneError
+    naming the speed."""
+    from fkev_slepc.solve.periodic_system import PeriodicSystem
+    from fkev_slepc.solve.response import periodic_response
+    from fkev_slepc.solve.response_shooting import ResonanceError
+
+    system = PeriodicSystem(model, float(speed_rad_s), case, gravity=gravity)
+    try:
+        return periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot)
+    except ResonanceError as err:
+        name = (names or {}).get("speed_rad_s", "speed_rad_s")
+        raise SceneError(model.mechanism.scene.source, [Problem(name, str(err))]) from None
+
+
+def whole_link_stress(model, angles_deg, q):
+    """:class:`~fkev_slepc.solve.link_stress.LinkStress` of the response ``q`` (n, n_free) at
+    ``angles_deg``: σ₊, σ₋ at both ends of every axis element."""
+    from fkev_slepc.solve.link_stress import LinkStress
+    from fkev_slepc.solve.response_stations import element_end_stations, station_response
+
+    mech = model.mechanism
+    theta = np.radians(angles_deg)
+    return LinkStress.from_stations(station_response(model, theta, q, element_end_stations(mech)),
+                                    mech.link_names, angles_deg)
