@@ -2,7 +2,7 @@
 """Floquet monodromy of one crank speed against the frozen sweep of the same angles.
 
 Thesis size (the scene's mesh): the monodromy of one revolution at ``--speed`` and ``--case``
-(solve.floquet_linkage.floquet_multipliers at ``--tol``: coefficient samples, trigonometric
+(periodic.floquet.floquet_multipliers at ``--tol``: coefficient samples, trigonometric
 interpolant, 6th-order symplectic Magnus with step doubling) is timed against the frozen sweep
 of the same scene at that speed and case over 360 crank angles (sweep.runner.Sweep.solve_angle
 for every angle: pieces, QEP, dense engine, selection and classification; no HDF5), the two
@@ -12,7 +12,7 @@ timed alternately, medians over ``--repeats``. The multiplier error is measured 
 Reduced against full (``--reduce-speeds``, e.g. ``60,30``; empty skips it): on ``--reduce-scene``
 (default Turcic–Midha, 27 DOFs) at ``--reduce-elements`` per link (0: the scene's mesh), the full
 monodromy and the reduced one (``reduce="auto"``: the convergence sequence of
-solve/floquet_truncation.py) timed alternately, medians over ``--reduce-repeats``: basis size,
+fkev_slepc/periodic/truncation.py) timed alternately, medians over ``--reduce-repeats``: basis size,
 steps, max|μ| of both, the true relative error of the reduced max|μ| beside its truncation
 estimate, the frequency measure, and the speed-up.
 
@@ -27,7 +27,7 @@ truncation measures of the last pair and whether they met the tolerance. One BLA
 
 Side by side (``--table``): per row SCENE:ELEMENTS:SPEED the frozen 360-angle sweep, the full
 monodromy (models up to ``--table-full-max`` DOFs), the frozen-mode reduction (``reduce="auto"``)
-and the link-frame component modes (``reduce="links"``, solve/floquet_components.py), timed
+and the link-frame component modes (``reduce="links"``, fkev_slepc/periodic/components.py), timed
 alternately, medians over ``--repeats``; ratios to the sweep and max|μ| differences from the full
 model, as a markdown table.
 """
@@ -93,8 +93,8 @@ def main(argv=None) -> None:
     args = parse_args(argv)
     from fkev_slepc.model.operators import Model
     from fkev_slepc.scene import load_scene, with_elements
-    from fkev_slepc.solve.floquet import match_multipliers
-    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+    from fkev_slepc.periodic.magnus import match_multipliers
+    from fkev_slepc.periodic.floquet import floquet_multipliers
 
     if args.table:
         (level_steps if args.table_steps else side_by_side)(args)
@@ -147,7 +147,7 @@ def print_truncation(t) -> None:
 def reduced_vs_full(scene, elements, speed, case, tol, repeats) -> None:
     """The full and the auto-reduced monodromy of one speed, timed alternately (medians)."""
     from fkev_slepc.model.operators import Model
-    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+    from fkev_slepc.periodic.floquet import floquet_multipliers
 
     from fkev_slepc.scene import with_elements
 
@@ -190,8 +190,8 @@ def level_steps(args) -> None:
     step count, highest retained fixed-interface frequency), from one eigenvalue problem each."""
     import scipy.linalg as la
 
-    from fkev_slepc.solve.floquet_components import link_components
-    from fkev_slepc.solve.floquet_linkage import _coefficients, _generator_samples, _scaling, full_min_steps
+    from fkev_slepc.periodic.components import link_components
+    from fkev_slepc.periodic.floquet import _coefficients, _generator_samples, _scaling, full_min_steps
 
     for name, elements, speed, _scene, model in _table_models(args):
         comp = link_components(model)
@@ -210,7 +210,7 @@ def side_by_side(args) -> None:
     """One row per SCENE:ELEMENTS:SPEED: the frozen 360-angle sweep and each monodromy of
     ``--table-methods`` timed alternately (medians over ``--repeats``), their ratios to the sweep,
     max|μ| and its difference from the full model (where the full model is timed)."""
-    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+    from fkev_slepc.periodic.floquet import floquet_multipliers
 
     methods = [m.strip() for m in args.table_methods.split(",") if m.strip()]
     print("| scene | el/link | DOFs | rad/s | sweep s | " + " | ".join(

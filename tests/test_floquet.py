@@ -1,4 +1,4 @@
-"""Floquet engine (fkev_slepc/solve/floquet.py) against known answers.
+"""Floquet engine (fkev_slepc/periodic/magnus.py) against known answers.
 
 Mathieu equation y'' + (a - 2q cos 2t) y = 0 (period π): on the transition curves a = a₀(q)
 (π-periodic ce₀) and a = b₁(q) (π-antiperiodic se₁) the monodromy's trace is +2 and -2; the
@@ -13,7 +13,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.special import mathieu_a, mathieu_b
 
-from fkev_slepc.solve import floquet as fq
+from fkev_slepc.periodic import magnus as fq
 
 
 def mathieu(a, q, damping=0.0):
@@ -127,7 +127,7 @@ def test_bad_arguments_are_named():
 
 
 # --------------------------------------------------------------------------------------------
-# The linkage as a periodic system (model/periodic.py, solve/floquet_linkage.py)
+# The linkage as a periodic system (model/periodic.py, fkev_slepc/periodic/floquet.py)
 
 import scipy.linalg as la  # noqa: E402
 from builders import cantilever, rect_strip  # noqa: E402
@@ -135,7 +135,7 @@ from builders import cantilever, rect_strip  # noqa: E402
 from fkev_slepc.model.operators import Model  # noqa: E402
 from fkev_slepc.model.periodic import periodic_pieces  # noqa: E402
 from fkev_slepc.scene import load_scene  # noqa: E402
-from fkev_slepc.solve.floquet_linkage import TrigInterpolant, floquet_multipliers, to_dense  # noqa: E402
+from fkev_slepc.periodic.floquet import TrigInterpolant, floquet_multipliers, to_dense  # noqa: E402
 
 RUNS = __import__("pathlib").Path(__file__).resolve().parents[1] / "runs"
 # in-plane frequencies of a slender rotating blade at λ = 12: sqrt(ω_flap² - λ²) with the
@@ -311,7 +311,7 @@ def test_structural_damping_makes_the_crank_decay():
     # q_g = Tᵀ(θ) q_e with q_e fixed: q̇_g = Ω dTᵀ/dθ q_e; the damping force C_d q̇ + K_d q is 0
     th, h = 0.3, 1e-6
     q_e = np.random.default_rng(1).standard_normal(model.n_free)
-    from fkev_slepc.solve.floquet_reduce import corotated_pairs, rotate_rows
+    from fkev_slepc.periodic.reduce import corotated_pairs, rotate_rows
 
     pairs = corotated_pairs(model.mechanism)
     q = lambda t: rotate_rows(q_e[:, None], pairs, np.full(len(pairs[0]), t))[:, 0]
@@ -324,7 +324,7 @@ def test_structural_damping_makes_the_crank_decay():
 
 
 def test_corotated_reduction_on_the_whole_space_is_exact():
-    """The co-rotating Galerkin projection (solve/floquet_reduce.py) with a basis spanning every
+    """The co-rotating Galerkin projection (fkev_slepc/periodic/reduce.py) with a basis spanning every
     DOF is a change of variables q = Q(θ)V̂η: the multipliers are the full model's (Turcic–Midha,
     1 element per link, 9 DOFs, 200 rad/s)."""
     model = Model(_tm_one_element(), ("full",))

@@ -1,9 +1,9 @@
-"""Unstable speed bands and their labels (solve/floquet_bands.py) on the Mathieu oscillator
+"""Unstable speed bands and their labels (fkev_slepc/periodic/bands.py) on the Mathieu oscillator
 ẍ + ω₀²(1 - 2ε cos Ωt) x = 0, whose bands are known exactly: in the crank angle θ = Ωt it is
 x'' + (ω₀/Ω)²(1 - 2ε cos θ) x = 0, i.e. Mathieu's y'' + (a - 2q cos 2τ) y = 0 with τ = θ/2,
 a = 4ω₀²/Ω², q = εa; the n-th instability tongue lies between b_n(q) and a_n(q)
 (scipy.special.mathieu_b/mathieu_a), around Ω = 2ω̄/n. The monodromies come from
-solve/floquet.py's routine."""
+fkev_slepc/periodic/magnus.py's routine."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
-from fkev_slepc.solve.floquet import monodromy
-from fkev_slepc.solve.floquet_bands import (
+from fkev_slepc.periodic.magnus import monodromy
+from fkev_slepc.periodic.bands import (
     Band, SpeedPoint, brackets, find_bands, label, margin, nearest_resonance, resonance_speeds,
 )
 
@@ -81,7 +81,7 @@ def test_open_band_and_unconverged_speed():
     assert brackets(pts) == [(1, 2)]
     broken = pts[:2] + [SpeedPoint(1.2, np.array([1.0, 1.0]), 1e-14, converged=False)] + pts[3:]
     assert brackets(broken) == []
-    from fkev_slepc.solve.floquet_bands import bands_from
+    from fkev_slepc.periodic.bands import bands_from
 
     (band,) = bands_from(pts, {(1, 2): 1.15})
     assert band.lower_open and not band.upper_open and (band.lower, band.upper) == (1.0, 1.15)
@@ -102,7 +102,7 @@ def test_a_band_between_two_stable_grid_speeds_is_flagged_then_found_by_a_probe(
     both stable): the scan sees one band, but the gap holding the resonance candidate 2ω̄1/2 is
     listed (its speed inside the exact tongue); one probe there finds the tongue, whose edges are
     then refined to 1e-6 of the closed form."""
-    from fkev_slepc.solve.floquet_bands import unsampled
+    from fkev_slepc.periodic.bands import unsampled
 
     speeds = np.arange(0.8, 2.6 + 1e-9, 0.15)
     pts, bands, _ = find_bands(speeds, mathieu_point)
@@ -121,7 +121,7 @@ def test_a_band_between_two_stable_grid_speeds_is_flagged_then_found_by_a_probe(
 def test_unsampled_candidate_crosses_the_speed_where_it_equals_it():
     """ω̄(Ω) = 0.5 + 0.25 Ω: 2ω̄/1 = 1 + 0.5 Ω equals Ω at Ω = 2 (linear, so exactly), in the
     gap (1.5, 2.5) of two stable speeds; an unstable end or a failed speed makes no gap."""
-    from fkev_slepc.solve.floquet_bands import unsampled
+    from fkev_slepc.periodic.bands import unsampled
 
     stable = [SpeedPoint(w, np.array([1.0, 1.0]), 1e-14) for w in (1.5, 2.5, 3.5)]
     (gap,) = unsampled(stable, lambda w: [0.5 + 0.25 * w], max_order=1)

@@ -72,12 +72,12 @@ OMEGA0 = 10.0  # rad/s: the Mathieu oscillator put through the run in place of t
 
 
 def mathieu_evaluator(model, case, tol, eps=0.2, calls=None):
-    """evaluate(speed) of ẍ + ω₀²(1 - 2ε cos Ωt)x = 0 through solve/floquet.py's monodromy (its
+    """evaluate(speed) of ẍ + ω₀²(1 - 2ε cos Ωt)x = 0 through fkev_slepc/periodic/magnus.py's monodromy (its
     bands: tests/test_floquet_bands.py), counting the speeds evaluated in ``calls``."""
     import numpy as np
 
-    from fkev_slepc.solve.floquet import monodromy
-    from fkev_slepc.solve.floquet_bands import SpeedPoint
+    from fkev_slepc.periodic.magnus import monodromy
+    from fkev_slepc.periodic.bands import SpeedPoint
 
     def evaluate(speed):
         if calls is not None:
@@ -338,7 +338,7 @@ def test_study_floquet_is_the_api_of_fkev_floquet(tmp_path):
 
 def test_one_speed_on_two_ranks_splits_its_monodromy(tmp_path):
     """Fewer speeds than ranks: both ranks work on the one speed, each multiplying its own segment of the
-    Magnus steps (solve/floquet.py ``_product``); the multipliers equal the serial run's to 1e-12."""
+    Magnus steps (fkev_slepc/periodic/magnus.py ``_product``); the multipliers equal the serial run's to 1e-12."""
     import os
     import subprocess
     import sys

@@ -1,5 +1,5 @@
 """The link-frame component-mode (Craig–Bampton) reduction of the linkage monodromy
-(solve/floquet_components.py, docs/theory.md §18.8).
+(fkev_slepc/periodic/components.py, docs/theory.md §18.8).
 
 Known answers: with every fixed-interface mode kept the basis is a change of variables, so the
 reduced multipliers are the full model's (Turcic–Midha at 1 element per link and 100 rad/s,
@@ -22,10 +22,10 @@ from fkev_slepc.model.kinematics import solve_kinematics
 from fkev_slepc.model.operators import Model
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.scene import load_scene
-from fkev_slepc.solve.floquet import match_multipliers
-from fkev_slepc.solve.floquet_components import Components, boundary_dofs, link_components
-from fkev_slepc.solve.floquet_linkage import floquet_multipliers
-from fkev_slepc.solve.floquet_truncation import resolve_reduce
+from fkev_slepc.periodic.magnus import match_multipliers
+from fkev_slepc.periodic.components import Components, boundary_dofs, link_components
+from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.truncation import resolve_reduce
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"
 TM, BW = RUNS / "turcic-midha-1984.toml", RUNS / "bahgat-willmert-1976.toml"
@@ -211,8 +211,8 @@ def test_default_picks_link_components_where_their_levels_are_much_cheaper():
     8 modes per link is the whole space (Turcic–Midha, 3 elements per link, 60 rad/s: 27 of 27);
     the link components where that level needs at most a quarter of the full model's steps
     (Bahgat–Willmert, 16 elements per link, 500 rad/s: 14,361 against 762,340)."""
-    from fkev_slepc.solve.floquet_linkage import default_reduction, full_min_steps
-    from fkev_slepc.solve.floquet_truncation import LINKS_STEP_RATIO
+    from fkev_slepc.periodic.floquet import default_reduction, full_min_steps
+    from fkev_slepc.periodic.truncation import LINKS_STEP_RATIO
 
     assert default_reduction(_model(TM, 1), 100.0) is None
     assert default_reduction(_model(TM, 3), 60.0) == "auto"

@@ -1,4 +1,4 @@
-"""The frozen-mode reduction of the linkage monodromy on a closed loop (solve/floquet_truncation.py).
+"""The frozen-mode reduction of the linkage monodromy on a closed loop (fkev_slepc/periodic/truncation.py).
 
 Turcic–Midha four-bar, undamped, case ``full``: at 1 element per link (9 DOFs, 100 rad/s, unstable,
 max|μ| ≈ 25) the full monodromy is cheap, so the convergence sequence of the reduction is compared
@@ -16,8 +16,8 @@ import pytest
 
 from fkev_slepc.model.operators import Model
 from fkev_slepc.scene import load_scene
-from fkev_slepc.solve.floquet import match_multipliers
-from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+from fkev_slepc.periodic.magnus import match_multipliers
+from fkev_slepc.periodic.floquet import floquet_multipliers
 
 TM = Path(__file__).resolve().parents[1] / "runs" / "turcic-midha-1984.toml"
 
@@ -140,8 +140,8 @@ def test_default_reduces_only_where_the_full_model_is_expensive():
     """reduce="default": the full model where its step count 2·2π·ρ(A) is below AUTO_MIN_STEPS
     (Turcic–Midha, 1 element per link, 100 rad/s: ~4,400), auto above (9 elements, 60 rad/s:
     ~74,000, where the full monodromy takes 131,072 steps)."""
-    from fkev_slepc.solve.floquet_linkage import full_min_steps
-    from fkev_slepc.solve.floquet_truncation import AUTO_MIN_STEPS
+    from fkev_slepc.periodic.floquet import full_min_steps
+    from fkev_slepc.periodic.truncation import AUTO_MIN_STEPS
 
     small = _tm(1)
     assert full_min_steps(small, 100.0) < AUTO_MIN_STEPS

@@ -1,4 +1,4 @@
-"""Signed extreme-fibre stress along whole links (solve/link_stress.py, solve/response_stations.py,
+"""Signed extreme-fibre stress along whole links (fkev_slepc/periodic/link_stress.py, fkev_slepc/periodic/stations.py,
 docs/response.md §4): a bar rotating under its own inertia and a static cantilever under a tip
 load against closed forms, and the faces, means and alternating parts the outputs report."""
 

@@ -1,5 +1,5 @@
 """Out-of-plane Floquet coefficients (docs/theory.md §19.9): the exact periodic coefficients of
-the out-of-plane problem on the engines of solve/floquet_linkage.py."""
+the out-of-plane problem on the engines of fkev_slepc/periodic/floquet.py."""
 
 import numpy as np
 import scipy.linalg as la
@@ -9,9 +9,9 @@ from test_out_of_plane import rect_section
 from fkev_slepc.model.operators import Model
 from fkev_slepc.model.out_of_plane import Section
 from fkev_slepc.model.periodic import periodic_pieces
-from fkev_slepc.solve import floquet as fq
-from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
-from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+from fkev_slepc.periodic import magnus as fq
+from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
+from fkev_slepc.periodic.floquet import floquet_multipliers
 
 
 def _crank():

@@ -1,4 +1,4 @@
-"""One periodic system for Floquet and the response (solve/periodic_system.py, solve/cycle_mean.py;
+"""One periodic system for Floquet and the response (fkev_slepc/periodic/system.py, fkev_slepc/periodic/cycle_mean.py;
 docs/theory.md §18.7, docs/response.md §3): its generator against the independent dense one, the
 gravity of the response against a rotated scene, and the one cycle-mean frequency."""
 
@@ -7,10 +7,10 @@ from clitools import ROOT
 
 from fkev_slepc.model.operators import Model
 from fkev_slepc.scene import load_scene, with_elements
-from fkev_slepc.solve import floquet as fq
-from fkev_slepc.solve.cycle_mean import cycle_mean
-from fkev_slepc.solve.floquet_linkage import floquet_multipliers
-from fkev_slepc.solve.periodic_system import PeriodicSystem
+from fkev_slepc.periodic import magnus as fq
+from fkev_slepc.periodic.cycle_mean import cycle_mean
+from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.system import PeriodicSystem
 
 RUNS = ROOT / "runs"
 

@@ -146,7 +146,7 @@ def test_block_load_in_the_elastic_model_stretches_crank_and_rod_in_series():
     guide (zero load vector)."""
     from fkev_slepc.model.operators import Model
     from fkev_slepc.model.process_loads import process_load_vectors
-    from fkev_slepc.solve.periodic_system import PeriodicSystem
+    from fkev_slepc.periodic.system import PeriodicSystem
 
     F = 1000.0
     for fx, fy in ((F, 0.0), (0.0, F)):
@@ -172,7 +172,7 @@ def test_consistent_point_load_of_both_element_types_is_exact_at_the_nodes(eleme
     from fkev_slepc.model.operators import Model
     from fkev_slepc.model.process_loads import process_load_vectors
     from fkev_slepc.solve.accuracy import with_element
-    from fkev_slepc.solve.periodic_system import PeriodicSystem
+    from fkev_slepc.periodic.system import PeriodicSystem
 
     S, Fx, Fy, M = 0.07, 300.0, 40.0, 5.0
     model = Model(with_element(on_arm(S, Fx, Fy, M), element), cases=("structure",))

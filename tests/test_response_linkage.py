@@ -1,4 +1,4 @@
-"""The steady periodic response of linkages (solve/response.py, api/response.py, fkev response;
+"""The steady periodic response of linkages (fkev_slepc/periodic/response.py, api/response.py, fkev response;
 docs/response.md §3-4) against closed forms, invariances and the second method. Lean meshes:
 one element per link where the physics allows it."""
 
@@ -14,9 +14,9 @@ from fkev_slepc.model.operators import Model
 from fkev_slepc.scene import load_scene, with_elements
 from fkev_slepc.scene.model import Damping
 from fkev_slepc.solve.accuracy import with_element
-from fkev_slepc.solve.periodic_system import PeriodicSystem
-from fkev_slepc.solve.response_hb import harmonic_balance
-from fkev_slepc.solve.response_shooting import shooting
+from fkev_slepc.periodic.system import PeriodicSystem
+from fkev_slepc.periodic.harmonic_balance import harmonic_balance
+from fkev_slepc.periodic.shooting import shooting
 
 RUNS = ROOT / "runs"
 E, RHO, L = 2.07e11, 7760.0, 1.0  # runs/rotating-cantilever.toml

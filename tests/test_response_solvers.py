@@ -1,12 +1,12 @@
-"""Periodic-response solvers on closed forms (solve/response_hb.py, solve/response_shooting.py;
+"""Periodic-response solvers on closed forms (fkev_slepc/periodic/harmonic_balance.py, fkev_slepc/periodic/shooting.py;
 docs/response.md §3): harmonic balance and shooting on the monodromy, each against an exact
 periodic solution and against each other, the unstable (|μ| > 1) flag and the resonance refusal."""
 
 import numpy as np
 import pytest
 
-from fkev_slepc.solve.response_hb import collocation_solve, galerkin_solve, harmonic_balance
-from fkev_slepc.solve.response_shooting import ResonanceError, shooting
+from fkev_slepc.periodic.harmonic_balance import collocation_solve, galerkin_solve, harmonic_balance
+from fkev_slepc.periodic.shooting import ResonanceError, shooting
 
 W = 3.0  # Ω: the coefficients are in the time form, θ = Ωt
 

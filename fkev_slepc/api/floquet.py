@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
-from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
+from fkev_slepc.periodic.bands import DEFAULT_TOL, EDGE_RTOL
 
 API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "angles_deg", "cases": "case",
              "modes": "modes", "element": "element", "rel_error": "rel_error", "tol": "tol", "rtol": "rtol",
@@ -26,8 +26,8 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     messages name the arguments (the CLI passes its flags); ``speeds_rpm`` the speeds in rev/min
     instead of ``speeds_rad_s``. ``reduce``: the reduction of each
     monodromy, "auto", "none", r frozen modes per angle, "links", "links:N" (link-frame component
-    modes) or "default" (per speed, :func:`fkev_slepc.solve.floquet_linkage.default_reduction`;
-    :func:`fkev_slepc.solve.floquet_truncation.resolve_reduce`).
+    modes) or "default" (per speed, :func:`fkev_slepc.periodic.floquet.default_reduction`;
+    :func:`fkev_slepc.periodic.truncation.resolve_reduce`).
     ``plane``: "out" for the out-of-plane problem (docs/theory.md §19.9; archive ``<stem>-out-floquet.h5``)."""
     from fkev_slepc.api.loads import full_turn_problem
     from fkev_slepc.scene.cases import case_name
@@ -47,7 +47,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
             bad.append(Problem(names[key], f"must be in (0, 1) (got {v})"))
     if isinstance(resonance_order, bool) or not isinstance(resonance_order, (int, np.integer)) or resonance_order < 0:
         bad.append(Problem(names["resonance_order"], f"must be a whole number >= 0 (got {resonance_order!r})"))
-    from fkev_slepc.solve.floquet_truncation import resolve_reduce
+    from fkev_slepc.periodic.truncation import resolve_reduce
 
     try:
         reduce = resolve_reduce(reduce)

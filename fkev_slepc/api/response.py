@@ -1,6 +1,6 @@
 """``Study.response``: the steady periodic elastic response at a crank speed, with its stations
 (deflection, moment, axial force, stress), saved (HDF5) and drawn (docs/response.md §3-4).
-The physics is in fkev_slepc/solve/response*.py; this module checks the arguments and wraps."""
+The physics is in fkev_slepc/periodic/ (response, harmonic_balance, shooting, stations); this module checks the arguments and wraps."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ class ResponseResult:
     node_positions: np.ndarray  # (n, n_node, 2) undeformed (rigid-body) positions
     node_displacement: np.ndarray  # (n, n_node, 2) elastic displacement, ground frame
     link_names: tuple[str, ...]
-    stations: object  # solve.response_stations.StationResponse
+    stations: object  # periodic.stations.StationResponse
     harmonics: int
     hb_error: float
     hb_condition: float
@@ -36,7 +36,7 @@ class ResponseResult:
     methods_difference: float  # max |q_HB - q_shooting| / max |q|
     closure: float  # ‖x(2π) − x(0)‖ / ‖x(0)‖ of the shooting trajectory
     elem_nodes: np.ndarray  # (n_el, 2) for drawing
-    link_stress: object = None  # solve.link_stress.LinkStress: σ₊, σ₋ at every element end
+    link_stress: object = None  # periodic.link_stress.LinkStress: σ₊, σ₋ at every element end
 
     def plot(self, kind: str = "deflected", **options):
         """``deflected`` (the linkage at several angles, magnified, scale stated), ``stations``
@@ -82,8 +82,8 @@ class ResponseResult:
     def as_dict(self) -> dict:
         from fkev_slepc.model.joint_loads import _list
 
-        from fkev_slepc.solve.link_stress import FACES
-        from fkev_slepc.solve.response_stations import cycle_parts
+        from fkev_slepc.periodic.link_stress import FACES
+        from fkev_slepc.periodic.stations import cycle_parts
 
         sr = self.stations
         _, _, mean, alternating = cycle_parts(np.stack([sr.stress_plus, sr.stress_minus], axis=-1))
@@ -180,8 +180,8 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     """
     from fkev_slepc.model.joint_loads import joint_loads
     from fkev_slepc.model.kinematics import point_local
-    from fkev_slepc.solve.response_stations import station_response
-    from fkev_slepc.solve.steady import checked_point, steady_solve, whole_link_stress
+    from fkev_slepc.periodic.stations import station_response
+    from fkev_slepc.periodic.steady import checked_point, steady_solve, whole_link_stress
 
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2,
                                             harmonics=harmonics, names=names)
@@ -205,9 +205,9 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
 
 
 def chosen_stations(scene: Scene, mech, stations, names=None):
-    """The :class:`~fkev_slepc.solve.response_stations.Station` s of ``stations`` ({link name: [s_m, ...]}),
+    """The :class:`~fkev_slepc.periodic.stations.Station` s of ``stations`` ({link name: [s_m, ...]}),
     None for the default ones; SceneError naming ``stations`` for an unknown link or a distance off it."""
-    from fkev_slepc.solve.response_stations import stations_at
+    from fkev_slepc.periodic.stations import stations_at
 
     if stations is None:
         return None

@@ -71,7 +71,7 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
     from fkev_slepc.api.response import chosen_stations
     from fkev_slepc.api.response_speeds import SCAN_DEFAULTS, checked_speeds, speed_peaks
     from fkev_slepc.model.operators import Model
-    from fkev_slepc.solve.response_stations import default_stations
+    from fkev_slepc.periodic.stations import default_stations
     from fkev_slepc.sweep.runner import recoverable_errors
 
     comm = local(comm)
@@ -128,7 +128,7 @@ def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *,
     """:func:`fkev_slepc.api.response_speeds.response_vs_speed` archived in ``output`` over the ranks of ``comm``
     (:func:`run_response`: one speed per unit of work, resumable);
     the same numbers, read back from the archive."""
-    from fkev_slepc.solve.steady import checked_model
+    from fkev_slepc.periodic.steady import checked_model
     from fkev_slepc.api.response_speeds import checked_speeds
     from fkev_slepc.sweep.grid import configure
 

@@ -99,7 +99,7 @@ def speed_peaks(scene: Scene, speed: float, case: str, modes: int, names=None, *
     result the :class:`~fkev_slepc.api.response.ResponseResult` (options as there)."""
     from fkev_slepc.api.response import study_response
     from fkev_slepc.model.operators import Model
-    from fkev_slepc.solve.cycle_mean import cycle_mean_frequencies
+    from fkev_slepc.periodic.cycle_mean import cycle_mean_frequencies
 
     r = study_response(scene, float(speed), case, names=names, **options)
     sr = r.stations
@@ -122,7 +122,7 @@ def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: 
     """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; the
     default tolerance here 1e-6), the station peaks, and the forced-resonance speeds; in this
     process (the archived run over MPI ranks: :func:`fkev_slepc.api.response_archive.run_response`)."""
-    from fkev_slepc.solve.steady import checked_model
+    from fkev_slepc.periodic.steady import checked_model
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)

@@ -1,6 +1,6 @@
 """The ``/floquet`` product's table (docs/archive.md): Floquet multipliers of one crank revolution per
 (speed, case) unit (``fkev floquet``, fkev_slepc/sweep/floquet_run.py), in the archive of the frozen sweep of
-the same speeds, and the unstable speed bands found from them (fkev_slepc/solve/floquet_bands.py)."""
+the same speeds, and the unstable speed bands found from them (fkev_slepc/periodic/bands.py)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """``fkev floquet SCENE``: does vibration grow over crank revolutions, and in which speed bands?
 
 Wiring only: the run is ``Study.floquet`` (fkev_slepc/api/floquet.py, fkev_slepc/sweep/floquet_run.py),
-the bands fkev_slepc/solve/floquet_bands.py, the figure fkev_slepc/plots/floquet.py (docs/stability.md).
+the bands fkev_slepc/periodic/bands.py, the figure fkev_slepc/plots/floquet.py (docs/stability.md).
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from fkev_slepc.api import Study
     from fkev_slepc.api.floquet import study_floquet
-    from fkev_slepc.solve.floquet_bands import DEFAULT_TOL, EDGE_RTOL
+    from fkev_slepc.periodic.bands import DEFAULT_TOL, EDGE_RTOL
     from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, RESONANCE_ORDER
     from fkev_slepc.sweep.interrupt import SweepInterrupted
     from fkev_slepc.sweep.parallel import install_abort_hook, world

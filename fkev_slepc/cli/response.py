@@ -1,6 +1,6 @@
 """``fkev response``: the steady periodic elastic response at a crank speed: deflections,
 bending moments, axial forces and extreme-fibre stresses at stations along the links over one
-revolution (docs/response.md §3-4). Wiring only; the physics is in fkev_slepc/solve/response*.py."""
+revolution (docs/response.md §3-4). Wiring only; the physics is in fkev_slepc/periodic/ (response, harmonic_balance, shooting, stations)."""
 
 from __future__ import annotations
 

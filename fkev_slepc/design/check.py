@@ -6,7 +6,7 @@ rigid-body kinetostatics (fkev_slepc/model/joint_loads.py).
 
 The stresses are those of ``fkev response`` at the same point (the harmonic-balance solution;
 the monodromy is not needed for them and is skipped): σ₊, σ₋ at both ends of every axis element
-over the output angles (fkev_slepc/solve/link_stress.py). A point's material is its segment's.
+over the output angles (fkev_slepc/periodic/link_stress.py). A point's material is its segment's.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 from fkev_slepc.design.fatigue import CRITERIA, fatigue_factor, missing_strengths, static_factor
 from fkev_slepc.model.buckling import WARN_BELOW, Buckling, weak_axis_buckling
 from fkev_slepc.scene import Problem, Scene, SceneError
-from fkev_slepc.solve.link_stress import FACES
+from fkev_slepc.periodic.link_stress import FACES
 
 STRENGTHS = ("yield_strength", "ultimate_strength", "endurance_limit")
 
@@ -30,7 +30,7 @@ class LinkCheck:
 
     link: str
     materials: tuple[str, ...]
-    peak: dict | None  # solve.link_stress.LinkStress.peak
+    peak: dict | None  # periodic.link_stress.LinkStress.peak
     static_sf: float | None
     fatigue_sf: float | None
     critical: dict | None  # the fatigue-critical point: s_m, face, sigma_mean_pa, sigma_alternating_pa
@@ -134,7 +134,7 @@ def _faces(x: np.ndarray) -> dict:
 
 def check_links(scene: Scene, mech, ls, jl, criterion: str) -> tuple[LinkCheck, ...]:
     """The :class:`LinkCheck` of every link from the whole-link stress ``ls``
-    (:class:`~fkev_slepc.solve.link_stress.LinkStress`) and the kinetostatics ``jl``
+    (:class:`~fkev_slepc.periodic.link_stress.LinkStress`) and the kinetostatics ``jl``
     (:class:`~fkev_slepc.model.joint_loads.JointLoads`) at the same angles."""
     buckling = weak_axis_buckling(mech, jl)
     return tuple(link_check(scene, mech, ls, lk, criterion, buckling[lk], jl) for lk in range(mech.n_link))
@@ -159,10 +159,10 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
     ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
     weak-axis factor below which a warning is given. The response is that of ``fkev response``
-    (fkev_slepc/solve/steady.py, the monodromy skipped), the loads those of ``fkev loads``
+    (fkev_slepc/periodic/steady.py, the monodromy skipped), the loads those of ``fkev loads``
     without crank acceleration. Raises SceneError naming a bad argument."""
     from fkev_slepc.model.joint_loads import joint_loads
-    from fkev_slepc.solve.steady import checked_point, steady_solve, whole_link_stress
+    from fkev_slepc.periodic.steady import checked_point, steady_solve, whole_link_stress
 
     bad = check_problems(criterion, threshold, names)
     if bad:

@@ -1,7 +1,7 @@
 """Safety factors of a point of a link against yield and fatigue (docs/design.md, "Design check").
 
 Static: n_s = S_y / max|σ| over the cycle. Fatigue, from the mean σ_m and alternating σ_a of
-the signed stress over the cycle (fkev_slepc/solve/link_stress.py), with the material's
+the signed stress over the cycle (fkev_slepc/periodic/link_stress.py), with the material's
 endurance strength S_e, ultimate S_ut and yield S_y (Shigley's *Mechanical Engineering Design*,
 §6-12, the fluctuating-stress criteria):
 

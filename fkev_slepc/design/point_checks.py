@@ -83,7 +83,7 @@ def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOption
     from fkev_slepc.archive import products as P
     from fkev_slepc.design.check import check_links
     from fkev_slepc.model.joint_loads import joint_loads
-    from fkev_slepc.solve.steady import checked_point, steady_solve, whole_link_stress
+    from fkev_slepc.periodic.steady import checked_point, steady_solve, whole_link_stress
 
     n_link = len(scene.links)
     out = {v.path: np.full((len(speeds), len(cases), n_link), np.nan)
@@ -132,7 +132,7 @@ def stress_problems(scenes, angles_deg, cases, options: CheckOptions, names=None
     acceleration, a crank that does not turn fully, angles that do not assemble, a bad
     criterion or harmonics), before anything is solved."""
     from fkev_slepc.design.check import check_problems
-    from fkev_slepc.solve.steady import checked_point
+    from fkev_slepc.periodic.steady import checked_point
 
     if not options.stress:
         return []

@@ -141,7 +141,7 @@ def resonance_labels(resonances, gap: float) -> list[tuple[float, str]]:
 
 def draw_link_stress(res) -> Figure:
     """Left: the signed stress range [σ_min, σ_max] over the cycle along each link, both faces
-    (σ₊ at +c, σ₋ at −c along the left normal; solve/link_stress.py). Right: σ₊ and σ₋ over the
+    (σ₊ at +c, σ₋ at −c along the left normal; fkev_slepc/periodic/link_stress.py). Right: σ₊ and σ₋ over the
     crank angle at the point of the peak |σ|."""
     ls = res.link_stress
     hi, lo, _, _ = ls.parts()

@@ -40,7 +40,7 @@ from fkev_slepc.solve.thresholds import IMAG_TOL
 DENSE_LIMIT = 1000
 WHOLE = "whole spectrum"
 # What every verdict of this module covers in time (docs/stability.md, "Frozen-time and cycle verdicts"):
-# exp(2π Re λ/Ω) is not the growth over a revolution, the Floquet multipliers are (solve/floquet.py).
+# exp(2π Re λ/Ω) is not the growth over a revolution, the Floquet multipliers are (fkev_slepc/periodic/magnus.py).
 FROZEN_TIME = ("frozen-time: the matrices held at this crank angle and speed; whether vibration grows over a "
                "crank revolution is the Floquet verdict (fkev floquet)")
 

@@ -11,9 +11,9 @@ One archive holds both verdicts of the same speeds (docs/stability.md, "Frozen-t
    resumable like the sweep (``resume``: only pending speeds are solved).
 3. **Gaps and probes**: the resonance candidates of order <= ``resonance_order`` (2ω̄ₖ/n,
    (ω̄ⱼ ± ω̄ₖ)/n) that fall between two stable grid speeds, where a band narrower than the spacing
-   would go unseen (:func:`~fkev_slepc.solve.floquet_bands.unsampled`); with ``probe`` one more
+   would go unseen (:func:`~fkev_slepc.periodic.bands.unsampled`); with ``probe`` one more
    monodromy at each, added to the grid's points for the bands.
-4. **Bands** (:mod:`fkev_slepc.solve.floquet_bands`): every bracket refined by bisection, all
+4. **Bands** (:mod:`fkev_slepc.periodic.bands`): every bracket refined by bisection, all
    brackets together in rounds whose speeds are dealt to the ranks; probes and refinement speeds
    are archived as they are solved (``/floquet/samples``, :mod:`fkev_slepc.sweep.floquet_samples`),
    so an interrupted refinement resumes where it stopped. The bands are labelled on rank 0 from ω̄ₖ
@@ -34,10 +34,10 @@ from fkev_slepc.archive import products as P
 from fkev_slepc.archive.products_floquet import REDUCTION_ROWS
 from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
-from fkev_slepc.solve.floquet_bands import (
+from fkev_slepc.periodic.bands import (
     DEFAULT_TOL, EDGE_RTOL, Band, Gap, SpeedPoint, brackets, bands_from, label, margin, refine_edges, unsampled,
 )
-from fkev_slepc.solve.floquet_results import FloquetResults
+from fkev_slepc.periodic.results import FloquetResults
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples
 from fkev_slepc.sweep.parallel import local
@@ -71,7 +71,7 @@ def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False
     margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures. With
     ``progress`` each speed's Magnus runs are reported on stderr (:class:`_SpeedProgress`). ``comm``: the
     ranks that share each monodromy's steps (collective evaluation)."""
-    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+    from fkev_slepc.periodic.floquet import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
     def evaluate(speed: float) -> tuple[SpeedPoint, str]:
@@ -126,7 +126,7 @@ def _engine_available() -> None:
 
     from fkev_slepc.sweep.session import RunRefused
 
-    if importlib.util.find_spec("fkev_slepc.solve.floquet_linkage") is None:
+    if importlib.util.find_spec("fkev_slepc.periodic.floquet") is None:
         raise RunRefused("the linkage Floquet engine (solve stage, module floquet_linkage: the exact periodic "
                          "coefficients) is not in this checkout")
 
@@ -239,9 +239,9 @@ def _read_grid(part, speeds) -> list[SpeedPoint]:
 
 def _mean_frequencies(part):
     """speed -> ω̄ₖ (rad/s): the frozen sweep's sorted Im λ at each grid speed (case 0) averaged
-    over one revolution by :func:`fkev_slepc.solve.cycle_mean.cycle_mean` (angle-weighted, 0° and
+    over one revolution by :func:`fkev_slepc.periodic.cycle_mean.cycle_mean` (angle-weighted, 0° and
     360° counted once, unconverged angles left out), interpolated linearly in speed."""
-    from fkev_slepc.solve.cycle_mean import cycle_mean
+    from fkev_slepc.periodic.cycle_mean import cycle_mean
     from fkev_slepc.status import CONVERGED, codes
 
     with h5py.File(part, "r") as f:

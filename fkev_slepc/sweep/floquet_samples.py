@@ -1,7 +1,7 @@
 """The monodromies ``fkev floquet`` solves beside its speed grid, archived as they are solved.
 
-Band-edge refinement (bisection, :func:`fkev_slepc.solve.floquet_bands.refine_edges`) and
-resonance probes (:func:`fkev_slepc.solve.floquet_bands.unsampled`) ask for speeds that are not
+Band-edge refinement (bisection, :func:`fkev_slepc.periodic.bands.refine_edges`) and
+resonance probes (:func:`fkev_slepc.periodic.bands.unsampled`) ask for speeds that are not
 on the grid. :class:`Sampler` solves each round of them over the MPI ranks (dealt cyclically),
 appends them on rank 0 to ``/floquet/samples`` (docs/archive.md; the status column last, so a
 row cut short by a kill stays pending and is solved again), and then stops cleanly if a rank
@@ -23,7 +23,7 @@ import numpy as np
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.products_floquet import F_SAMPLE, SAMPLE_ROWS, SAMPLE_STATUS
 from fkev_slepc.archive.store import text
-from fkev_slepc.solve.floquet_bands import SpeedPoint
+from fkev_slepc.periodic.bands import SpeedPoint
 from fkev_slepc.status import Status
 
 PURPOSES = ("edge", "probe")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fkev_slepc.solve.floquet_bands import Band, Gap
+from fkev_slepc.periodic.bands import Band, Gap
 from fkev_slepc.status import Status
 
 INTEGER_ROWS = ("basis_size", "truncation_converged")  # reduction rows given as integers in the JSON

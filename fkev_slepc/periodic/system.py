@@ -8,17 +8,17 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
 ``coefficients(θ) -> Coefficients``
     dense per-angle M, C, K of M q̈ + C q̇ + K q = f (time form, Rayleigh damping from the scene
     when ``damping``) and the canonical N = Ω N₁, V = K₀ + Ω² V₂, C_d, K_d = Ω K_d (§18.2-18.5);
-    with ``basis`` (co-rotated V̂, :mod:`fkev_slepc.solve.floquet_reduce`) the Galerkin-reduced ones.
+    with ``basis`` (co-rotated V̂, :mod:`fkev_slepc.periodic.reduce`) the Galerkin-reduced ones.
 ``mck(θ) -> (M, C, K)``
-    the three stacks alone (the generic interface of :mod:`~fkev_slepc.solve.response_hb` and
-    :mod:`~fkev_slepc.solve.response_shooting`).
+    the three stacks alone (the generic interface of :mod:`~fkev_slepc.periodic.harmonic_balance` and
+    :mod:`~fkev_slepc.periodic.shooting`).
 ``load(θ) -> f (len(θ), n)``
     the rigid-body inertia loads Ω² f₂(θ) and the gravity ``gravity`` = (g_x, g_y) (m/s², ground
     frame) through :meth:`fkev_slepc.model.loads.LoadPieces.total` (the one gravity of the model).
 ``generator(θ) -> A (len(θ), 2n, 2n)``
     the first-order generator in 1/rad (d/dθ = d/dt / |Ω|): canonical (q, p), p = M q̇ + N q, for
     the Lagrangian cases (Hamiltonian undamped), else (q, q̇) by
-    :func:`fkev_slepc.solve.floquet.state_matrix`; both scaled DOF by DOF (q̂ᵢ = dᵢqᵢ,
+    :func:`fkev_slepc.periodic.magnus.state_matrix`; both scaled DOF by DOF (q̂ᵢ = dᵢqᵢ,
     dᵢ = (Mᵢᵢ Kᵢᵢ)^¼; p̂ᵢ = pᵢ/dᵢ, or q̇ᵢ scaled by dᵢ/ωᵢ, ωᵢ² = Kᵢᵢ/Mᵢᵢ). ``scaling`` (2n,) is
     decided ONCE per system, from the mean diagonals over ``SCALING_ANGLES`` equispaced angles,
     and used for every batch of angles (issue 27: a per-batch scaling made the samples and the
@@ -30,7 +30,7 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
 
 ``link_frame() -> PeriodicSystem | None``
     the same system in co-rotating link-frame coordinates q = W(θ) q̂ (every node translation in
-    its link's frame: :mod:`fkev_slepc.solve.floquet_reduce` with the whole space as basis, an
+    its link's frame: :mod:`fkev_slepc.periodic.reduce` with the whole space as basis, an
     exact change of variables) where its generator is constant to round-off (``CONSTANT_TOL`` at
     ``CONSTANT_ANGLES`` angles): a lone rotating link. None otherwise. Then the monodromy is one
     exponential and the periodic response one static solve (issue 24 item 3).
@@ -50,10 +50,10 @@ import numpy as np
 
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.model.process_loads import process_load_vectors
-from fkev_slepc.solve.floquet import state_matrix
-from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
+from fkev_slepc.periodic.magnus import state_matrix
+from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.model.kinematics import solve_kinematics
-from fkev_slepc.solve.floquet_reduce import corotated_pairs, reduced_coefficients, rotate_rows
+from fkev_slepc.periodic.reduce import corotated_pairs, reduced_coefficients, rotate_rows
 
 TWO_PI = 2.0 * np.pi
 SCALING_ANGLES = 16  # angles whose mean diagonals fix the DOF scaling of the generator

@@ -1,13 +1,13 @@
 """The frozen-mode reduction's basis rule and its truncation error, measured by a convergence sequence.
 
-A reduced monodromy (solve/floquet_reduce.py) is only as good as its basis, and its error is not
+A reduced monodromy (fkev_slepc/periodic/reduce.py) is only as good as its basis, and its error is not
 known in advance: it is measured here by growing the basis and watching what a designer uses
 change from one basis level to the next.
 
 **The basis rule.** The pool is the lowest ``r`` undamped frozen modes of the case at ``angles``
 equispaced crank angles, each unit-normalised and co-rotated into its links' frames
-(:func:`~fkev_slepc.solve.floquet_reduce.frozen_pool`). A level keeps the pool's left singular
-directions with s > τ·s₀ (:func:`~fkev_slepc.solve.floquet_reduce.compress`), τ running through
+(:func:`~fkev_slepc.periodic.reduce.frozen_pool`). A level keeps the pool's left singular
+directions with s > τ·s₀ (:func:`~fkev_slepc.periodic.reduce.compress`), τ running through
 ``THRESHOLDS`` = 1e-1, 1e-2, ..., 1e-10; a τ that adds no direction is skipped (it would repeat
 the level and show a false zero change). When the pool is used up (τ = 1e-10 reached) the pool
 doubles (2r modes per angle) and τ starts again, each level strictly larger than the last, up
@@ -75,7 +75,7 @@ def resolve_reduce(value):
     ``floquet_linkage.default_reduction``: the full model below ``AUTO_MIN_STEPS`` full-model steps
     2·2π·ρ(A), above "links" where the link-component level of 8 modes per link needs at most
     1/``LINKS_STEP_RATIO`` of them, else "auto"; docs/engine.md measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
-    link-frame component modes of solve/floquet_components.py, modes per link doubled until
+    link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled until
     converged) or "links:N" (N >= 0 fixed-interface modes per link). ValueError otherwise."""
     if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
         return None
@@ -130,10 +130,10 @@ def converge(solve, pool, n_dof: int, *, modes: int = AUTO_MODES, tol: float = R
     ``solve(V̂)`` -> a reduced Floquet result on the basis V̂ (n, R); ``pool(r)`` -> the (n, k)
     pool of r modes per angle; ``compress(pool, τ)`` -> V̂; ``retained``: the Floquet
     frequencies compared (default ``modes``). The link-frame component modes
-    (solve/floquet_components.py) use the same rule with ``pool(r)`` the basis of r modes per
+    (fkev_slepc/periodic/components.py) use the same rule with ``pool(r)`` the basis of r modes per
     link and ``compress`` the identity: the modes per link double level by level."""
     if compress is None:
-        from fkev_slepc.solve.floquet_reduce import compress
+        from fkev_slepc.periodic.reduce import compress
     retained = modes if retained is None else int(retained)
     cap = n_dof if max_basis is None else min(int(max_basis), n_dof)
     prev, levels, pair, report, r = None, [], None, None, int(modes)

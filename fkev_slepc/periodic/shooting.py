@@ -1,5 +1,5 @@
 """Shooting for the periodic response of M(θ)q̈ + C(θ)q̇ + K(θ)q = f(θ), θ = Ωt, on the
-monodromy of solve/floquet.py (docs/response.md §3).
+monodromy of fkev_slepc/periodic/magnus.py (docs/response.md §3).
 
 In θ the state x = (q, q') obeys x' = A(θ)x + b(θ) with the coefficients (Ω²M, ΩC, K) and the
 load f. One revolution from x(0) = 0 under the load gives the particular state x_p(2π); the
@@ -8,7 +8,7 @@ periodic response starts from x₀ with (I − Φ)x₀ = x_p, Φ the monodromy. 
 attract (the machine would not settle on it); a multiplier at 1 makes (I − Φ) singular (exact
 resonance: no periodic response, or not a unique one), which is refused.
 
-Same generic interface as :mod:`fkev_slepc.solve.response_hb`: ``coefficients(theta)`` -> dense
+Same generic interface as :mod:`fkev_slepc.periodic.harmonic_balance`: ``coefficients(theta)`` -> dense
 (M, C, K) stacks (k, n, n) in the time form, ``load(theta)`` -> (k, n).
 """
 
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 
-from fkev_slepc.solve import floquet
+from fkev_slepc.periodic import magnus
 
 # (I − Φ) is singular to working precision when its smallest singular value is below this
 # fraction of 1 + ‖Φ‖₂ (the size of the two terms it is the difference of)
@@ -72,10 +72,10 @@ def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = No
         (I − Φ) singular to working precision (a multiplier at 1), with the closest multiplier.
     """
     cache = _Cached(coefficients, load, omega)
-    gen = floquet.second_order(lambda th: cache(th)[:3])
-    forcing = floquet.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
+    gen = magnus.second_order(lambda th: cache(th)[:3])
+    forcing = magnus.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
     with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
-        mono = floquet.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
+        mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
                                  max_steps=max_steps)
     n2 = mono.phi.shape[0]
     I_phi = np.eye(n2) - mono.phi
@@ -91,7 +91,7 @@ def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = No
     x0 = la.lu_solve(lu, mono.particular)
     thetas = np.asarray(thetas, dtype=float)
     path = np.r_[thetas, 2.0 * np.pi] if thetas[-1] < 2.0 * np.pi else thetas
-    x = floquet.trajectory(gen, x0, path, forcing=forcing, order=order, steps=mono.steps, period=2.0 * np.pi)
+    x = magnus.trajectory(gen, x0, path, forcing=forcing, order=order, steps=mono.steps, period=2.0 * np.pi)
     closure = float(np.linalg.norm(x[-1] - x0) / max(np.linalg.norm(x0), 1e-300))
     x = x[: thetas.size]
     n = n2 // 2

@@ -3,11 +3,11 @@
 ``floquet_multipliers(model_or_scene, omega, case="full", ...) -> LinkageFloquet``: the
 multipliers of one crank revolution of M(θ)q̈ + C(θ)q̇ + K(θ)q = 0 with the exact periodic
 coefficients of :mod:`fkev_slepc.model.periodic` (Rayleigh damping from the scene's [damping]
-unless ``damping=False``), integrated in the crank angle by :func:`fkev_slepc.solve.floquet.monodromy`.
+unless ``damping=False``), integrated in the crank angle by :func:`fkev_slepc.periodic.magnus.monodromy`.
 
 How:
 
-1. The first-order generator A(θ) (1/rad) of :class:`~fkev_slepc.solve.periodic_system.PeriodicSystem`
+1. The first-order generator A(θ) (1/rad) of :class:`~fkev_slepc.periodic.system.PeriodicSystem`
    is built exactly at ``samples`` equispaced crank angles and evaluated in between by its
    trigonometric interpolant; the samples double until the interpolant's relative error at the
    midpoints (measured against the exact coefficients there) is below ``interp_tol``. The Magnus integrator then costs one GEMM per block of steps
@@ -22,15 +22,15 @@ How:
    Hamiltonian; they use the state (q, q̇). Both are scaled DOF by DOF (q̂ᵢ = dᵢqᵢ,
    p̂ᵢ = pᵢ/dᵢ, dᵢ = (Mᵢᵢ Kᵢᵢ)^¼), which keeps the canonical structure; the scaling is fixed
    once per system, so the samples and the midpoints are the same function.
-3. ``reduce`` projects on co-rotating frozen modes (:mod:`fkev_slepc.solve.floquet_reduce`):
+3. ``reduce`` projects on co-rotating frozen modes (:mod:`fkev_slepc.periodic.reduce`):
    undamped frozen modes of the case at ``basis_angles`` equispaced angles, unit-normalised, each
    node translation written in its link's frame, SVD-compressed (Galerkin on a Lagrangian system
    is Lagrangian, so the reduced steps stay symplectic). ``reduce="auto"`` grows the basis level
    by level until max|μ| and the retained Floquet frequencies change by less than ``reduce_tol``
-   (:mod:`fkev_slepc.solve.floquet_truncation`, which states the rule); ``reduce=r`` takes the
+   (:mod:`fkev_slepc.periodic.truncation`, which states the rule); ``reduce=r`` takes the
    lowest r modes per angle and measures the same changes against 2r. ``truncation`` holds them.
    ``reduce="links"`` / ``"links:N"`` project instead on each link's Craig–Bampton component
-   modes in its own frame (:mod:`fkev_slepc.solve.floquet_components`, docs/theory.md §18.8),
+   modes in its own frame (:mod:`fkev_slepc.periodic.components`, docs/theory.md §18.8),
    through the same projection and the same convergence rule (modes per link doubled).
 
 Result (``LinkageFloquet``): ``multipliers`` (2n,) complex sorted by |μ|, ``exponents`` (2n,)
@@ -45,7 +45,7 @@ shares, and adds nothing), ``interp_error``, ``samples``, ``n_dof``,
 ``basis`` (None or the basis size), ``truncation`` (None or the :class:`Truncation` measured)
 and ``truncation_error`` (its larger measure).
 
-``TrigInterpolant`` and ``to_dense`` are re-exported from :mod:`fkev_slepc.solve.trig_interpolant`.
+``TrigInterpolant`` and ``to_dense`` are re-exported from :mod:`fkev_slepc.periodic.interpolant`.
 """
 
 from __future__ import annotations
@@ -55,12 +55,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as la
 
-from fkev_slepc.solve.floquet import Monodromy, exponential_monodromy, monodromy
-from fkev_slepc.solve.floquet_components import LINK_MODES, link_components
-from fkev_slepc.solve.floquet_reduce import compress, frozen_pool
-from fkev_slepc.solve.periodic_system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
-from fkev_slepc.solve.trig_interpolant import TrigInterpolant, to_dense
-from fkev_slepc.solve.floquet_truncation import (
+from fkev_slepc.periodic.magnus import Monodromy, exponential_monodromy, monodromy
+from fkev_slepc.periodic.components import LINK_MODES, link_components
+from fkev_slepc.periodic.reduce import compress, frozen_pool
+from fkev_slepc.periodic.system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
+from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
+from fkev_slepc.periodic.truncation import (
     AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, REDUCE_TOL, Truncation, between, converge, link_modes,
     resolve_reduce,
 )
@@ -159,14 +159,14 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
 
     ``reduce``: None (the full model), ``"default"`` (:func:`default_reduction`: None below
     ``AUTO_MIN_STEPS`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
-    :mod:`fkev_slepc.solve.floquet_truncation`, to ``reduce_tol``, at most ``max_basis``
+    :mod:`fkev_slepc.periodic.truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False),
-    ``"links"`` (link-frame component modes, :mod:`fkev_slepc.solve.floquet_components`: the
+    ``"links"`` (link-frame component modes, :mod:`fkev_slepc.periodic.components`: the
     modes per link double from ``LINK_MODES`` by the same convergence rule; ``covered_rad_s``
     states the highest retained fixed-interface frequency) or ``"links:N"`` (N modes per link,
     measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
-    :class:`~fkev_slepc.solve.floquet_components.LinkBasis`. ``comm``: an MPI communicator whose
+    :class:`~fkev_slepc.periodic.components.LinkBasis`. ``comm``: an MPI communicator whose
     ranks share every monodromy's steps (collective; one speed on several ranks).
     ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`)."""
     from fkev_slepc.model.operators import Model

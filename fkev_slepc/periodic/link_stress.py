@@ -1,7 +1,7 @@
 """Signed extreme-fibre stress along whole links over the crank cycle (docs/response.md §4).
 
 The points are both ends of every element of each link's axis beam
-(:func:`~fkev_slepc.solve.response_stations.element_end_stations`), each with its two faces:
+(:func:`~fkev_slepc.periodic.stations.element_end_stations`), each with its two faces:
 σ₊ at +c and σ₋ at −c along the link's left normal. Per point and face the cycle gives σ_max,
 σ_min, the mean σ_m = (σ_max + σ_min)/2 and the alternating part σ_a = (σ_max − σ_min)/2 (the
 inputs of the fatigue factors, fkev_slepc/design/fatigue.py); per link the peak |σ|, where
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.solve.response_stations import cycle_parts
+from fkev_slepc.periodic.stations import cycle_parts
 
 FACES = ("plus", "minus")  # the faces at +c and −c along the link's left normal
 
@@ -32,7 +32,7 @@ class LinkStress:
 
     @classmethod
     def from_stations(cls, sr, link_names, angle_deg) -> "LinkStress":
-        """From a :class:`~fkev_slepc.solve.response_stations.StationResponse` at element ends."""
+        """From a :class:`~fkev_slepc.periodic.stations.StationResponse` at element ends."""
         st = sr.stations
         return cls(tuple(link_names), np.asarray(angle_deg, float), np.array([p.link for p in st], dtype=int),
                    np.array([p.s for p in st]), np.array([p.element for p in st], dtype=int),

@@ -5,7 +5,7 @@ stress columns (fkev_slepc/design/check.py, docs/response.md §3-4).
 :func:`checked_point` refuses a bad operating point (naming the caller's field) before any
 work; :func:`steady_solve` is harmonic balance (and with ``shoot`` the monodromy);
 :func:`whole_link_stress` the signed stress at both ends of every axis element over the output
-angles (fkev_slepc/solve/link_stress.py).
+angles (fkev_slepc/periodic/link_stress.py).
 """
 
 from __future__ import annotations
@@ -43,8 +43,8 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None):
     from fkev_slepc.model.operating_point import full_turn_problem
     from fkev_slepc.model.operators import Model
     from fkev_slepc.scene.cases import case_name
-    from fkev_slepc.solve.periodic_system import PeriodicSystem
-    from fkev_slepc.solve.response_hb import MAX_UNKNOWNS
+    from fkev_slepc.periodic.system import PeriodicSystem
+    from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS
 
     names, bad = names or {}, list(bad or [])
     h_name = names.get("harmonics", "harmonics")
@@ -79,12 +79,12 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None):
 
 def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=None, tol: float = 1e-8,
                  shoot: bool = True, names=None):
-    """:func:`fkev_slepc.solve.response.periodic_response` of the model's
-    :class:`~fkev_slepc.solve.periodic_system.PeriodicSystem`; an exact resonance is a SceneError
+    """:func:`fkev_slepc.periodic.response.periodic_response` of the model's
+    :class:`~fkev_slepc.periodic.system.PeriodicSystem`; an exact resonance is a SceneError
     naming the speed."""
-    from fkev_slepc.solve.periodic_system import PeriodicSystem
-    from fkev_slepc.solve.response import periodic_response
-    from fkev_slepc.solve.response_shooting import ResonanceError
+    from fkev_slepc.periodic.system import PeriodicSystem
+    from fkev_slepc.periodic.response import periodic_response
+    from fkev_slepc.periodic.shooting import ResonanceError
 
     system = PeriodicSystem(model, float(speed_rad_s), case, gravity=gravity)
     try:
@@ -95,10 +95,10 @@ def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=Non
 
 
 def whole_link_stress(model, angles_deg, q):
-    """:class:`~fkev_slepc.solve.link_stress.LinkStress` of the response ``q`` (n, n_free) at
+    """:class:`~fkev_slepc.periodic.link_stress.LinkStress` of the response ``q`` (n, n_free) at
     ``angles_deg``: σ₊, σ₋ at both ends of every axis element."""
-    from fkev_slepc.solve.link_stress import LinkStress
-    from fkev_slepc.solve.response_stations import element_end_stations, station_response
+    from fkev_slepc.periodic.link_stress import LinkStress
+    from fkev_slepc.periodic.stations import element_end_stations, station_response
 
     mech = model.mechanism
     theta = np.radians(angles_deg)

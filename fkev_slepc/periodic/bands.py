@@ -62,7 +62,7 @@ class SpeedPoint:
 
     @classmethod
     def of(cls, speed: float, result) -> SpeedPoint:
-        """From anything with ``multipliers`` and ``error`` (a :class:`~fkev_slepc.solve.floquet.Monodromy`,
+        """From anything with ``multipliers`` and ``error`` (a :class:`~fkev_slepc.periodic.magnus.Monodromy`,
         a linkage's Floquet result); ``converged`` from it or its ``monodromy`` when present."""
         mono = getattr(result, "monodromy", result)
         mu = np.asarray(result.multipliers, dtype=complex)

@@ -29,7 +29,7 @@ Keeping every fixed-interface mode makes W square and invertible (the full model
 the lowest k modes of each link (all its interior DOFs at most); a :class:`LinkBasis` has ``shape``
 (n, R), ``covered_rad_s`` (its highest retained fixed-interface frequency) and
 ``at(phi, dphi, ddphi) -> (W, W', W'')`` for the link angles φ, φ', φ'' (n_link,) of one crank angle,
-the basis protocol of :func:`fkev_slepc.solve.floquet_reduce.reduced_coefficients`.
+the basis protocol of :func:`fkev_slepc.periodic.reduce.reduced_coefficients`.
 """
 
 from __future__ import annotations

@@ -5,9 +5,9 @@
 with the exact periodic coefficients of :mod:`fkev_slepc.model.periodic` (M, C = ΩC₁ + C_d,
 K = K₀ + Ω²K₂ for the case's terms) and the rigid-body inertia loads of
 :mod:`fkev_slepc.model.loads` (f = Ω² f₂(θ) plus gravity), both of one
-:class:`~fkev_slepc.solve.periodic_system.PeriodicSystem` (the system Floquet takes), solved by harmonic balance
-(:mod:`~fkev_slepc.solve.response_hb`) and by shooting on the monodromy
-(:mod:`~fkev_slepc.solve.response_shooting`): the two are independent (a global collocation
+:class:`~fkev_slepc.periodic.system.PeriodicSystem` (the system Floquet takes), solved by harmonic balance
+(:mod:`~fkev_slepc.periodic.harmonic_balance`) and by shooting on the monodromy
+(:mod:`~fkev_slepc.periodic.shooting`): the two are independent (a global collocation
 and a Magnus time-stepper) and the result carries their difference.
 """
 
@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.solve.periodic_system import CONSTANT_ANGLES, CONSTANT_TOL, spread
-from fkev_slepc.solve.response_hb import HarmonicResponse, harmonic_balance, harmonics_of
-from fkev_slepc.solve.response_shooting import ShootingResponse, shooting
+from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, spread
+from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
+from fkev_slepc.periodic.shooting import ShootingResponse, shooting
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
                       shoot: bool = False, shooting_tol: float = 1e-11) -> PeriodicResponse:
     """Harmonic balance (and, with ``shoot``, shooting at the same angles) of ``system``
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
-    :class:`~fkev_slepc.solve.periodic_system.PeriodicSystem`). Where the system and its load are
+    :class:`~fkev_slepc.periodic.system.PeriodicSystem`). Where the system and its load are
     constant in the link frame (:func:`static_response`) the harmonic balance is that one static
     solve, whatever ``harmonics``.
 
@@ -101,14 +101,14 @@ def static_response(system) -> HarmonicResponse | None:
 
 def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:
     """The shooting solution at other angles: integrated again from its periodic initial state."""
-    from fkev_slepc.solve import floquet
-    from fkev_slepc.solve.response_shooting import _Cached
+    from fkev_slepc.periodic import magnus
+    from fkev_slepc.periodic.shooting import _Cached
 
     cache = _Cached(system.mck, system.load, omega)
-    gen = floquet.second_order(lambda th: cache(th)[:3])
-    forcing = floquet.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
+    gen = magnus.second_order(lambda th: cache(th)[:3])
+    forcing = magnus.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
     x0 = np.concatenate([sh.q[0], sh.dq[0]])
-    x = floquet.trajectory(gen, x0, theta, forcing=forcing, steps=sh.steps, period=2.0 * np.pi)
+    x = magnus.trajectory(gen, x0, theta, forcing=forcing, steps=sh.steps, period=2.0 * np.pi)
     n = sh.q.shape[1]
     return ShootingResponse(np.asarray(theta), x[:, :n], x[:, n:], sh.multipliers, sh.error, sh.rcond, sh.steps,
                             sh.closure)

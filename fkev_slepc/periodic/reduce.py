@@ -11,7 +11,7 @@ are) and q̂ = V̂ η with a constant V̂: the lowest ``r`` undamped frozen mode
 each unit-normalised and mapped to q̂ = Qᵀ q (:func:`frozen_pool`), then the pool's left
 singular directions above a threshold of the largest singular value (:func:`compress`; which
 threshold and pool, and the truncation error they leave, are decided by measurement in
-solve/floquet_truncation.py). With W = Q V̂ the Galerkin projection of the Lagrangian
+fkev_slepc/periodic/truncation.py). With W = Q V̂ the Galerkin projection of the Lagrangian
 of model/periodic.py is again Lagrangian (so symplectic steps still apply):
 
     M_r = WᵀMW,  N_r = Ω WᵀMW' + WᵀNW,  V_r = WᵀVW - Ω² W'ᵀMW' - 2Ω sym(W'ᵀNW),
@@ -23,7 +23,7 @@ span an invariant subspace and the reduction is exact for them.
 
 The projection (:func:`reduced_coefficients`) takes any basis that gives (W, W', W'') at one crank
 angle from the link angles φ, φ', φ'' (``at``): the co-rotated frozen modes here
-(:class:`CorotatedBasis`) or the link-frame component modes of solve/floquet_components.py.
+(:class:`CorotatedBasis`) or the link-frame component modes of fkev_slepc/periodic/components.py.
 """
 
 from __future__ import annotations
@@ -127,7 +127,7 @@ def reduced_coefficients(model, p, thetas, omega, damping, basis):
     """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring) on ``basis``: a
     co-rotated V̂ (n, R), or any object whose ``at(φ, φ', φ'')`` gives (W, W', W'') at one crank
     angle from the link angles and rates (:class:`CorotatedBasis`, or the link-frame component
-    modes of solve/floquet_components.py)."""
+    modes of fkev_slepc/periodic/components.py)."""
     kin = solve_kinematics(model.mechanism, thetas)
     if isinstance(basis, np.ndarray):
         basis = CorotatedBasis(basis, corotated_pairs(model.mechanism))
