@@ -67,7 +67,9 @@ class FloquetRequest(ProductRequest):
 def _evaluator(model, case: str, tol: float, reduce=None):
     """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised). Reduced
     (``reduce``), the point's error adds the truncation change of max|μ| (so that it enters the verdict's
-    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures."""
+    margin), a truncation that did not converge makes the point not converged (its verdict is
+    ``not_converged``, never ok: issue 27 item 1) and ``evaluate.reduction[speed]`` keeps the basis size
+    and the truncation measures."""
     from fkev_slepc.solve.floquet_linkage import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
@@ -80,7 +82,8 @@ def _evaluator(model, case: str, tol: float, reduce=None):
         if t is not None:
             evaluate.reduction[float(speed)] = {"basis": res.basis, "max_abs": t.max_abs, "converged": t.converged,
                                                 "growth_rate": t.growth_rate, "frequency": t.frequency}
-            point = replace(point, error=point.error + t.max_abs * point.max_abs)
+            point = replace(point, error=point.error + t.max_abs * point.max_abs,
+                            converged=point.converged and bool(t.converged))
         return point, ""
 
     evaluate.reduction = {}
@@ -96,6 +99,14 @@ def _engine_available() -> None:
     if importlib.util.find_spec("fkev_slepc.solve.floquet_linkage") is None:
         raise RunRefused("the linkage Floquet engine (solve stage, module floquet_linkage: the exact periodic "
                          "coefficients) is not in this checkout")
+
+
+def _not_converged(reduced: dict | None) -> str:
+    """Why a speed is not converged: the frozen-mode truncation (with its change) or the monodromy."""
+    if reduced and not reduced["converged"]:
+        return (f"frozen-mode truncation did not converge (basis of {int(reduced['basis'])} vectors, change of "
+                f"max|μ| {float(reduced['max_abs']):.2g}); solve this speed with --reduce none or a larger --reduce")
+    return "monodromy did not reach its tolerance"
 
 
 def _status(point: SpeedPoint, message: str, tol: float) -> int:
@@ -138,7 +149,7 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
         reduced = getattr(evaluate, "reduction", {}).get(float(speeds[js]))
         if reduced:
             data.update({v.path: np.array(reduced[v.source], dtype=v.dtype) for v in REDUCTION_ROWS})
-        errors = [((js, jc), code, message or "monodromy did not reach its tolerance")] if code in (
+        errors = [((js, jc), code, message or _not_converged(reduced))] if code in (
             Status.FAILED.code, Status.NOT_CONVERGED.code) else []
         return Block(unit, mask, data, np.array(code, np.uint8), errors)
 
