@@ -80,20 +80,9 @@ def check_scene(path: str | Path) -> Scene:
         With every schema problem, or else with every assembly/topology problem.
     """
     scene = load_scene(path)
-    # Imported here: kinematics needs numpy and the mechanism, which a schema check does not.
-    from fkev_slepc.model.kinematics import assembly_problems
+    from fkev_slepc.sweep.grid import scene_problems
 
-    problems = assembly_problems(scene)
-    if not problems:
-        from fkev_slepc.model.mechanism import build_mechanism
-
-        from .common import modes_problem
-
-        problems = [p for p in [modes_problem(scene.analysis.modes, build_mechanism(scene).n_free, None)] if p]
-    if not problems:  # finite values whose operators are not (a speed of 1e155 rad/s, an area of 1e300 m²)
-        from fkev_slepc.solve.finite import overflow_problems
-
-        problems = overflow_problems(scene)
+    problems = scene_problems(scene)
     if problems:
         raise SceneError(scene.source, problems)
     if scene.solver.petsc:  # names PETSc would silently ignore (misspelt) are errors too

@@ -11,7 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
-from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
+
+UNSOLVED = ("failed", "not_converged")  # a design point with one of these at any grid point has no minima
 
 
 def add_parser(sub) -> None:
@@ -77,14 +79,17 @@ def run(args) -> int:
         if rank0:
             print(str(err) if bad_scene else f"fkev design: {err}", file=sys.stderr, flush=True)
         return EXIT_BAD_INPUT if bad_scene else err.exit_code
-    if rank0:
-        print_summary(open_design(output), output)
-    return EXIT_OK
+    if not rank0:
+        return EXIT_OK
+    ds = open_design(output)
+    print_summary(ds, output)
+    return EXIT_NOT_CONVERGED if np.isin(ds.status.values, UNSOLVED).any() else EXIT_OK
 
 
 def print_summary(ds, output) -> None:
     """One row per design point: its values, the lowest frequency of each mode over the crank
-    cycle at the top speed (first case), and the lowest divergence speed of each case."""
+    cycle at the top speed (first case), and the lowest divergence speed of each case; a point
+    with a failed or not-converged grid point says so instead of minima over the angles that solved."""
     keys = list(ds.attrs["design_keys"])
     top, case = float(ds.speed_rad_s.max()), str(ds.case.values[0])
     fmin = ds.frequency_min_hz.sel(speed_rad_s=top, case=case)
@@ -99,6 +104,11 @@ def print_summary(ds, output) -> None:
     for idx in np.ndindex(*[ds.sizes[k] for k in keys]):
         sel = {k: i for k, i in zip(keys, idx)}
         vals = [f"{float(ds[k].values[i]):>18.6g}" for k, i in sel.items()]
+        unsolved = np.isin(ds.status.isel(sel).values, UNSOLVED)
+        if unsolved.any():
+            print(" ".join(vals) + f"  {int(unsolved.sum())} of {unsolved.size} grid points failed or did not converge: "
+                  "no minima (fkev info names them)")
+            continue
         f = [f"{float(v):>12.5g}" for v in fmin.isel(sel).values]
         d = ds.divergence_speed_rad_s.isel(sel)
         div = [f"{float(d.sel(case=c)):>22.6g}" for c in cases]

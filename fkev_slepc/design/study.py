@@ -86,17 +86,22 @@ def design_grid(params: dict, name: str = "params") -> DesignGrid:
 
 
 def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
-    """The scene of every design point (validated like files), or one SceneError listing every
-    design point that is not a valid scene (nothing computed)."""
+    """The scene of every design point (validated like files, then checked as ``fkev check`` checks
+    one: assembly at every crank angle, modes, operator overflow;
+    :func:`fkev_slepc.sweep.grid.scene_problems`), or one SceneError listing every design point that
+    is not a valid scene (nothing computed)."""
     from fkev_slepc.scene.edit import replace_values
+    from fkev_slepc.sweep.grid import scene_problems
 
     out, bad = [], []
     for i, values in enumerate(grid.points):
+        said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
         try:
             out.append(replace_values(scene, dict(zip(grid.keys, values.tolist()))))
         except SceneError as err:
-            said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
             bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in err.problems]
+            continue
+        bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in scene_problems(out[-1])]
     if bad:
         raise SceneError(scene.source, bad)
     return out
