@@ -268,15 +268,7 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool 
     if not path.is_file():
         raise ArchiveError(f"{path}: no such archive")
     if verify:
-        check = verified(path)
-        if check.writer is not None:
-            raise ArchiveError(check.summary() + "; read it when the run finishes")
-        if check.crashed or any("cannot open" in p or "cannot read its structure" in p for p in check.problems):
-            raise ArchiveError(check.summary())
-        if not check.ok:
-            import warnings
-
-            warnings.warn(check.summary(), DamagedArchiveWarning, stacklevel=2)
+        checked(path, stacklevel=3)
     try:
         h5 = h5py.File(path, "r")
     except OSError as exc:
@@ -317,6 +309,26 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool 
             attrs=attrs,
             status_flags=_flags(h5[P.STATUS_VAR.path].attrs),
         )
+
+
+def checked(path, stacklevel: int = 2) -> Path:
+    """``path`` verified before a reader decodes it (``fk.open``, ``read_floquet``, ``read_response``,
+    ``open_design``): an archive whose values or attributes changed since its run finished gives a
+    :class:`DamagedArchiveWarning`; one whose metadata HDF5 cannot decode, or that a live run is
+    still writing, raises :class:`ArchiveError`. Checked once per unchanged file (:func:`verified`)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ArchiveError(f"{path}: no such archive")
+    check = verified(path)
+    if check.writer is not None:
+        raise ArchiveError(check.summary() + "; read it when the run finishes")
+    if check.crashed or any("cannot open" in p or "cannot read its structure" in p for p in check.problems):
+        raise ArchiveError(check.summary())
+    if not check.ok:
+        import warnings
+
+        warnings.warn(check.summary(), DamagedArchiveWarning, stacklevel=stacklevel + 1)
+    return path
 
 
 _VERIFIED: dict = {}

@@ -245,8 +245,11 @@ def _write_bands(part, bands: list[Band]) -> None:
 
 def read_floquet(path) -> FloquetResults:
     """The Floquet product of an archive (case 0) with its bands and the frozen-time share of
-    unstable crank angles at each speed."""
-    path = Path(path)
+    unstable crank angles at each speed. Verified first (``archive.reader.checked``: a damaged
+    archive warns, one that cannot be decoded or is being written raises ArchiveError)."""
+    from fkev_slepc.archive.reader import checked
+
+    path = checked(path)
     with h5py.File(path, "r") as f:
         g = f[P.FLOQUET.name]
         cols = {v.source: f[v.path][()] for v in P.BAND_ROWS if v.source}
