@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
 def print_links(scene: Scene) -> list[str]:
     """The per-link table (mass, slenderness, pinned-pinned f₁ estimate; scene/plausible.py) on
     stdout; returns the warnings on implausible values."""
-    from fkev_slepc.scene.plausible import summarize_scene
+    from fkev_slepc.scene.plausible import damping_warnings, summarize_scene
 
     rows = summarize_scene(scene)
     import re
@@ -68,7 +68,7 @@ def print_links(scene: Scene) -> list[str]:
     print(f"  {'link':<12} {'L [m]':>9} {'mass [kg]':>10} {'L/r':>8} {'f1 pinned-pinned [Hz]':>22}")
     for s in rows:
         print(f"  {s.name:<12} {s.length_m:>9.4g} {s.mass_kg:>10.4g} {s.slenderness:>8.4g} {s.pinned_frequency_hz:>22.5g}")
-    return [w for s in rows for w in s.warnings]
+    return [w for s in rows for w in s.warnings] + damping_warnings(scene, rows)
 
 
 def check_scene(path: str | Path) -> Scene:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
-from .common import add_elements_argument, load_checked
+from .common import add_elements_argument, load_checked, preflight
 
 NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles", "cases": "--case",
          "modes": "--modes", "element": "--element", "rel_error": "--rel-error", "tol": "--tol", "rtol": "--rtol",
@@ -76,6 +76,7 @@ def run(args) -> int:
     rank0 = comm.rank == 0
     try:
         study = Study(load_checked(args.scene, args.elements, check_angles=False), Path(args.scene))
+        preflight(study.scene, args, periodic=True)  # figure path, mesh size, damping; speeds: study_floquet
         res = study_floquet(study, args.speeds, args.case, args.output, angles_deg=args.angles, resume=args.resume,
                             force=args.force, tol=DEFAULT_TOL if args.tol is None else args.tol,
                             rtol=EDGE_RTOL if args.rtol is None else args.rtol,

@@ -12,7 +12,7 @@ import numpy as np
 
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
-from .common import add_elements_argument, angles_and_gravity, load_checked, report_scene_error
+from .common import add_elements_argument, angles_and_gravity, load_checked, preflight, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "accel_rad_s2": "--accel", "gravity_m_s2": "--gravity",
          "angles_deg": "--angles"}
@@ -55,6 +55,7 @@ def run(args) -> int:
         angles, gravity = _parse(args)
         scene = load_checked(args.scene, args.elements, check_angles=angles is None)
         speed = max(scene.driver.speeds, key=abs) if args.speed is None else args.speed
+        preflight(scene, args, speeds=[speed], output=args.output)
         loads = study_loads(scene, speed, angles, args.accel, gravity, names=FLAGS)
     except SceneError as err:
         return report_scene_error(err)

@@ -11,7 +11,7 @@ import numpy as np
 
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
-from .common import add_elements_argument, angles_and_gravity, apply_element, load_checked, report_scene_error
+from .common import add_elements_argument, angles_and_gravity, apply_element, load_checked, preflight, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
          "harmonics": "--harmonics", "stations": "--station"}
@@ -85,6 +85,11 @@ def run(args) -> int:
     try:
         angles, gravity, stations = _parse(args)
         scene = apply_element(load_checked(args.scene, args.elements, check_angles=False), args.element)
+        speeds = args.speed_list if args.speeds is not None else [
+            max(scene.driver.speeds, key=abs) if args.speed is None else args.speed]
+        preflight(scene, args, speeds=speeds, speed_flag="--speeds" if args.speeds is not None else "--speed",
+                  plots=("plot", "plot_stations"), output=None if args.speeds is not None else args.output,
+                  periodic=True, harmonics=args.harmonics)
         if args.speeds is not None:
             return _vs_speed(args, scene, angles, gravity, stations)
         speed = max(scene.driver.speeds, key=abs) if args.speed is None else args.speed

@@ -30,6 +30,9 @@ import numpy as np
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 
+MAX_DESIGN_POINTS = 10_000  # each design point is a whole sweep (and is checked as a scene before any solve)
+
+
 @dataclass(frozen=True)
 class DesignGrid:
     """Design keys and the values of each (scene units: SI); points in C order (first key slowest)."""
@@ -78,6 +81,11 @@ def design_grid(params: dict, name: str = "params") -> DesignGrid:
             continue
         keys.append(str(key))
         axes.append(tuple(float(f"{v:.15g}") for v in vals))  # 0.25 + 3 x 0.05 -> 0.4
+    n_points = int(np.prod([len(a) for a in axes], dtype=float)) if axes else 0
+    if n_points > MAX_DESIGN_POINTS:
+        bad.append(Problem(name, f"{n_points:,} design points ({' x '.join(str(len(a)) for a in axes)}), each a whole "
+                                 f"sweep, exceed the limit of {MAX_DESIGN_POINTS:,} (docs/cli.md, Limits): use coarser "
+                                 "steps or fewer keys"))
     if len(set(keys)) != len(keys):
         bad.append(Problem(name, f"a key is given twice (got {', '.join(keys)})"))
     if bad:
