@@ -272,3 +272,26 @@ def test_a_negative_value_after_any_numeric_flag_is_a_value():
     assert out["-9.81,0"]["gravity_m_s2"] == [-9.81, 0.0] and out["-9.81,0"]["crank_angle_deg"] == [-90.0, 0.0, 90.0]
     minus, plus = (np.array(out[g]["driving_torque_n_m"]) for g in ("-9.81,0", "9.81,0"))
     np.testing.assert_allclose(minus, -plus, rtol=1e-12, atol=1e-12 * np.max(np.abs(plus)))  # linear in g at rest
+
+
+def test_info_on_an_unfinished_floquet_archive_says_what_is_pending_and_how_to_resume(floquet_archive, tmp_path):
+    """``fkev info`` on an unfinished Floquet archive printed a verdict ("0 of 1 grid speed
+    unstable") over pending speeds and suggested ``fkev run ... --resume``. Now it says which
+    product has how many units pending, gives no verdict for it, and prints the ``fkev floquet``
+    command that continues it."""
+    import shutil
+
+    from fkev_slepc.archive import store
+
+    out = tmp_path / "f.h5"
+    shutil.copyfile(floquet_archive, out)
+    part = store.reopen_finished(out)  # what a resumed floquet run works on, here stopped before its speed
+    with h5py.File(part, "r+") as f:
+        f["floquet/status"][0, 0] = 0
+    r = fkev("info", part)
+    assert r.returncode == 0, r.stderr
+    assert "INCOMPLETE: floquet 1 of 1 units pending" in r.stdout, r.stdout
+    assert "pending (1 of 1 speeds not solved yet" in r.stdout and "grid speed unstable" not in r.stdout
+    resume = [ln for ln in r.stdout.splitlines() if ln.startswith("  resume")]
+    assert len(resume) == 1 and resume[0].split()[1:3] == ["fkev", "floquet"] and resume[0].endswith("--resume")
+    assert "fkev run" not in r.stdout
