@@ -295,3 +295,32 @@ def test_info_on_an_unfinished_floquet_archive_says_what_is_pending_and_how_to_r
     resume = [ln for ln in r.stdout.splitlines() if ln.startswith("  resume")]
     assert len(resume) == 1 and resume[0].split()[1:3] == ["fkev", "floquet"] and resume[0].endswith("--resume")
     assert "fkev run" not in r.stdout
+
+
+def test_integer_scene_keys_can_be_designed(tmp_path):
+    """``--set links[1].elements=2,3`` was refused ("must be an integer (got 2.0)": values parsed as
+    floats). Now it runs; nested conforming meshes at rest (Rayleigh–Ritz): every frequency of the
+    3-element coupler is at most that of the 2-element one."""
+    from fkev_slepc.design.results import open_design
+
+    out = tmp_path / "d.h5"
+    r = fkev("design", BW, "--set", "links[1].elements=2,3", "--angles", "0:360:90", "--speeds", "0", "--cases",
+             "structure", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    f = open_design(out).frequency_min_hz.sel(speed_rad_s=0.0, case="structure").values  # (point, mode)
+    assert np.all(np.isfinite(f)) and np.all(f[1] <= f[0] * (1 + 1e-12)) and np.any(f[1] < f[0])
+
+
+@pytest.mark.parametrize("args, line", [
+    (("design", BW, "--set", "links[0].length_m=0.127", "--set", "links[0].length_m=0.13"),
+     "--set: links[0].length_m is given twice"),
+    (("margins", "{archive}", "--speed", "nan"), "--speed: must be a finite crank speed"),
+    (("margins", "{archive}", "--speed", "100", "--modes", ","), "--modes: give at least one mode number"),
+])
+def test_messages_name_the_flag_and_the_real_reason(floquet_archive, tmp_path, args, line):
+    """Issue 27 item 11: a repeated ``--set`` key silently kept one value; ``margins --speed nan``
+    quoted "got 0" and ``--modes ''`` printed an empty table with exit 0. Each is now refused in one
+    line naming the flag, exit 2."""
+    more = ("-o", tmp_path / "d.h5") if args[0] == "design" else ()
+    r = fkev(*[str(a).replace("{archive}", str(floquet_archive)) for a in args], *more)
+    assert r.returncode == 2 and line in r.stderr and "Traceback" not in r.stderr, r.stderr

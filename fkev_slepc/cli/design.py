@@ -46,6 +46,9 @@ def parse_sets(sets: list[str]) -> dict:
         key, eq, values = s.partition("=")
         if not eq or not key.strip() or not values.strip():
             bad.append(Problem("--set", f"expected KEY=START:STOP:STEP or KEY=a,b,c (got {s!r})"))
+        elif key.strip() in out:
+            bad.append(Problem("--set", f"{key.strip()} is given twice (got {out[key.strip()]!r} and {values.strip()!r}; "
+                                        "one --set per key, its values as a list or range)"))
         else:
             out[key.strip()] = values.strip()
     if bad:

@@ -105,7 +105,8 @@ def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
     for i, values in enumerate(grid.points):
         said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
         try:
-            out.append(replace_values(scene, dict(zip(grid.keys, values.tolist()))))
+            out.append(replace_values(scene, {k: int(v) if float(v).is_integer() and abs(v) < 2**53 else v
+                                              for k, v in zip(grid.keys, values.tolist())}))  # integer keys too
         except SceneError as err:
             bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in err.problems]
             continue
