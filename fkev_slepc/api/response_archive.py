@@ -157,7 +157,7 @@ def read_response(path, orders: int = 6):
     speeds are NaN (their status: :func:`read_status`). Verified first (``archive.reader.checked``:
     a damaged archive warns, one that cannot be decoded or is being written raises ArchiveError)."""
     from fkev_slepc.api.response_speeds import SpeedResponse, forced_resonances
-    from fkev_slepc.archive.reader import checked
+    from fkev_slepc.archive.verified import checked
 
     with h5py.File(checked(path), "r") as f:
         g = f[P.RESPONSE.name]

@@ -37,7 +37,7 @@ def open_design(path):
     """
     import xarray as xr
 
-    from fkev_slepc.archive.reader import checked
+    from fkev_slepc.archive.verified import checked
     from fkev_slepc.status import Status, converged_codes
 
     checked(path)

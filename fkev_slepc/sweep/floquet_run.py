@@ -247,7 +247,7 @@ def read_floquet(path) -> FloquetResults:
     """The Floquet product of an archive (case 0) with its bands and the frozen-time share of
     unstable crank angles at each speed. Verified first (``archive.reader.checked``: a damaged
     archive warns, one that cannot be decoded or is being written raises ArchiveError)."""
-    from fkev_slepc.archive.reader import checked
+    from fkev_slepc.archive.verified import checked
 
     path = checked(path)
     with h5py.File(path, "r") as f:
