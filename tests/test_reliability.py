@@ -8,11 +8,15 @@ traceback, nor damage passed on as verified.
 from __future__ import annotations
 
 import json
+import sys
 
 import h5py
 import numpy as np
 import pytest
-from clitools import BW, fkev
+from clitools import BW, ROOT, fkev
+
+sys.path.insert(0, str(ROOT / "scripts"))
+from stress_products import ADVERSARIAL, arguments  # noqa: E402 (the campaign's table of adversarial inputs)
 
 B_W_111 = (BW, "--elements", "1")
 
@@ -190,69 +194,14 @@ def test_resume_of_damaged_metadata_is_refused_never_a_crash(floquet_archive, tm
     assert refused >= 2  # offsets 0 and 16 are decoded (version, a message type); 60 and 61 unused here
 
 
-def _damped(tmp_path, key, value):
-    """runs/bahgat-willmert-damped.toml with one Rayleigh coefficient replaced."""
-    src = BW.with_name("bahgat-willmert-damped.toml").read_text()
-    lines = [f"{key} = {value}" if ln.startswith(f"{key} =") else ln for ln in src.splitlines()]
-    path = tmp_path / f"{key}.toml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def _height(tmp_path):
-    """B-W with a rectangular section of height 1e155 m (its h³ overflows)."""
-    text = BW.read_text().replace("area_m2 = 1.61e-4            # 1.61 cm²\nsecond_moment_m4 = 8.66e-9   # 8.66e-1 cm⁴",
-                                  'section = {shape = "rectangle", width_m = 0.00635, height_m = 1e155}')
-    path = tmp_path / "height.toml"
-    path.write_text(text)
-    return path
-
-
-ONE = ("--elements", "1")
-FQ = ("--angles", "0:360:90", "--no-critical")
-ACCEPTED_INPUT = {  # id: (arguments with {tmp} and the scene builders, the flag or key the one line names)
-    "floquet-speed-1e155": (("floquet", BW, *ONE, *FQ, "--speeds", "1e155", "-o", "{tmp}/f.h5"), "--speeds"),
-    "floquet-speed-1e-300": (("floquet", BW, *ONE, *FQ, "--speeds", "1e-300", "-o", "{tmp}/f.h5"), "--speeds"),
-    "response-speed-1e155": (("response", BW, *ONE, "--speed", "1e155"), "--speed"),
-    "loads-speed-1e155": (("loads", BW, *ONE, "--speed", "1e155"), "--speed"),
-    "floquet-beta-1e30": (("floquet", "beta", *ONE, *FQ, "--speeds", "100", "-o", "{tmp}/f.h5"), "damping"),
-    "floquet-alpha-1e30": (("floquet", "alpha", *ONE, *FQ, "--speeds", "100", "-o", "{tmp}/f.h5"), "damping"),
-    "response-beta-1e30": (("response", "beta", *ONE, "--speed", "100"), "damping"),
-    "response-alpha-1e30": (("response", "alpha", *ONE, "--speed", "100"), "damping"),
-    "response-harmonics-100000": (("response", BW, *ONE, "--speed", "100", "--harmonics", "100000"), "--harmonics"),
-    "floquet-plot-xyz": (("floquet", BW, *ONE, *FQ, "--speeds", "100", "-o", "{tmp}/f.h5", "--plot", "{tmp}/x.xyz"),
-                         "--plot"),
-    "response-plot-xyz": (("response", BW, *ONE, "--speed", "100", "--plot", "{tmp}/x.xyz"), "--plot"),
-    "response-plot-stations-xyz": (("response", BW, *ONE, "--speed", "100", "--plot-stations", "{tmp}/x.xyz"),
-                                   "--plot-stations"),
-    "loads-plot-xyz": (("loads", BW, *ONE, "--speed", "100", "--plot", "{tmp}/x.xyz"), "--plot"),
-    "loads-plot-missing-folder": (("loads", BW, *ONE, "--speed", "100", "--plot", "{tmp}/no/x.png"), "--plot"),
-    "loads-output-directory": (("loads", BW, *ONE, "--speed", "100", "-o", "{tmp}"), "-o"),
-    "response-output-directory": (("response", BW, *ONE, "--speed", "100", "-o", "{tmp}"), "-o"),
-    "response-elements-1000": (("response", BW, "--elements", "1000", "--speed", "100"), "--elements"),
-    "floquet-elements-1000": (("floquet", BW, "--elements", "1000", *FQ, "--speeds", "100", "-o", "{tmp}/f.h5"),
-                              "--elements"),
-    "floquet-elements-200": (("floquet", BW, "--elements", "200", *FQ, "--speeds", "100", "-o", "{tmp}/f.h5"),
-                             "--elements"),
-    "point-elements-100000": (("point", BW, "--elements", "100000", "--speed", "100", "--angle", "10"), "--elements"),
-    "floquet-speed-0.01": (("floquet", BW, *FQ, "--speeds", "0.01", "-o", "{tmp}/f.h5"), "--speeds"),
-    "design-100001-points": (("design", BW, "--set", "links[0].length_m=0.1:0.2:0.000001", "-o", "{tmp}/d.h5"),
-                             "--set"),
-    "check-strict-height-1e155": (("check", "--strict", "height"), "height_m"),
-    "check-strict-beta-1e30": (("check", "--strict", "beta"), "stiffness_proportional_s = 1e+30"),
-}
-
-
-@pytest.mark.parametrize("case", list(ACCEPTED_INPUT))
+@pytest.mark.parametrize("case", list(ADVERSARIAL))
 def test_accepted_input_is_refused_in_one_line_before_any_work(tmp_path, case):
-    """Issue 27 items 6 and 10: each of these ended in a traceback (OverflowError, ValueError, a
-    matplotlib format error, IsADirectoryError with a .tmp left, MemoryError) or ran for minutes
+    """Issue 27 items 6 and 10 (the table is ``scripts/stress_products.ADVERSARIAL``, also run by
+    ``scripts/stress.py products``): each of these ended in a traceback (OverflowError, ValueError,
+    a matplotlib format error, IsADirectoryError with a .tmp left, MemoryError) or ran for minutes
     without an estimate. Now: exit 2, a line naming the flag (or scene key) and its value, no
     traceback, nothing written."""
-    scenes = {"beta": lambda: _damped(tmp_path, "stiffness_proportional_s", "1e30"),
-              "alpha": lambda: _damped(tmp_path, "mass_proportional_1_s", "1e30"), "height": lambda: _height(tmp_path)}
-    args, named = ACCEPTED_INPUT[case]
-    args = [scenes[a]() if a in scenes else str(a).replace("{tmp}", str(tmp_path)) for a in args]
+    args, named = arguments(case, tmp_path)
     before = sorted(p.name for p in tmp_path.iterdir())
     r = fkev(*args, timeout=120)
     assert r.returncode == 2 and "Traceback" not in r.stderr, (r.returncode, r.stderr[-2000:])
