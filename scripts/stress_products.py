@@ -117,7 +117,8 @@ def _reader(product: str):
 
 
 def _value_offsets(path: Path, group: str) -> dict:
-    """dataset -> file offset of its stored values (contiguous datasets with storage)."""
+    """dataset -> file offset of a byte inside its stored values (the 4th, or the last of a shorter
+    storage; contiguous datasets with storage)."""
     import h5py
 
     out = {}
@@ -125,7 +126,7 @@ def _value_offsets(path: Path, group: str) -> dict:
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset) and obj.chunks is None and obj.id.get_offset() is not None \
                     and obj.id.get_storage_size() > 0:
-                out[obj.name] = obj.id.get_offset()
+                out[obj.name] = obj.id.get_offset() + min(3, obj.id.get_storage_size() - 1)
         f[group].visititems(visit)
     return out
 
@@ -156,9 +157,9 @@ def cmd_products(args) -> Tally:
                 bad = Path(tmp) / "bad.h5"
                 shutil.copyfile(good, bad)
                 with open(bad, "r+b") as fh:
-                    fh.seek(offset + 3)
+                    fh.seek(offset)
                     b = fh.read(1)
-                    fh.seek(offset + 3)
+                    fh.seek(offset)
                     fh.write(bytes([b[0] ^ 0x10]))
                 before = bad.read_bytes()
                 t.add(f"{product}: byte changes")
