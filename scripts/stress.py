@@ -10,7 +10,9 @@ Sub-commands: ``random`` (random Grashof crank-rockers, dense vs SLEPc in-proces
 concurrent writers, truncated and corrupted archives), ``adversarial`` (absurd geometry and
 magnitudes, deeply divergent and overflowing speeds; scripts/stress_adversarial.py), ``metadata``
 (one flipped byte in an object header of a finished archive, against fkev verify, info and
-export), ``all``. Seeded and reproducible; each
+export), ``products`` (adversarial inputs to the product commands, one-byte faults in the Floquet,
+response and design archives against verify, --resume and their readers; scripts/stress_products.py),
+``all``. Seeded and reproducible; each
 prints its counts and whether the targets hold, and exits 1 if one does not.
 
 Every converged point is judged against its *conditioning floor*: the largest relative change
@@ -219,10 +221,12 @@ def cmd_refine(args) -> Tally:
 def main(argv=None) -> int:
     import stress_adversarial
     import stress_io
+    import stress_products
 
     commands = {"random": cmd_random, "units": cmd_units, "toggle": cmd_toggle, "conditioning": cmd_conditioning,
                 "refine": cmd_refine, "fuzz": stress_io.cmd_fuzz, "faults": stress_io.cmd_faults,
-                "adversarial": stress_adversarial.cmd_adversarial, "metadata": stress_io.cmd_metadata}
+                "adversarial": stress_adversarial.cmd_adversarial, "metadata": stress_io.cmd_metadata,
+                "products": stress_products.cmd_products}
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("command", choices=(*commands, "all"))
     ap.add_argument("--seed", type=int, default=2026)
@@ -247,11 +251,12 @@ def main(argv=None) -> int:
 
 
 DEFAULT_N = {"random": 150, "units": 30, "toggle": 0, "conditioning": 0, "refine": 4, "fuzz": 40, "faults": 3,
-             "adversarial": 0, "metadata": 3}
+             "adversarial": 0, "metadata": 3, "products": 0}
 BAD_KEYS = ("crashes (exceptions)", "status differs", f"dense != SLEPc beyond {FLOOR_FACTOR:g}x floor",
             "NOT invariant", "tracebacks", "damaged archives", "undetected", "without a warning", "not refused",
             "differs after resume", "first writer harmed", "NOT as many", "RuntimeWarnings", "wrong but ok",
-            "on a scene fkev check refuses")
+            "on a scene fkev check refuses", "not refused", "accepted by --resume", "reader exceptions",
+            "product runs failed")
 
 
 def targets_missed(tally: Tally) -> list[str]:

@@ -4,6 +4,7 @@ import hashlib
 import os
 import subprocess
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,3 +33,16 @@ def small_archive(out: Path, scene: Path = BW, *extra) -> Path:
 def problem_lines(stderr: str) -> list[str]:
     """The indented problem lines of a scene-error report."""
     return [ln.strip() for ln in stderr.splitlines() if ln.startswith("  ")]
+
+
+@contextmanager
+def edited(path):
+    """A finished archive opened ``r+`` and re-stamped after the edit (``archive.verify.stamp``), as a
+    run that stopped there would leave it: a resume refuses an edit left unstamped as damage."""
+    import h5py
+
+    from fkev_slepc.archive.verify import stamp
+
+    with h5py.File(path, "r+") as f:
+        yield f
+        stamp(f)

@@ -14,6 +14,8 @@ import h5py
 import numpy as np
 import pytest
 
+from clitools import edited
+
 import fkev_slepc as fk
 from fkev_slepc.archive import products as P
 from fkev_slepc.design.results import open_design
@@ -67,7 +69,7 @@ def test_resume_solves_only_the_pending_design_points(study, tmp_path):
     out, ds = study
     copy = tmp_path / "copy.h5"
     shutil.copy(out, copy)
-    with h5py.File(copy, "r+") as f:  # as if the run had stopped before design points 1 and 4
+    with edited(copy) as f:  # as if the run had stopped before design points 1 and 4
         for ip in (1, 4):
             f[P.D_STATUS.path][ip] = Status.PENDING.code
             f[P.D_FREQUENCY.path][ip] = np.nan

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from clitools import edited
+
 from fkev_slepc.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -170,7 +172,7 @@ def test_floquet_run_archives_bands_resumes_and_opens_with_xarray(tmp_path, monk
     info = fkev("info", out).stdout
     assert "cycle       Floquet verdict of this archive (fkev floquet):" in info and "2ω̄1/1 = " in info
     # resume: three speeds back to pending are the only ones solved on the grid again
-    with h5py.File(out, "r+") as f:
+    with edited(out) as f:
         f[P.F_STATUS.path][[3, 20, 40], 0] = 0
     n_before = len(calls)
     again = fr.read_floquet(fr.run_floquet(_request(tmp_path, resume=True),
@@ -270,7 +272,7 @@ def test_interrupted_edge_refinement_resumes_where_it_stopped(tmp_path):
     run = tmp_path / "run"
     run.mkdir()
     shutil.copy(ref, run / "fq.h5")
-    with h5py.File(run / "fq.h5", "r+") as f:  # grid and frozen sweep done, refinement not started, in an
+    with edited(run / "fq.h5") as f:  # grid and frozen sweep done, refinement not started, in an
         del f["floquet/samples"]  # archive written before /floquet/samples existed (they are added)
     script = tmp_path / "interrupted_script"
     script.write_text(

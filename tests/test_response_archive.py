@@ -10,7 +10,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
-from clitools import ROOT, fkev
+from clitools import ROOT, edited, fkev
 
 from fkev_slepc.api import Study
 from fkev_slepc.archive import products as P
@@ -81,7 +81,7 @@ def test_resume_solves_only_the_pending_speeds(tmp_path, serial, monkeypatch):
     first = _study().response_vs_speed(SPEEDS, output=out, **OPTS)
     for name in FIELDS:
         _same(getattr(first, name), getattr(serial, name), name)
-    with h5py.File(out, "r+") as f:
+    with edited(out) as f:
         f[P.R_STATUS.path][1, 0] = 0
     calls = []
     real = rs.speed_peaks
@@ -114,7 +114,7 @@ def test_ctrl_c_stops_at_a_sync_and_resume_finishes(tmp_path):
             "0:315:45", "--no-shooting", "-o", out]
     assert fkev(*args, "--json").returncode == 0
     done = read_response(out)
-    with h5py.File(out, "r+") as f:  # every speed pending again: the frozen sweep has nothing left to do
+    with edited(out) as f:  # every speed pending again: the frozen sweep has nothing left to do
         f[P.R_STATUS.path][:, 0] = 0
     env = {**os.environ, "PYTHONPATH": str(ROOT), PAUSE_VARIABLE: "1", "OPENBLAS_NUM_THREADS": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "fkev_slepc", *map(str, args), "--resume", "--json"],

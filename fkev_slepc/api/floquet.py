@@ -17,6 +17,39 @@ API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "an
              "plane": "plane"}
 
 
+MAX_MAGNUS_STEPS = 2**24  # full-model Magnus steps of one monodromy (docs/engine.md, "Work limits")
+
+
+def work_problems(scene, case: str, reduce, names: dict) -> list[Problem]:
+    """Before any work: operators that overflow double precision at the top speed
+    (:func:`fkev_slepc.solve.finite.overflow_problems`), and the work of the full-model monodromy at
+    the lowest speed, 2·2π·ρ(A) Magnus steps (:func:`~fkev_slepc.periodic.floquet.full_min_steps`,
+    growing like 1/Ω) on a state of 2n, beyond :data:`MAX_MAGNUS_STEPS` (not checked for a fixed
+    basis ``reduce`` = r, whose steps are the reduced model's), with the estimate and the ways out."""
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.solve.finite import overflow_problems
+    from fkev_slepc.periodic.floquet import full_min_steps
+
+    bad = [Problem(names["speeds"] if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(scene)]
+    if bad or isinstance(reduce, int):
+        return bad
+    low = float(np.min(scene.driver.speeds))
+    model = Model(scene, (case,))
+    with np.errstate(all="ignore"):
+        try:
+            steps = float(full_min_steps(model, low, case))
+        except (OverflowError, ValueError, np.linalg.LinAlgError):
+            steps = float("inf")
+    if not steps <= MAX_MAGNUS_STEPS:
+        n = 2 * model.n_free
+        return [Problem(names["speeds"], f"{low:g} rad/s needs about {steps:.3g} Magnus steps per monodromy on a state "
+                        f"of {n} (work ~ steps x state² = {steps * n * n:.2g}), beyond the limit of {MAX_MAGNUS_STEPS:,} "
+                        "steps (docs/engine.md, \"Work limits\"): the steps grow like 1/speed and with the highest "
+                        "frequency: use higher speeds, fewer --elements, less stiffness-proportional damping, or "
+                        "--reduce N")]
+    return []
+
+
 def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_rpm=None, angles_deg=None,
                   resume: bool = False,
                   force: bool = False, tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL, monodromy_tol: float = 1e-10,
@@ -74,6 +107,9 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     if not np.all(speeds > 0):
         raise SceneError(sc.source, [Problem(names["speeds"], "Floquet speeds must be > 0 rad/s (at rest the frozen "
                                              f"verdict is exact; use fkev point) (got {', '.join(f'{w:g}' for w in speeds)})")])
+    problems = work_problems(scene, case, reduce, names)
+    if problems:
+        raise SceneError(sc.source, problems)
     if output is None:
         if study.path is None:
             raise SceneError(sc.source, [Problem(names["output"], "required for a study made from text")])

@@ -150,10 +150,12 @@ def _settings_of(part) -> dict:
 
 def read_response(path, orders: int = 6):
     """The ``/response`` product of an archive (case 0) as a :class:`SpeedResponse`; failed and pending
-    speeds are NaN (their status: :func:`read_status`)."""
+    speeds are NaN (their status: :func:`read_status`). Verified first (``archive.reader.checked``:
+    a damaged archive warns, one that cannot be decoded or is being written raises ArchiveError)."""
     from fkev_slepc.api.response_speeds import SpeedResponse, forced_resonances
+    from fkev_slepc.archive.verified import checked
 
-    with h5py.File(path, "r") as f:
+    with h5py.File(checked(path), "r") as f:
         g = f[P.RESPONSE.name]
         labels = tuple(f"{_text(n)} @ {s:g} m" for n, s in zip(f[P.STATION_LINK.path][()], f[P.STATION_S.path][()]))
         speeds = f[P.SPEED][()]

@@ -24,6 +24,7 @@ import numpy as np
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.products import FORMAT as ARCHIVE_FORMAT, SUPPORTED_VERSIONS
 from fkev_slepc.archive.scene_text import scene_title
+from fkev_slepc.archive.verified import ArchiveError, DamagedArchiveWarning, checked  # noqa: F401 (the readers' errors)
 from fkev_slepc.scene.cases import case_name
 from fkev_slepc.solve.modes import percent_error
 from fkev_slepc.status import Status, converged_codes
@@ -31,15 +32,6 @@ from fkev_slepc.status import Status, converged_codes
 # Points whose eigenvalues are trustworthy. Unstable and divergent points converged; their
 # oscillatory frequencies are real results. Pending/failed/not-converged points are masked.
 ORDERS = ("sorted", "tracked")
-
-
-class ArchiveError(ValueError):
-    """An archive that cannot be read, or a selection it cannot satisfy (message says which)."""
-
-
-class DamagedArchiveWarning(UserWarning):
-    """The archive read does not match its checksums or its layout (``fkev verify`` would flag it):
-    its values may be wrong. Raised as an error instead with ``warnings.simplefilter("error", ...)``."""
 
 
 @dataclass(frozen=True)
@@ -273,15 +265,7 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool 
     if not path.is_file():
         raise ArchiveError(f"{path}: no such archive")
     if verify:
-        check = verified(path)
-        if check.writer is not None:
-            raise ArchiveError(check.summary() + "; read it when the run finishes")
-        if check.crashed or any("cannot open" in p or "cannot read its structure" in p for p in check.problems):
-            raise ArchiveError(check.summary())
-        if not check.ok:
-            import warnings
-
-            warnings.warn(check.summary(), DamagedArchiveWarning, stacklevel=2)
+        checked(path, stacklevel=3)
     try:
         h5 = h5py.File(path, "r")
     except OSError as exc:
@@ -322,25 +306,6 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool 
             attrs=attrs,
             status_flags=_flags(h5[P.STATUS_VAR.path].attrs),
         )
-
-
-_VERIFIED: dict = {}
-
-
-def verified(path: Path):
-    """:func:`~fkev_slepc.archive.verify.verify` of ``path``, remembered for this process while
-    the file is unchanged (same inode, size and modification time): reading one archive many
-    times checks it once."""
-    from fkev_slepc.archive.verify import verify
-
-    st = path.stat()
-    key = (str(path.resolve()), st.st_ino, st.st_size, st.st_mtime_ns)
-    if key not in _VERIFIED:
-        check = verify(path)
-        if check.writer is not None:  # a live run: it changes, remember nothing
-            return check
-        _VERIFIED[key] = check
-    return _VERIFIED[key]
 
 
 def _damping_ratio(h5) -> np.ndarray:

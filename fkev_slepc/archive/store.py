@@ -44,7 +44,7 @@ import numpy as np
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.groups import build, describe_groups, number_error_rows, present
 from fkev_slepc.archive.products import FORMAT, FORMAT_VERSION, MESSAGE_BYTES, STABILITY_SCOPE, Grid  # noqa: F401
-from fkev_slepc.archive.verify import ROOT_DIGEST_ATTR, stamp
+from fkev_slepc.archive.verify import ROOT_DIGEST_ATTR, stamp, verify
 from fkev_slepc.status import RETRYABLE, Status, codes, converged_codes
 
 
@@ -181,7 +181,8 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
     by :func:`reopen_finished`).
 
     ``expect`` holds root attributes that must match exactly (scene_toml, elements,
-    mode_shapes, n_free). Raises :class:`ArchiveMismatch` naming every difference, or
+    mode_shapes, n_free). Raises :class:`ArchiveMismatch` naming every difference or the damage
+    ``fkev verify`` finds (:func:`refuse_damaged`, before anything is decoded here), or
     FileNotFoundError when there is nothing to resume.
     """
     path = Path(path)
@@ -189,6 +190,7 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
     src = part if part.exists() else path
     if not src.exists():
         raise FileNotFoundError(f"{path}: nothing to resume (neither it nor {part.name} exists)")
+    refuse_damaged(src)
     problems = []
     try:
         f = h5py.File(src, "r")
@@ -216,6 +218,18 @@ def open_for_resume(path, grid: Grid, expect: dict) -> Path:
     if problems:
         raise ArchiveMismatch(f"{src}: cannot resume: " + "; ".join(problems))
     return src
+
+
+def refuse_damaged(src: Path) -> None:
+    """Raise :class:`ArchiveMismatch` when ``fkev verify`` finds ``src`` damaged: checked in a child
+    process before this one decodes anything of it (damaged metadata can crash HDF5), so that a
+    resume never re-stamps damaged values as verified (the caller holds the archive's lock)."""
+    check = verify(src, held=True)
+    if not check.ok:
+        more = f"; and {len(check.problems) - 3} more" if len(check.problems) > 3 else ""
+        raise ArchiveMismatch(f"{src}: damaged, not resumed (a resume would stamp the damage as verified): "
+                              + "; ".join(check.problems[:3]) + more
+                              + f"; see `fkev verify {src}`; start over with --force or write another -o")
 
 
 def scene_difference(archived: str, current: str) -> str | None:

@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 DIGEST_ATTR, ROOT_DIGEST_ATTR = "sha256", "attrs_sha256"
+STRINGS_ATTR = "sha256_strings"  # variable-length string datasets: SHA-256 of the decoded strings
 # HDF5's dimension-scale bookkeeping (object references, not stable bytes) and our own digests
 _SKIP_ATTRS = {"DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "_Netcdf4Dimid", DIGEST_ATTR, ROOT_DIGEST_ATTR}
 
@@ -92,6 +93,16 @@ def dataset_digest(ds, fh=None) -> str:
     return h.hexdigest()
 
 
+def strings_digest(ds) -> str | None:
+    """SHA-256 of the decoded values of a variable-length string dataset (None for other dtypes).
+    Its stored bytes are heap references: a changed character in the heap leaves them alone."""
+    import h5py
+
+    if ds.dtype.kind != "O" or h5py.check_string_dtype(ds.dtype) is None:
+        return None
+    return hashlib.sha256(_value_bytes(ds[()])).hexdigest()
+
+
 def root_digest(f) -> str:
     h = hashlib.sha256()
     _attrs_digest(h, f.attrs)
@@ -124,7 +135,12 @@ def _groups(f) -> list:
 
 
 def stamp(f) -> None:
-    """Write the checksum of every dataset and of the root attributes (file open ``r+``)."""
+    """Write the checksum of every dataset and of the root attributes (file open ``r+``): first the
+    decoded-string digest of each string dataset (:data:`STRINGS_ATTR`, then covered by its ``sha256``)."""
+    for ds in _datasets(f):
+        text_digest = strings_digest(ds)
+        if text_digest is not None:
+            ds.attrs[STRINGS_ATTR] = text_digest
     f.flush()  # every chunk on disk where the file says it is
     with open(f.filename, "rb") as fh:
         digests = {ds.name: dataset_digest(ds, fh) for ds in _datasets(f)}
@@ -179,13 +195,15 @@ class Verification:
         return f"{self.path}: ok ({self.n_datasets} datasets and the root attributes match their SHA-256)"
 
 
-def verify(path: str | Path, isolate: bool = True) -> Verification:
+def verify(path: str | Path, isolate: bool = True, held: bool = False) -> Verification:
     """Read every dataset of an archive and compare it with its stored checksum and its table row.
 
     Detects bytes changed in stored values or attributes, damaged object headers and
     dimension-scale names, datasets that no longer read back, and files HDF5 cannot open
     (truncated, overwritten headers). Never writes. ``isolate`` (default): read in a child
     process, so that damaged metadata that crashes HDF5 is a problem reported, not a crash.
+    ``held``: this process holds the archive's lock (a resume checking it before it writes), so
+    the lock is not a live writer and every problem counts.
     """
     from fkev_slepc.archive.lock import writer_of
 
@@ -193,7 +211,7 @@ def verify(path: str | Path, isolate: bool = True) -> Verification:
     if not out.path.is_file():
         out.problems.append("no such archive")
         return out
-    out.writer = writer_of(out.path)
+    out.writer = None if held else writer_of(out.path)
     live = out.writer is not None
     if not isolate:
         return _fill(out, check(out.path, locking=not live), live)
@@ -218,10 +236,11 @@ def _fill(out: Verification, result: dict, live: bool) -> Verification:
     out.complete = bool(result.get("complete", False))
     out.n_datasets = int(result.get("n_datasets", 0))
     out.counts = dict(result.get("counts", {}))
+    out.notes = list(result.get("notes", []))
     found = list(result.get("problems", []))
     out.crashed = out.crashed or bool(result.get("crashed", False))
     if live:  # a file being written is not damaged: what could not be read is a note
-        out.notes, out.problems = found + out.problems, []
+        out.notes, out.problems = out.notes + found + out.problems, []
         out.crashed = False
     else:
         out.problems += found
@@ -324,7 +343,7 @@ def check(path: Path, locking: bool = True) -> dict:
     ``locking=False`` reads a file another process holds open for writing."""
     import h5py
 
-    out = {"complete": False, "n_datasets": 0, "counts": {}, "problems": []}
+    out = {"complete": False, "n_datasets": 0, "counts": {}, "problems": [], "notes": []}
     problems = out["problems"]
     try:
         f = h5py.File(path, "r", locking=locking)
@@ -354,6 +373,10 @@ def check(path: Path, locking: bool = True) -> dict:
                     problems.append(f"dataset {ds.name} has no checksum")
                 elif stamped and have != _text(want):
                     problems.append(f"dataset {ds.name} changed since the run finished (checksum mismatch)")
+                elif stamped and STRINGS_ATTR in ds.attrs and strings_digest(ds) != _text(ds.attrs[STRINGS_ATTR]):
+                    problems.append(f"dataset {ds.name}: its strings changed since the run finished (checksum mismatch)")
+                elif stamped and strings_digest(ds) is not None and STRINGS_ATTR not in ds.attrs:
+                    out["notes"].append(f"dataset {ds.name}: string contents not checksummed (stamped before {STRINGS_ATTR})")
             for g in _groups(f):  # groups stamped by this version: attributes and member names
                 want = g.attrs.get(DIGEST_ATTR) if stamped else None
                 if want is not None and group_digest(g) != _text(want):

@@ -68,13 +68,16 @@ def split_petsc_options(argv: list[str]) -> tuple[list[str], list[str]]:
 
 
 def attach_negative_values(argv: list[str]) -> list[str]:
-    """``--speed -5e2`` as ``--speed=-5e2``: argparse reads only ``-5`` and ``-0.5`` as negative
-    numbers and takes ``-5e2`` or ``-inf`` for an unknown option.
+    """``--speed -5e2`` as ``--speed=-5e2`` (and ``--gravity -981,0``, ``--angles -90:90:10``):
+    argparse reads only ``-5`` and ``-0.5`` as negative numbers and takes ``-5e2``, ``-inf`` or a list
+    for an unknown option.
 
     Examples
     --------
     >>> attach_negative_values(["point", "s.toml", "--speed", "-5e2", "--angle", "-10"])
     ['point', 's.toml', '--speed=-5e2', '--angle=-10']
+    >>> attach_negative_values(["loads", "s.toml", "--gravity", "-981,0"])
+    ['loads', 's.toml', '--gravity=-981,0']
     """
     out: list[str] = []
     for tok in argv:
@@ -87,8 +90,17 @@ def attach_negative_values(argv: list[str]) -> list[str]:
 
 
 def _is_number(tok: str) -> bool:
+    """A number, or numbers joined by ``,`` or ``:`` (``-981,0``, ``-5e2``, ``-90:90:10``): the value
+    of an option that takes numbers, even with a leading minus.
+
+    Examples
+    --------
+    >>> [_is_number(t) for t in ("-5e2", "-981,0", "-90:90:10", "-log_view", "-")]
+    [True, True, True, False, False]
+    """
     try:
-        float(tok)
+        for part in tok.replace(":", ",").split(","):
+            float(part)
         return True
     except ValueError:
         return False

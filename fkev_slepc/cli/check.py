@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
 def print_links(scene: Scene) -> list[str]:
     """The per-link table (mass, slenderness, pinned-pinned f₁ estimate; scene/plausible.py) on
     stdout; returns the warnings on implausible values."""
-    from fkev_slepc.scene.plausible import summarize_scene
+    from fkev_slepc.scene.plausible import damping_warnings, summarize_scene
 
     rows = summarize_scene(scene)
     import re
@@ -68,7 +68,7 @@ def print_links(scene: Scene) -> list[str]:
     print(f"  {'link':<12} {'L [m]':>9} {'mass [kg]':>10} {'L/r':>8} {'f1 pinned-pinned [Hz]':>22}")
     for s in rows:
         print(f"  {s.name:<12} {s.length_m:>9.4g} {s.mass_kg:>10.4g} {s.slenderness:>8.4g} {s.pinned_frequency_hz:>22.5g}")
-    return [w for s in rows for w in s.warnings]
+    return [w for s in rows for w in s.warnings] + damping_warnings(scene, rows)
 
 
 def print_buckling(scene: Scene) -> list[str]:
@@ -104,20 +104,9 @@ def check_scene(path: str | Path) -> Scene:
         With every schema problem, or else with every assembly/topology problem.
     """
     scene = load_scene(path)
-    # Imported here: kinematics needs numpy and the mechanism, which a schema check does not.
-    from fkev_slepc.model.kinematics import assembly_problems
+    from fkev_slepc.sweep.grid import scene_problems
 
-    problems = assembly_problems(scene)
-    if not problems:
-        from fkev_slepc.model.mechanism import build_mechanism
-
-        from .common import modes_problem
-
-        problems = [p for p in [modes_problem(scene.analysis.modes, build_mechanism(scene).n_free, None)] if p]
-    if not problems:  # finite values whose operators are not (a speed of 1e155 rad/s, an area of 1e300 m²)
-        from fkev_slepc.solve.finite import overflow_problems
-
-        problems = overflow_problems(scene)
+    problems = scene_problems(scene)
     if problems:
         raise SceneError(scene.source, problems)
     if scene.solver.petsc:  # names PETSc would silently ignore (misspelt) are errors too

@@ -116,6 +116,82 @@ def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
     return scene
 
 
+PLOT_FORMATS = (".png", ".pdf", ".svg")  # every --plot of every command
+MAX_FREE_DOFS = 100_000  # a mesh beyond: refused before meshing (docs/cli.md, "Limits"; 50,400 DOFs measured in docs/engine.md)
+MAX_PERIODIC_DOFS = 1_000  # floquet and response integrate dense 2n x 2n states: beyond, refused
+
+
+def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", plots: tuple[str, ...] = ("plot",),
+              output: str | None = None, periodic: bool = False, harmonics: int | None = None) -> None:
+    """Every check of a command's input that needs no solve, before any work (one place for all
+    commands): the figure paths (``plots``: attribute names of ``args``, e.g. ``plot_stations`` for
+    ``--plot-stations``; a format matplotlib writes, an existing folder), the ``output`` file of a
+    labelled result (``-o``: not a directory), the mesh size (``--elements``: at most
+    :data:`MAX_FREE_DOFS` free DOFs, :data:`MAX_PERIODIC_DOFS` for the ``periodic`` commands floquet
+    and response), the harmonic-balance size (``harmonics``), the damping (ζ over-critical,
+    :func:`fkev_slepc.scene.plausible.damping_warnings`) and ``speeds`` whose operators overflow
+    double precision (named by ``speed_flag``).
+
+    Raises
+    ------
+    SceneError
+        Every problem found, each naming its flag and value.
+    """
+    from dataclasses import replace
+
+    from fkev_slepc.archive.paths import PathProblem, check_output
+
+    bad: list[Problem] = []
+    for name in plots:
+        path = getattr(args, name, None)
+        if path is not None:
+            flag = "--" + name.replace("_", "-")
+            try:
+                check_output(path, PLOT_FORMATS, flag)
+            except PathProblem as exc:
+                bad.append(Problem(flag, str(exc).removeprefix(flag + " ")))
+    if output is not None:
+        try:
+            check_output(output, (".h5",), "-o", make_parent=True)
+        except PathProblem as exc:
+            bad.append(Problem("-o", str(exc).removeprefix("-o ")))
+    bad += _size_problems(scene, periodic, harmonics)
+    if bad:  # nothing below is worth computing
+        raise SceneError(scene.source, bad)
+    if periodic:
+        from fkev_slepc.scene.plausible import damping_warnings, summarize_scene
+
+        bad += [Problem("damping", w.removeprefix("damping: ")) for w in damping_warnings(scene, summarize_scene(scene))]
+    if speeds is not None and len(speeds):
+        from fkev_slepc.solve.finite import overflow_problems
+
+        top = max((float(w) for w in speeds), key=abs)
+        at = replace(scene, driver=replace(scene.driver, speeds=(top,)))
+        bad += [Problem(speed_flag if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(at)]
+    if bad:
+        raise SceneError(scene.source, bad)
+
+
+def _size_problems(scene: Scene, periodic: bool, harmonics: int | None) -> list[Problem]:
+    """The mesh (and harmonic balance) too large to be worth starting, with the numbers and the way out."""
+    from fkev_slepc.model.mechanism import build_mechanism
+
+    n = build_mechanism(scene).n_free
+    limit, what = (MAX_PERIODIC_DOFS, "the periodic solvers integrate dense states of 2n") if periodic else (
+        MAX_FREE_DOFS, "the limit of one command")
+    if n > limit:
+        return [Problem("--elements", f"{n} free DOFs exceed {limit} ({what}; docs/cli.md, Limits): use fewer "
+                                      "--elements")]
+    if harmonics is not None:
+        from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS
+
+        if (2 * harmonics + 1) * n > MAX_UNKNOWNS:
+            return [Problem("--harmonics", f"{harmonics} harmonics x {n} DOFs = {(2 * harmonics + 1) * n} unknowns "
+                                           f"exceed the dense limit {MAX_UNKNOWNS}: use at most "
+                                           f"{max(MAX_UNKNOWNS // n - 1, 0) // 2} harmonics (got {harmonics})")]
+    return []
+
+
 def report_scene_error(err: SceneError) -> int:
     print(str(as_flags(err)), file=sys.stderr)
     return 2

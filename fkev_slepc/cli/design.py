@@ -17,8 +17,10 @@ import numpy as np
 
 from fkev_slepc.design.results import design_rows
 from fkev_slepc.scene import Problem, SceneError
-from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
+from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_speeds_arguments
+
+UNSOLVED = ("failed", "not_converged")  # a design point with one of these at any grid point has no minima
 
 
 def add_parser(sub) -> None:
@@ -61,6 +63,9 @@ def parse_sets(sets: list[str]) -> dict:
         key, eq, values = s.partition("=")
         if not eq or not key.strip() or not values.strip():
             bad.append(Problem("--set", f"expected KEY=START:STOP:STEP or KEY=a,b,c (got {s!r})"))
+        elif key.strip() in out:
+            bad.append(Problem("--set", f"{key.strip()} is given twice (got {out[key.strip()]!r} and {values.strip()!r}; "
+                                        "one --set per key, its values as a list or range)"))
         else:
             out[key.strip()] = values.strip()
     if bad:
@@ -97,18 +102,19 @@ def run(args) -> int:
         if rank0:
             print(str(err) if bad_scene else f"fkev design: {err}", file=sys.stderr, flush=True)
         return EXIT_BAD_INPUT if bad_scene else err.exit_code
-    if rank0:
-        ds = open_design(output)
-        if args.csv:
-            write_csv(ds, args.csv)
-        if args.json:
-            json.dump({"archive": str(output), "design_keys": list(ds.attrs["design_keys"]),
-                       "rows": design_rows(ds)}, sys.stdout)
-            print()
-        elif args.csv != "-":
-            print_summary(ds, output)
-            print_checks(ds)
-    return EXIT_OK
+    if not rank0:
+        return EXIT_OK
+    ds = open_design(output)
+    if args.csv:
+        write_csv(ds, args.csv)
+    if args.json:
+        json.dump({"archive": str(output), "design_keys": list(ds.attrs["design_keys"]),
+                   "rows": design_rows(ds)}, sys.stdout)
+        print()
+    elif args.csv != "-":
+        print_summary(ds, output)
+        print_checks(ds)
+    return EXIT_NOT_CONVERGED if np.isin(ds.status.values, UNSOLVED).any() else EXIT_OK
 
 
 def write_csv(ds, path: str) -> None:
@@ -168,7 +174,8 @@ def _table(rows, keys, cols) -> None:
 
 def print_summary(ds, output) -> None:
     """One row per design point: its values, the lowest frequency of each mode over the crank
-    cycle at the top speed (first case), and the lowest divergence speed of each case."""
+    cycle at the top speed (first case), and the lowest divergence speed of each case; a point
+    with a failed or not-converged grid point says so instead of minima over the angles that solved."""
     keys = list(ds.attrs["design_keys"])
     top, case = float(ds.speed_rad_s.max()), str(ds.case.values[0])
     fmin = ds.frequency_min_hz.sel(speed_rad_s=top, case=case)
@@ -183,6 +190,11 @@ def print_summary(ds, output) -> None:
     for idx in np.ndindex(*[ds.sizes[k] for k in keys]):
         sel = {k: i for k, i in zip(keys, idx)}
         vals = [f"{float(ds[k].values[i]):>18.6g}" for k, i in sel.items()]
+        unsolved = np.isin(ds.status.isel(sel).values, UNSOLVED)
+        if unsolved.any():
+            print(" ".join(vals) + f"  {int(unsolved.sum())} of {unsolved.size} grid points failed or did not converge: "
+                  "no minima (fkev info names them)")
+            continue
         f = [f"{float(v):>12.5g}" for v in fmin.isel(sel).values]
         d = ds.divergence_speed_rad_s.isel(sel)
         div = [f"{float(d.sel(case=c)):>22.6g}" for c in cases]

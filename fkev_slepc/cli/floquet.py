@@ -14,7 +14,7 @@ from pathlib import Path
 
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
-from .common import add_elements_argument, add_speeds_arguments, load_checked
+from .common import add_elements_argument, add_speeds_arguments, load_checked, preflight
 
 NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles", "cases": "--case",
          "modes": "--modes", "element": "--element", "rel_error": "--rel-error", "tol": "--tol", "rtol": "--rtol",
@@ -81,6 +81,7 @@ def run(args) -> int:
     rank0 = comm.rank == 0
     try:
         study = Study(load_checked(args.scene, args.elements, check_angles=False), Path(args.scene))
+        preflight(study.scene, args, periodic=True)  # figure path, mesh size, damping; speeds: study_floquet
         res = study_floquet(study, args.speeds, args.case, args.output, speeds_rpm=args.speeds_rpm,
                             angles_deg=args.angles, resume=args.resume,
                             force=args.force, tol=DEFAULT_TOL if args.tol is None else args.tol,
@@ -122,11 +123,13 @@ def lines(o: dict) -> list[str]:
     w = o["speed_rad_s"]
     mx = [v - 1.0 for v in o["max_abs_multiplier"] if v is not None]
     n_bad = sum(s == "unstable" for s in o["status"])
+    n_open = sum(s in ("failed", "not_converged") for s in o["status"])
     extra = o.get("samples_beside_grid") or {}
     more = ", ".join(f"{n} {SAMPLE_WORDS.get(k, k)} {_plural(n, 'speed')}" for k, n in sorted(extra.items()) if n)
     out = [f"{o['scene']}: case {o['case']}, {_speeds(w)}{f' (and {more})' if more else ''}; archive {o['archive']}",
            f"  cycle verdict (Floquet multipliers of one revolution): {n_bad} of {len(w)} grid {_plural(len(w), 'speed')} "
-           f"unstable (max|μ| - 1 > {o['tol']:g} + 10 x error estimate); max|μ| - 1 {_span(mx, '.3g')}"]
+           f"unstable (max|μ| - 1 > {o['tol']:g} + 10 x error estimate)"
+           + (f", {n_open} not converged (no verdict)" if n_open else "") + f"; max|μ| - 1 {_span(mx, '.3g')}"]
     frozen = [100 * v for v in o["frozen_time_unstable_fraction"] if v is not None]
     if frozen:
         out.append(f"  frozen-time verdict of the same speeds: {_span(frozen, '.0f')} % of crank angles unstable or "

@@ -98,7 +98,9 @@ def report(res, n_errors: int = 5) -> list[str]:
     na, ns, nc = res.status.shape
     counts = status_counts(res.status)
     total = sum(counts.values())
-    complete = "complete" if int(at.get("complete", 0)) else "INCOMPLETE (resume with fkev run --resume)"
+    waiting = pending_products(res.path)
+    complete = "complete" if int(at.get("complete", 0)) else "INCOMPLETE" + (
+        ": " + "; ".join(f"{name} {k} of {n} units pending" for name, k, n in waiting) if waiting else "")
     lines = [
         f"{res.path}: {res.title}",
         f"  archive     {at.get('format')} v{at.get('format_version')}, {complete}; created {at.get('created')}",
@@ -148,6 +150,9 @@ def report(res, n_errors: int = 5) -> list[str]:
         lines.append("  cycle       frozen-time verdicts hold the matrices at each crank angle; whether vibration grows "
                      f"over a revolution: fkev floquet {at.get('scene_source') or 'SCENE'} --speeds {moving}")
     lines.extend(_errors(res, n_errors))
+    if not int(at.get("complete", 0)):
+        name = waiting[-1][0] if waiting else "sweep"
+        lines.append(f"  resume      {resume_command(at, name)}")
     settings = solver_settings(res)
     lines.extend(settings_table(settings))
     lines.append(f"  thresholds  imag_tol {at.get('imag_tol')}, damping_tol {at.get('damping_tol')}")
@@ -244,8 +249,46 @@ def _floquet_growth(path) -> dict:
             for jc in range(mx.shape[1])}
 
 
+RESUMED_BY = {"sweep": "run", "design": "design", "floquet": "floquet", "response": "response"}
+"""The command that continues each product of an archive."""
+
+
+def pending_products(path) -> list[tuple[str, int, int]]:
+    """(product, pending units, units) of every product of the archive with pending units, in
+    the order they are written (the frozen sweep first)."""
+    import h5py
+
+    from fkev_slepc.archive import products as P
+    from fkev_slepc.status import Status
+
+    out = []
+    with h5py.File(path, "r") as f:
+        for product in P.PRODUCTS:
+            if product.status in f:
+                st = np.asarray(f[product.status][()], dtype=np.uint8)
+                k = int(np.count_nonzero(st == Status.PENDING.code))
+                if k:
+                    out.append((product.name, k, int(st.size)))
+    return out
+
+
+def resume_command(attrs: dict, product: str) -> str:
+    """The command that continues ``product``: the archived command line of that command with
+    ``--resume``, else its form with the scene and the options of the interrupted run to repeat."""
+    from fkev_slepc.archive.store import text
+
+    word = f"fkev {RESUMED_BY[product]} "
+    for key in ("last_command_line", "command_line"):
+        cmd = text(attrs.get(key, ""))
+        if cmd.startswith(word):  # --force would start over: dropped
+            words = [w for w in cmd.split(" ") if w != "--force"]
+            return " ".join(words + ([] if "--resume" in words else ["--resume"]))
+    return f"{word}{attrs.get('scene_source') or 'SCENE'} (the options of the interrupted run) -o ARCHIVE --resume"
+
+
 def _floquet_lines(path) -> list[str]:
-    """The cycle verdict of an archive written by ``fkev floquet`` (its ``/floquet`` product), else []."""
+    """The cycle verdict of an archive written by ``fkev floquet`` (its ``/floquet`` product), else []:
+    while speeds are pending, no verdict, only what is pending."""
     import h5py
 
     from fkev_slepc.archive import products as P
@@ -253,6 +296,11 @@ def _floquet_lines(path) -> list[str]:
     with h5py.File(path, "r") as f:
         if P.FLOQUET.status not in f:
             return []
+    pending = [(k, n) for name, k, n in pending_products(path) if name == "floquet"]
+    if pending:
+        k, n = pending[0]
+        return [f"  cycle       Floquet verdict of this archive (fkev floquet): pending ({k} of {n} speeds not solved "
+                "yet; no verdict until they are: see resume below)"]
     from fkev_slepc.cli.floquet import lines
     from fkev_slepc.sweep.floquet_run import read_floquet
 

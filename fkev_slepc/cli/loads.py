@@ -13,7 +13,8 @@ import numpy as np
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
 from .common import (
-    add_elements_argument, add_speed_arguments, angles_and_gravity, chosen_speed, load_checked, report_scene_error,
+    add_elements_argument, add_speed_arguments, angles_and_gravity, chosen_speed, load_checked, preflight,
+    report_scene_error,
 )
 
 FLAGS = {"speed_rad_s": "--speed", "accel_rad_s2": "--accel", "gravity_m_s2": "--gravity",
@@ -63,6 +64,7 @@ def run(args) -> int:
         scene = load_checked(args.scene, args.elements, check_angles=angles is None)
         flags = dict(FLAGS)
         speed = chosen_speed(args, scene, flags)
+        preflight(scene, args, speeds=[speed], output=args.output)
         loads = study_loads(scene, speed, angles, args.accel, gravity, names=flags)
     except SceneError as err:
         return report_scene_error(err)

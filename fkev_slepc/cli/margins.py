@@ -41,9 +41,19 @@ def run(args) -> int:
     from fkev_slepc.archive.reader import ArchiveError, load
     from fkev_slepc.design.margins import margins
 
+    import math
+
+    from .common import PLOT_FORMATS
+
+    given, flag = (args.speed, "--speed") if args.speed is not None else (args.speed_rpm, "--speed-rpm")
+    if not math.isfinite(given) or (args.modes is not None and not args.modes):
+        what = (f"{flag}: must be a finite crank speed on the archive's grid (got {given})" if not math.isfinite(given)
+                else "--modes: give at least one mode number, e.g. 1,2 (got none)")
+        print(f"fkev margins: {what}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     try:
         if args.plot is not None:
-            check_output(args.plot, (".png", ".pdf", ".svg"), "--plot")
+            check_output(args.plot, PLOT_FORMATS, "--plot")
         res = load(args.archive)
         speed = args.speed if args.speed is not None else args.speed_rpm * RAD_S_PER_RPM
         table = margins(res, speed, args.case, args.orders, args.order, args.modes, args.per_order)

@@ -15,7 +15,10 @@ import warnings
 from pathlib import Path
 
 from fkev_slepc.status import EXIT_BAD_INPUT
-FORMATS = (".png", ".pdf", ".svg")
+
+from .common import PLOT_FORMATS
+
+FORMATS = PLOT_FORMATS  # the figure formats of every --plot (cli/common.py)
 
 
 def _floats(text: str) -> list[float]:

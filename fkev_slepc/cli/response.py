@@ -13,7 +13,7 @@ from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import (
     add_elements_argument, add_speed_arguments, add_speeds_arguments, angles_and_gravity, apply_element, chosen_speed,
-    load_checked, report_scene_error,
+    load_checked, preflight, report_scene_error,
 )
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
@@ -95,10 +95,14 @@ def run(args) -> int:
     try:
         angles, gravity, stations = _parse(args)
         scene = apply_element(load_checked(args.scene, args.elements, check_angles=False), args.element)
-        if args.speeds is not None or args.speeds_rpm is not None:
-            return _vs_speed(args, scene, angles, gravity, stations)
+        scan = args.speeds is not None or args.speeds_rpm is not None
         flags = dict(FLAGS)
-        speed = chosen_speed(args, scene, flags)
+        speed = None if scan else chosen_speed(args, scene, flags)
+        preflight(scene, args, speeds=args.speed_list if scan else [speed],
+                  speed_flag=args.speeds_flag if scan else flags["speed_rad_s"], plots=("plot", "plot_stations"),
+                  output=None if scan else args.output, periodic=True, harmonics=args.harmonics)
+        if scan:
+            return _vs_speed(args, scene, angles, gravity, stations)
         res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
                              harmonics=args.harmonics, tol=args.tol, shoot=args.shooting, stations=stations,
                              names=flags)

@@ -37,15 +37,20 @@ def _strings(ds) -> list[str]:
 def open_design(path):
     """The ``/design`` group of an archive of ``fkev design`` as an ``xarray.Dataset``.
 
+    Verified first (``archive.reader.checked``): a damaged archive warns (DamagedArchiveWarning).
+
     Raises
     ------
     ArchiveError
-        Not an archive, or one without a design study.
+        Not an archive, one without a design study, one whose metadata cannot be decoded, or
+        one a live run is writing.
     """
     import xarray as xr
 
+    from fkev_slepc.archive.verified import checked
     from fkev_slepc.status import Status, converged_codes
 
+    checked(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:

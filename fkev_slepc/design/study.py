@@ -33,6 +33,9 @@ from fkev_slepc.design.point_checks import CheckOptions, stress_problems
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 
+MAX_DESIGN_POINTS = 10_000  # each design point is a whole sweep (and is checked as a scene before any solve)
+
+
 @dataclass(frozen=True)
 class DesignGrid:
     """Design keys and the values of each (scene units: SI); points in C order (first key slowest)."""
@@ -81,6 +84,11 @@ def design_grid(params: dict, name: str = "params") -> DesignGrid:
             continue
         keys.append(str(key))
         axes.append(tuple(float(f"{v:.15g}") for v in vals))  # 0.25 + 3 x 0.05 -> 0.4
+    n_points = int(np.prod([len(a) for a in axes], dtype=float)) if axes else 0
+    if n_points > MAX_DESIGN_POINTS:
+        bad.append(Problem(name, f"{n_points:,} design points ({' x '.join(str(len(a)) for a in axes)}), each a whole "
+                                 f"sweep, exceed the limit of {MAX_DESIGN_POINTS:,} (docs/cli.md, Limits): use coarser "
+                                 "steps or fewer keys"))
     if len(set(keys)) != len(keys):
         bad.append(Problem(name, f"a key is given twice (got {', '.join(keys)})"))
     if bad:
@@ -89,17 +97,23 @@ def design_grid(params: dict, name: str = "params") -> DesignGrid:
 
 
 def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
-    """The scene of every design point (validated like files), or one SceneError listing every
-    design point that is not a valid scene (nothing computed)."""
+    """The scene of every design point (validated like files, then checked as ``fkev check`` checks
+    one: assembly at every crank angle, modes, operator overflow;
+    :func:`fkev_slepc.sweep.grid.scene_problems`), or one SceneError listing every design point that
+    is not a valid scene (nothing computed)."""
     from fkev_slepc.scene.edit import replace_values
+    from fkev_slepc.sweep.grid import scene_problems
 
     out, bad = [], []
     for i, values in enumerate(grid.points):
+        said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
         try:
-            out.append(replace_values(scene, dict(zip(grid.keys, values.tolist()))))
+            out.append(replace_values(scene, {k: int(v) if float(v).is_integer() and abs(v) < 2**53 else v
+                                              for k, v in zip(grid.keys, values.tolist())}))  # integer keys too
         except SceneError as err:
-            said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
             bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in err.problems]
+            continue
+        bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in scene_problems(out[-1])]
     if bad:
         raise SceneError(scene.source, bad)
     return out

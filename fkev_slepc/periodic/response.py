@@ -64,7 +64,7 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     constant in the link frame (:func:`static_response`) the harmonic balance is that one static
     solve, whatever ``harmonics``.
 
-    Raises ``response_shooting.ResonanceError`` where (I − Φ) is singular to working precision."""
+    Raises ``periodic.shooting.ResonanceError`` where (I − Φ) is singular to working precision."""
     sh = None
     if shoot:  # first: it refuses an exact resonance before the collocation solves a singular system
         sh = shooting(system.mck, system.load, omega, np.zeros(1), tol=shooting_tol)

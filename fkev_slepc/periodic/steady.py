@@ -37,7 +37,7 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None):
     """The Model of a periodic response of ``case``, or SceneError listing ``bad`` and every problem
     found before any work (docs/response.md §3): the case, a constant crank speed, a crank that
     turns fully, ``harmonics`` an integer >= 2 (the error estimate compares H with H/2), and the
-    dense harmonic balance within ``response_hb.MAX_UNKNOWNS`` ((2H + 1)·n unknowns at the fixed
+    dense harmonic balance within ``periodic.harmonic_balance.MAX_UNKNOWNS`` ((2H + 1)·n unknowns at the fixed
     H, or at H = 16, the first level doubled from 8; not asked of a lone rotating link, one static
     solve)."""
     from fkev_slepc.model.operating_point import full_turn_problem

@@ -72,7 +72,7 @@ class Truncation:
 def resolve_reduce(value):
     """None (the full model), "default", "auto", a number of modes per angle, "links" or
     "links:N" from what a user asked: "default" (decided per speed by
-    ``floquet_linkage.default_reduction``: the full model below ``AUTO_MIN_STEPS`` full-model steps
+    ``periodic.floquet.default_reduction``: the full model below ``AUTO_MIN_STEPS`` full-model steps
     2·2π·ρ(A), above "links" where the link-component level of 8 modes per link needs at most
     1/``LINKS_STEP_RATIO`` of them, else "auto"; docs/engine.md measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
     link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled until

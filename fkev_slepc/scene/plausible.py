@@ -63,3 +63,25 @@ def summarize(link: Link, index: int) -> LinkSummary:
 
 def summarize_scene(scene: Scene) -> list[LinkSummary]:
     return [summarize(lk, i) for i, lk in enumerate(scene.links)]
+
+
+MAX_ZETA = 1.0  # Rayleigh damping over-critical at a link's first bending frequency: no structure (steel 0.001-0.05)
+
+
+def damping_warnings(scene: Scene, rows: list[LinkSummary]) -> list[str]:
+    """A warning when the scene's Rayleigh damping C = αM + βK gives a damping ratio
+    ζ(ω) = α/(2ω) + βω/2 above :data:`MAX_ZETA` at a link's pinned-pinned first bending frequency
+    ω = 2π f₁ (``rows``: :func:`summarize_scene`): over-critical, a unit slip (β in ms typed as s?)."""
+    alpha, beta = scene.damping.mass_proportional, scene.damping.stiffness_proportional
+    if not (alpha or beta):
+        return []
+    out = []
+    for s in rows:
+        w = 2.0 * math.pi * s.pinned_frequency_hz
+        zeta = alpha / (2.0 * w) + beta * w / 2.0 if w > 0 and math.isfinite(w) else math.inf
+        if not zeta <= MAX_ZETA:
+            out.append(f"damping: mass_proportional_1_s = {alpha:g} 1/s, stiffness_proportional_s = {beta:g} s give "
+                       f"ζ = {zeta:.3g} at the first bending frequency {s.pinned_frequency_hz:.4g} Hz of link "
+                       f"{s.name!r} (over-critical, > {MAX_ZETA:g}): a unit slip?")
+            break
+    return out

@@ -154,7 +154,16 @@ def expand(r: Reader, table, path: str):
         r.add(join(where, "inner_diameter_m"), f"must be < outer_diameter_m = {show(sec['outer_diameter_m'])} "
                                                f"(got {show(sec['inner_diameter_m'])})")
         return out
-    out["area_m2"], out["second_moment_m4"], out[FIBRE_KEY] = properties(shape, dims)
+    try:
+        props = properties(shape, dims)
+    except OverflowError:
+        props = (math.inf,)
+    if not all(math.isfinite(v) for v in props):  # a height of 1e155 m: h³ overflows double precision
+        big = max(SHAPES[shape], key=lambda k: dims[k])
+        r.add(join(where, big), f"gives a section whose area or second moment overflows double precision "
+                                f"(got {show(sec[big])} m)")
+        return out
+    out["area_m2"], out["second_moment_m4"], out[FIBRE_KEY] = props
     for key, value in zip(OUT_KEYS, out_of_plane(shape, dims)):
         out[key] = value
     out[REPORTED] = tuple(k for k in out[REPORTED] if k not in EXPLICIT)

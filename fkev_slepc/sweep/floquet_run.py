@@ -68,9 +68,10 @@ class FloquetRequest(ProductRequest):
 def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False, comm=None):
     """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised). Reduced
     (``reduce``), the point's error adds the truncation change of max|μ| (so that it enters the verdict's
-    margin) and ``evaluate.reduction[speed]`` keeps the basis size and the truncation measures. With
-    ``progress`` each speed's Magnus runs are reported on stderr (:class:`_SpeedProgress`). ``comm``: the
-    ranks that share each monodromy's steps (collective evaluation)."""
+    margin), a truncation that did not converge makes the point not converged (its verdict is
+    ``not_converged``, never ok: issue 27 item 1) and ``evaluate.reduction[speed]`` keeps the basis size
+    and the truncation measures. With ``progress`` each speed's Magnus runs are reported on stderr
+    (:class:`_SpeedProgress`). ``comm``: the ranks that share each monodromy's steps (collective evaluation)."""
     from fkev_slepc.periodic.floquet import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
@@ -88,7 +89,8 @@ def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False
             evaluate.reduction[float(speed)] = {"basis": res.basis, "max_abs": t.max_abs, "converged": t.converged,
                                                 "growth_rate": t.growth_rate, "frequency": t.frequency,
                                                 "covered": np.nan if res.covered_rad_s is None else res.covered_rad_s}
-            point = replace(point, error=point.error + t.max_abs * point.max_abs)
+            point = replace(point, error=point.error + t.max_abs * point.max_abs,
+                            converged=point.converged and bool(t.converged))
         return point, ""
 
     evaluate.reduction = {}
@@ -127,8 +129,16 @@ def _engine_available() -> None:
     from fkev_slepc.sweep.session import RunRefused
 
     if importlib.util.find_spec("fkev_slepc.periodic.floquet") is None:
-        raise RunRefused("the linkage Floquet engine (solve stage, module floquet_linkage: the exact periodic "
+        raise RunRefused("the linkage Floquet engine (periodic stage, module periodic.floquet: the exact periodic "
                          "coefficients) is not in this checkout")
+
+
+def _not_converged(reduced: dict | None) -> str:
+    """Why a speed is not converged: the frozen-mode truncation (with its change) or the monodromy."""
+    if reduced and not reduced["converged"]:
+        return (f"frozen-mode truncation did not converge (basis of {int(reduced['basis'])} vectors, change of "
+                f"max|μ| {float(reduced['max_abs']):.2g}); solve this speed with --reduce none or a larger --reduce")
+    return "monodromy did not reach its tolerance"
 
 
 def _status(point: SpeedPoint, message: str, tol: float) -> int:
@@ -176,7 +186,7 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
         reduced = getattr(grid_evaluate, "reduction", {}).get(float(speeds[js]))
         if reduced:
             data.update({v.path: np.array(reduced[v.source], dtype=v.dtype) for v in REDUCTION_ROWS})
-        errors = [((js, jc), code, message or "monodromy did not reach its tolerance")] if code in (
+        errors = [((js, jc), code, message or _not_converged(reduced))] if code in (
             Status.FAILED.code, Status.NOT_CONVERGED.code) else []
         return Block(unit, mask, data, np.array(code, np.uint8), errors)
 
@@ -273,8 +283,11 @@ def _write_bands(part, bands: list[Band]) -> None:
 
 def read_floquet(path) -> FloquetResults:
     """The Floquet product of an archive (case 0) with its bands and the frozen-time share of
-    unstable crank angles at each speed."""
-    path = Path(path)
+    unstable crank angles at each speed. Verified first (``archive.reader.checked``: a damaged
+    archive warns, one that cannot be decoded or is being written raises ArchiveError)."""
+    from fkev_slepc.archive.verified import checked
+
+    path = checked(path)
     with h5py.File(path, "r") as f:
         g = f[P.FLOQUET.name]
         cols = {v.source: f[v.path][()] for v in P.BAND_ROWS if v.source and v.path in f}  # older: fewer rows

@@ -144,6 +144,21 @@ def modes_problem(n_modes: int, n_free: int, name: str | None) -> Problem | None
                    "oscillating modes (refine with --elements or ask fewer)")
 
 
+def scene_problems(scene: Scene) -> list[Problem]:
+    """Every problem that stops a valid scene file from being solved (``fkev check`` and each design
+    point of ``fkev design``): the crank angles at which the linkage cannot be assembled, else more
+    modes than DOFs, else operators that overflow double precision
+    (:func:`fkev_slepc.solve.finite.overflow_problems`)."""
+    from fkev_slepc.model.kinematics import assembly_problems
+    from fkev_slepc.model.mechanism import build_mechanism
+    from fkev_slepc.solve.finite import overflow_problems
+
+    problems = assembly_problems(scene)
+    if not problems:
+        problems = [p for p in [modes_problem(scene.analysis.modes, build_mechanism(scene).n_free, None)] if p]
+    return problems or overflow_problems(scene)
+
+
 def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=None, modes=None,
               mode_shapes=False, element=None, rel_error=None, names=API_NAMES) -> Scene:
     """``scene`` with its sweep grid (and element, requested accuracy) overridden where a value

@@ -1,0 +1,275 @@
+"""Regression tests of the reliability defects of issue 27 (stress campaign, round three): each
+reproducer either gets an honest answer or is refused/flagged, never a wrong answer marked ok, a
+traceback, nor damage passed on as verified.
+
+"B-W 1-1-1" is runs/bahgat-willmert-1976.toml with ``--elements 1``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import h5py
+import numpy as np
+import pytest
+from clitools import BW, ROOT, fkev
+
+sys.path.insert(0, str(ROOT / "scripts"))
+from stress_products import ADVERSARIAL, arguments  # noqa: E402 (the campaign's table of adversarial inputs)
+
+B_W_111 = (BW, "--elements", "1")
+
+
+def test_a_reduced_monodromy_whose_truncation_did_not_converge_is_not_ok(tmp_path):
+    """B-W 1-1-1 at 350 rad/s on a basis of 1 mode per angle: the truncation changes max|μ| by 0.029
+    (not converged; the full model gives 1.0294, unstable). Reported ok before (max|μ| - 1 = 1.75e-13,
+    exit 0); now the speed is not_converged (exit 3), the archive says so and the report names it."""
+    out = tmp_path / "f.h5"
+    r = fkev("floquet", *B_W_111, "--speeds", "350", "--reduce", "1", "--angles", "0:360:90", "--no-critical",
+             "--json", "-o", out)
+    assert r.returncode == 3, r.stderr
+    o = json.loads(r.stdout)
+    assert o["status"] == ["not_converged"] and o["truncation_converged"] == [0]
+    assert o["truncation_max_abs"][0] > 1e-3
+    with h5py.File(out, "r") as f:
+        assert f["floquet/truncation_converged"][0, 0] == 0
+    from fkev_slepc.cli.floquet import lines
+
+    assert any("1 not converged (no verdict)" in ln for ln in lines(o) if "cycle verdict" in ln), lines(o)
+
+
+@pytest.mark.parametrize("key, bad", [("links[0].length_m", "0.3"),  # crank 0.3 m: no assembly over 160-199 deg
+                                      ("links[0].youngs_modulus_pa", "1e155"),  # K overflows double precision
+                                      ("links[1].length_m", "1e155")])  # no assembly at any angle
+def test_design_refuses_a_design_value_that_is_not_a_valid_scene(tmp_path, key, bad):
+    """``fkev design`` exited 0 with failed design points and printed cycle minima over the angles
+    that happened to solve. Every design value is now checked as ``fkev check`` checks a scene
+    (assembly at every crank angle, modes, operator overflow) before anything is solved: exit 2,
+    the design point and key named, no archive."""
+    out = tmp_path / "d.h5"
+    r = fkev("design", BW, "--set", f"{key}=0.127,{bad}" if key == "links[0].length_m" else f"{key}=0.2794,{bad}"
+             if key == "links[1].length_m" else f"{key}=2.07e11,{bad}", "--angles", "0:360:10", "--speeds", "100",
+             "--cases", "full", "-o", out)
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert f"design point 1 ({key} = {float(bad):g})" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and "min [Hz]" not in r.stdout
+    assert not out.exists()
+
+
+FLOQUET_SMALL = ("floquet", *B_W_111, "--speeds", "100", "--angles", "0:360:90", "--no-critical", "--reduce", "none")
+
+
+@pytest.fixture(scope="module")
+def floquet_archive(tmp_path_factory):
+    """B-W 1-1-1 at 100 rad/s: a finished Floquet archive (seconds)."""
+    out = tmp_path_factory.mktemp("floquet") / "f.h5"
+    r = fkev(*FLOQUET_SMALL, "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def _changed_byte(src, dst, path):
+    """A copy of ``src`` with one byte of the stored values of dataset ``path`` changed."""
+    import shutil
+
+    shutil.copyfile(src, dst)
+    with h5py.File(dst, "r") as f:
+        offset = f[path].id.get_offset()
+    with open(dst, "r+b") as fh:
+        fh.seek(offset + 3)
+        b = fh.read(1)
+        fh.seek(offset + 3)
+        fh.write(bytes([b[0] ^ 0x10]))
+    return dst
+
+
+def test_resume_refuses_a_damaged_archive_never_restamps_it(floquet_archive, tmp_path):
+    """One changed byte in /floquet/max_abs_multiplier (``fkev verify``: DAMAGED): ``fkev floquet
+    --resume`` exited 0 and re-stamped the damaged value as verified. Now the resume refuses it
+    before anything is decoded or solved (exit 2, naming the dataset and ``fkev verify``), and the
+    file is left as it was (still DAMAGED, not re-stamped)."""
+    from clitools import digest
+
+    from fkev_slepc.archive.verify import verify
+
+    bad = _changed_byte(floquet_archive, tmp_path / "bad.h5", "floquet/max_abs_multiplier")
+    assert not verify(bad).ok
+    before = digest(bad)
+    r = fkev(*FLOQUET_SMALL, "--resume", "-o", bad)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert "damaged" in r.stderr and "/floquet/max_abs_multiplier" in r.stderr and "Traceback" not in r.stderr
+    assert digest(bad) == before and not verify(bad).ok
+    assert not (tmp_path / "bad.h5.part").exists()
+
+
+@pytest.mark.parametrize("path, word", [("case", b"full"), ("mesh/link_names", b"follower")])
+def test_checksums_cover_the_content_of_variable_length_strings(floquet_archive, tmp_path, path, word):
+    """A case renamed ``full`` -> ``fuXl`` or a link ``follower`` -> ``follXwer`` in its heap passed
+    ``fkev verify`` (the digest hashed the stored heap references, not the strings). Each
+    occurrence of the word in the file is changed in turn; every change that alters the decoded
+    strings of the dataset is now DAMAGED."""
+    from fkev_slepc.archive.store import text
+    from fkev_slepc.archive.verify import verify
+
+    data = floquet_archive.read_bytes()
+    with h5py.File(floquet_archive, "r") as f:
+        want = [text(v) for v in f[path][()]]
+    seen, start = 0, 0
+    while (at := data.find(word, start)) >= 0:
+        start = at + 1
+        bad = bytearray(data)
+        bad[at + 2] = ord("X")
+        dst = tmp_path / f"s{at}.h5"
+        dst.write_bytes(bytes(bad))
+        with h5py.File(dst, "r") as f:
+            have = [text(v) for v in f[path][()]]
+        if have != want:
+            seen += 1
+            check = verify(dst)
+            assert not check.ok and any(f"/{path}" in p for p in check.problems), (at, check.problems)
+    assert seen >= 1
+
+
+def test_product_readers_warn_on_a_damaged_archive(floquet_archive, tmp_path):
+    """``read_floquet``, ``read_response`` and ``open_design`` returned changed values without a word
+    on archives ``fkev verify`` flags; each now verifies first, as ``fk.open`` does, and warns with
+    DamagedArchiveWarning (the intact archive reads without one)."""
+    import warnings
+
+    from fkev_slepc.api.response_archive import read_response
+    from fkev_slepc.archive.reader import DamagedArchiveWarning
+    from fkev_slepc.design.results import open_design
+    from fkev_slepc.sweep.floquet_run import read_floquet
+
+    response, design = tmp_path / "r.h5", tmp_path / "d.h5"
+    r = fkev("response", *B_W_111, "--speeds", "50", "--angles", "0:360:90", "--harmonics", "4", "--no-shooting",
+             "-q", "-o", response)
+    assert r.returncode == 0, r.stderr
+    r = fkev("design", BW, "--set", "links[0].length_m=0.127", "--angles", "0:360:90", "--speeds", "100",
+             "--cases", "full", "-q", "-o", design)
+    assert r.returncode == 0, r.stderr
+    for reader, good, path in ((read_floquet, floquet_archive, "floquet/max_abs_multiplier"),
+                               (read_response, response, "response/max_abs_multiplier"),
+                               (open_design, design, "design/frequency_hz")):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", DamagedArchiveWarning)
+            reader(good)
+        bad = _changed_byte(good, tmp_path / f"bad-{good.name}", path)
+        with pytest.warns(DamagedArchiveWarning, match=f"/{path}"):
+            reader(bad)
+
+
+def test_info_and_export_report_damaged_link_name_text(floquet_archive, tmp_path):
+    """A byte of a link name in /mesh/link_names made invalid UTF-8: ``fkev info`` and ``fkev export``
+    died with UnicodeDecodeError (verify passed: the heap text was not checksummed). Now both say
+    DAMAGED in one line, exit 2."""
+    data = bytearray(floquet_archive.read_bytes())
+    at = data.find(b"follower")
+    data[at + 2] = 0xFF
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(bytes(data))
+    for args in (("info", bad), ("export", bad, "-o", tmp_path / "x.csv")):
+        r = fkev(*args)
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        assert "DAMAGED" in r.stderr and "/mesh/link_names" in r.stderr, r.stderr
+
+
+def test_resume_of_damaged_metadata_is_refused_never_a_crash(floquet_archive, tmp_path):
+    """Flipped bytes in the object header of /floquet/status: ``--resume`` died with SIGSEGV or a
+    traceback (KeyError, TypeError, RuntimeError) while decoding it. The resume now verifies in a
+    child process first: a damaged file is refused in one line (exit 2); a byte HDF5 does not use
+    leaves an intact archive that resumes with nothing to solve."""
+    with h5py.File(floquet_archive, "r") as f:
+        info = h5py.h5o.get_info(f["floquet/status"].id)
+    refused = 0
+    for k in (0, 16, 60, 61):
+        data = bytearray(floquet_archive.read_bytes())
+        data[info.addr + k] ^= 0xFF
+        bad = tmp_path / f"h{k}.h5"
+        bad.write_bytes(bytes(data))
+        r = fkev(*FLOQUET_SMALL, "--resume", "-o", bad)
+        assert r.returncode in (0, 2) and "Traceback" not in r.stderr, (k, r.returncode, r.stderr)
+        refused += r.returncode == 2 and "damaged, not resumed" in r.stderr
+    assert refused >= 2  # offsets 0 and 16 are decoded (version, a message type); 60 and 61 unused here
+
+
+@pytest.mark.parametrize("case", list(ADVERSARIAL))
+def test_accepted_input_is_refused_in_one_line_before_any_work(tmp_path, case):
+    """Issue 27 items 6 and 10 (the table is ``scripts/stress_products.ADVERSARIAL``, also run by
+    ``scripts/stress.py products``): each of these ended in a traceback (OverflowError, ValueError,
+    a matplotlib format error, IsADirectoryError with a .tmp left, MemoryError) or ran for minutes
+    without an estimate. Now: exit 2, a line naming the flag (or scene key) and its value, no
+    traceback, nothing written."""
+    args, named = arguments(case, tmp_path)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    r = fkev(*args, timeout=120)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, (r.returncode, r.stderr[-2000:])
+    assert named in r.stderr, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # no archive, figure or .tmp left
+
+
+def test_a_negative_value_after_any_numeric_flag_is_a_value():
+    """``--gravity -981,0`` was refused as an unknown option (as ``--speed -5e2`` was, issue 17): a
+    leading minus now starts a value for every option that takes numbers, lists and ranges too.
+    At rest (Ω = 0) the loads are linear in g: the driving torque under -g is minus that under g."""
+    out = {}
+    for g in ("-9.81,0", "9.81,0"):
+        r = fkev("loads", *B_W_111, "--speed", "0", "--gravity", g, "--angles", "-90:90:90", "--json")
+        assert r.returncode == 0, r.stderr
+        out[g] = json.loads(r.stdout)
+    assert out["-9.81,0"]["gravity_m_s2"] == [-9.81, 0.0] and out["-9.81,0"]["crank_angle_deg"] == [-90.0, 0.0, 90.0]
+    minus, plus = (np.array(out[g]["driving_torque_n_m"]) for g in ("-9.81,0", "9.81,0"))
+    np.testing.assert_allclose(minus, -plus, rtol=1e-12, atol=1e-12 * np.max(np.abs(plus)))  # linear in g at rest
+
+
+def test_info_on_an_unfinished_floquet_archive_says_what_is_pending_and_how_to_resume(floquet_archive, tmp_path):
+    """``fkev info`` on an unfinished Floquet archive printed a verdict ("0 of 1 grid speed
+    unstable") over pending speeds and suggested ``fkev run ... --resume``. Now it says which
+    product has how many units pending, gives no verdict for it, and prints the ``fkev floquet``
+    command that continues it."""
+    import shutil
+
+    from fkev_slepc.archive import store
+
+    out = tmp_path / "f.h5"
+    shutil.copyfile(floquet_archive, out)
+    part = store.reopen_finished(out)  # what a resumed floquet run works on, here stopped before its speed
+    with h5py.File(part, "r+") as f:
+        f["floquet/status"][0, 0] = 0
+    r = fkev("info", part)
+    assert r.returncode == 0, r.stderr
+    assert "INCOMPLETE: floquet 1 of 1 units pending" in r.stdout, r.stdout
+    assert "pending (1 of 1 speeds not solved yet" in r.stdout and "grid speed unstable" not in r.stdout
+    resume = [ln for ln in r.stdout.splitlines() if ln.startswith("  resume")]
+    assert len(resume) == 1 and resume[0].split()[1:3] == ["fkev", "floquet"] and resume[0].endswith("--resume")
+    assert "fkev run" not in r.stdout
+
+
+def test_integer_scene_keys_can_be_designed(tmp_path):
+    """``--set links[1].elements=2,3`` was refused ("must be an integer (got 2.0)": values parsed as
+    floats). Now it runs; nested conforming meshes at rest (Rayleigh–Ritz): every frequency of the
+    3-element coupler is at most that of the 2-element one."""
+    from fkev_slepc.design.results import open_design
+
+    out = tmp_path / "d.h5"
+    r = fkev("design", BW, "--set", "links[1].elements=2,3", "--angles", "0:360:90", "--speeds", "0", "--cases",
+             "structure", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    f = open_design(out).frequency_min_hz.sel(speed_rad_s=0.0, case="structure").values  # (point, mode)
+    assert np.all(np.isfinite(f)) and np.all(f[1] <= f[0] * (1 + 1e-12)) and np.any(f[1] < f[0])
+
+
+@pytest.mark.parametrize("args, line", [
+    (("design", BW, "--set", "links[0].length_m=0.127", "--set", "links[0].length_m=0.13"),
+     "--set: links[0].length_m is given twice"),
+    (("margins", "{archive}", "--speed", "nan"), "--speed: must be a finite crank speed"),
+    (("margins", "{archive}", "--speed", "100", "--modes", ","), "--modes: give at least one mode number"),
+])
+def test_messages_name_the_flag_and_the_real_reason(floquet_archive, tmp_path, args, line):
+    """Issue 27 item 11: a repeated ``--set`` key silently kept one value; ``margins --speed nan``
+    quoted "got 0" and ``--modes ''`` printed an empty table with exit 0. Each is now refused in one
+    line naming the flag, exit 2."""
+    more = ("-o", tmp_path / "d.h5") if args[0] == "design" else ()
+    r = fkev(*[str(a).replace("{archive}", str(floquet_archive)) for a in args], *more)
+    assert r.returncode == 2 and line in r.stderr and "Traceback" not in r.stderr, r.stderr
