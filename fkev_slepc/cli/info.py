@@ -249,8 +249,12 @@ def _floquet_growth(path) -> dict:
             for jc in range(mx.shape[1])}
 
 
-RESUMED_BY = {"sweep": "run", "design": "design", "floquet": "floquet", "response": "response"}
-"""The command that continues each product of an archive."""
+def resumed_by(product: str) -> str:
+    """The fkev command that continues ``product`` (a product's name) of an archive."""
+    from fkev_slepc.archive import products as P
+
+    return {P.SWEEP.name: "run", P.DESIGN.name: "design", P.FLOQUET.name: "floquet",
+            P.RESPONSE.name: "response"}[product]
 
 
 def pending_products(path) -> list[tuple[str, int, int]]:
@@ -277,7 +281,7 @@ def resume_command(attrs: dict, product: str) -> str:
     ``--resume``, else its form with the scene and the options of the interrupted run to repeat."""
     from fkev_slepc.archive.store import text
 
-    word = f"fkev {RESUMED_BY[product]} "
+    word = f"fkev {resumed_by(product)} "
     for key in ("last_command_line", "command_line"):
         cmd = text(attrs.get(key, ""))
         if cmd.startswith(word):  # --force would start over: dropped
