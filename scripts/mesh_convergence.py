@@ -207,10 +207,10 @@ def _row(cells) -> str:
 
 
 def print_meshes(points, speed: float) -> None:
-    head = ["el/link", "DOFs", "basis", "covered rad/s", "max|μ| - 1", "max Re s 1/s",
+    head = ["el/link", "DOFs", "basis", "covered rad/s", "max abs(μ) - 1", "max Re s 1/s",
             "lowest Floquet frequencies (unwrapped) rad/s", "model+comp s", "monodromy s"]
     if points[0].doubled is not None:
-        head[6:6] = ["2x modes: basis, max|μ| - 1, max Δf rad/s"]
+        head[6:6] = ["2x modes: basis, max abs(μ) - 1, max Δf rad/s"]
     print(_row(head))
     print("|" + "---|" * len(head))
     for p in points:
@@ -227,7 +227,7 @@ def print_convergence(points, speed: float) -> None:
     f, changes, rates, pred = convergence(points, speed)
     r = f.shape[1]
     print(f"\nfolded Floquet frequencies f = |arg mu|·Omega/2pi (rad/s, Omega = {speed:g}), change to the next "
-          "finer mesh, observed rate")
+          "finer mesh, observed rate\n")
     head = ["el/link"] + [f"f{j + 1}" for j in range(r)] + [f"Δf{j + 1}" for j in range(r)] + [
         f"rate{j + 1}" for j in range(r)]
     print(_row(head))
@@ -238,7 +238,7 @@ def print_convergence(points, speed: float) -> None:
                    + [num(x, ".2f") for x in rates[i]]))
     for i in np.flatnonzero(np.isfinite(pred[:, 0])):
         n = [points[j].elements for j in (i - 2, i - 1, i)]
-        print(f"{n[2]} el/link against the order-4 Richardson prediction from {n[0]} and {n[1]}: measured - "
+        print(f"\n{n[2]} el/link against the order-4 Richardson prediction from {n[0]} and {n[1]}: measured - "
               "predicted " + ", ".join(f"{x:.1e}" for x in f[i] - pred[i]) + " rad/s; |f - f(" + str(n[1])
               + ")| measured " + ", ".join(f"{x:.2e}" for x in np.abs(f[i] - f[i - 1])) + ", predicted "
               + ", ".join(f"{x:.2e}" for x in np.abs(pred[i] - f[i - 1])))
@@ -261,8 +261,8 @@ def main(argv=None) -> None:
         print_convergence(points, args.speed)
     if args.bracket:
         lo, hi = args.bracket
-        print(f"\nband edge in [{lo:g}, {hi:g}] rad/s to {args.edge_rtol:g} relative, {args.modes} mode(s) per link")
-        print(_row(["el/link", "edge rad/s", "max|μ| at ends", "monodromies", "s"]))
+        print(f"\nband edge in [{lo:g}, {hi:g}] rad/s to {args.edge_rtol:g} relative, {args.modes} mode(s) per link\n")
+        print(_row(["el/link", "edge rad/s", "max abs(μ) at ends", "monodromies", "s"]))
         print("|---|---|---|---|---|")
         for ne in args.edge_meshes:
             t0 = time.perf_counter()
