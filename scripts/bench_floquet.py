@@ -188,10 +188,8 @@ def _table_models(args):
 def level_steps(args) -> None:
     """Per row: the full model's least step count and each link-component level's (basis size, least
     step count, highest retained fixed-interface frequency), from one eigenvalue problem each."""
-    import scipy.linalg as la
-
     from fkev_slepc.periodic.components import link_components
-    from fkev_slepc.periodic.floquet import _coefficients, _generator_samples, _scaling, full_min_steps
+    from fkev_slepc.periodic.floquet import full_min_steps
 
     for name, elements, speed, _scene, model in _table_models(args):
         comp = link_components(model)
@@ -199,9 +197,8 @@ def level_steps(args) -> None:
         cells = []
         for k in (1, 2, 4, 8, 16):
             basis = comp.basis(k)
-            c = _coefficients(model, np.array([0.0]), speed, args.case, True, basis)
-            rho = np.max(np.abs(la.eigvals(_generator_samples(c, speed, _scaling(c))[0])))
-            cells.append(f"{basis.shape[1]}: {int(np.ceil(4 * np.pi * rho)):,} ({basis.covered_rad_s:.3g} rad/s)")
+            steps = full_min_steps(model, speed, args.case, basis=basis)
+            cells.append(f"{basis.shape[1]}: {steps:,} ({basis.covered_rad_s:.3g} rad/s)")
         print(f"| {name} | {elements} | {model.n_free} | {speed:g} | {full if isinstance(full, str) else f'{full:,}'} | "
               + " | ".join(cells) + " |", flush=True)
 

@@ -3,7 +3,7 @@
 
 For one scene and crank speed, at each mesh of ``--elements`` (elements per link, e.g. 4,8,16,32
 and 111 for Bahgat–Willmert = 999 DOFs): the Floquet multipliers of one revolution projected on
-the link-frame component modes (solve/floquet_components.py, docs/theory.md §18.8) with a FIXED
+the link-frame component modes (fkev_slepc/periodic/components.py, docs/theory.md §18.8) with a FIXED
 number ``--modes`` of fixed-interface modes per link, so that every mesh retains the same
 physics (the boundary DOFs and the same lowest modes of each link); ``--double`` repeats each
 mesh with twice the modes per link and prints the change (the truncation, measured by doubling).
@@ -23,7 +23,7 @@ prediction from the two meshes before it: "pred" is f∞ + (f₂ - f∞)(n₂/n�
 f∞ = f₂ + (f₂ - f₁)/((n₂/n₁)⁴ - 1).
 
 ``--edge LO:HI`` also locates, at each mesh of ``--edge-elements``, the band edge in [LO, HI]
-(one stable and one unstable end) by the engine's bisection (solve/floquet_bands.py,
+(one stable and one unstable end) by the engine's bisection (fkev_slepc/periodic/bands.py,
 ``refine_edges``, to ``--edge-rtol``) with the same fixed modes per link.
 
     PYTHONPATH=$PWD .venv/bin/python scripts/mesh_convergence.py --scene bw --speed 500 \\
@@ -129,9 +129,9 @@ def mesh_point(scene, elements: int, speed: float, modes: int, *, case: str = "f
                tol: float = 1e-10, repeats: int = 1, double: bool = False) -> MeshPoint:
     """Floquet result of ``scene`` re-meshed to ``elements`` per link on the link-component
     basis of ``modes`` fixed-interface modes per link (and of 2·modes if ``double``)."""
-    from fkev_slepc.solve.floquet_components import link_components
-    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
-    from fkev_slepc.solve.floquet_truncation import retained_frequencies
+    from fkev_slepc.periodic.components import link_components
+    from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.truncation import retained_frequencies
 
     t0 = time.perf_counter()
     model = model_of(scene, elements, case)
@@ -182,9 +182,9 @@ def band_edge(scene, elements: int, modes: int, bracket, *, case: str = "full", 
               rtol: float = 1e-4):
     """(edge rad/s, evaluations, max|μ| at the bracket's ends) of the band edge in ``bracket``
     at ``elements`` per link and ``modes`` per link (NaN edge when the ends agree in verdict)."""
-    from fkev_slepc.solve.floquet_bands import SpeedPoint, brackets, refine_edges
-    from fkev_slepc.solve.floquet_components import link_components
-    from fkev_slepc.solve.floquet_linkage import floquet_multipliers
+    from fkev_slepc.periodic.bands import SpeedPoint, brackets, refine_edges
+    from fkev_slepc.periodic.components import link_components
+    from fkev_slepc.periodic.floquet import floquet_multipliers
 
     model = model_of(scene, elements, case)
     basis = link_components(model).basis(modes)
