@@ -155,6 +155,11 @@ def _section_arrays(pieces) -> dict[str, np.ndarray]:
         return np.array([np.nan if getattr(p, name) is None else getattr(p, name) for p in pieces], dtype=float)
 
     e_mod, rho = field("youngs_modulus"), field("density")
+    with np.errstate(over="ignore"):  # an overflowing product (E = 1e155 ...) is refused by solve/finite.py
+        return _products(e_mod, rho, field)
+
+
+def _products(e_mod, rho, field) -> dict[str, np.ndarray]:
     return {"elem_rho_a": rho * field("area"), "elem_ea": e_mod * field("area"),
             "elem_ei": e_mod * field("second_moment"), "elem_ei_out": e_mod * field("second_moment_out"),
             "elem_gj": field("shear_modulus") * field("torsion_constant"), "elem_rho_ip": rho * field("polar_moment")}

@@ -209,7 +209,7 @@ class PeriodicSystem:
 
     def link_frame(self) -> "PeriodicSystem | None":
         """This system in link-frame coordinates where its generator is constant, else None."""
-        if self.basis is not None or len(self.model.mechanism.link_names) != 1:
+        if self.basis is not None or self.omega == 0.0 or len(self.model.mechanism.link_names) != 1:
             return None
         frame = PeriodicSystem(self.model, self.omega, self.case, damping=self.damping, gravity=self.gravity,
                                basis=np.eye(int(self.model.n_free)), start=self.start)
