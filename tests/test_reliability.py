@@ -273,3 +273,17 @@ def test_messages_name_the_flag_and_the_real_reason(floquet_archive, tmp_path, a
     more = ("-o", tmp_path / "d.h5") if args[0] == "design" else ()
     r = fkev(*[str(a).replace("{archive}", str(floquet_archive)) for a in args], *more)
     assert r.returncode == 2 and line in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
+def test_absurd_angles_and_scales_are_refused_naming_the_flag(tmp_path):
+    """Issue 27 item 11: ``--angles 1e155`` (a double no longer resolves the angle) and ``--scale``
+    nan, inf, 0 or -1 were accepted; now exit 2, one line naming the flag, nothing written."""
+    from clitools import BW, fkev
+
+    r = fkev("run", BW, "--angles", "1e155", "--speeds", "0", "--cases", "structure", "-o", tmp_path / "a.h5")
+    assert r.returncode == 2 and "--angles" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "a.h5").exists()
+    for bad in ("nan", "inf", "0", "-1"):
+        r = fkev("response", BW, "--elements", "1", "--speed", "100", "--scale", bad, "--plot", tmp_path / "d.png")
+        assert r.returncode == 2 and "--scale" in r.stderr and "Traceback" not in r.stderr, (bad, r.stderr)
+        assert not (tmp_path / "d.png").exists()

@@ -64,7 +64,7 @@ def add_parser(sub) -> None:
 
 
 def _parse(args):
-    from fkev_slepc.sweep.grid import parse_angles, parse_speeds_rpm
+    from fkev_slepc.sweep.grid import parse_speeds, parse_speeds_rpm
 
     bad, stations = [], None
     angles, gravity = angles_and_gravity(args, bad)
@@ -76,7 +76,7 @@ def _parse(args):
                 stations.setdefault(link, []).extend(float(v) for v in values.split(","))
             except ValueError:
                 bad.append(Problem("--station", f"expected LINK:S1,S2,... in m (got {text!r})"))
-    for flag, text, parse in (("--speeds", args.speeds, parse_angles), ("--speeds-rpm", args.speeds_rpm, parse_speeds_rpm)):
+    for flag, text, parse in (("--speeds", args.speeds, parse_speeds), ("--speeds-rpm", args.speeds_rpm, parse_speeds_rpm)):
         if text is not None:
             try:
                 args.speed_list, args.speeds_flag = parse(text), flag
@@ -84,6 +84,8 @@ def _parse(args):
                 bad.append(Problem(flag, str(err)))
     if not (np.isfinite(args.tol) and 0 < args.tol < 1):
         bad.append(Problem("--tol", f"must be in (0, 1) (got {args.tol})"))
+    if args.scale is not None and not (np.isfinite(args.scale) and args.scale > 0):
+        bad.append(Problem("--scale", f"must be a finite magnification > 0 (got {args.scale})"))
     if bad:
         raise SceneError(args.scene, bad)
     return angles, gravity, stations

@@ -68,14 +68,14 @@ def design_grid(params: dict, name: str = "params") -> DesignGrid:
     >>> g.axes
     ((0.25, 0.3, 0.35, 0.4),)
     """
-    from fkev_slepc.sweep.grid import parse_angles
+    from fkev_slepc.sweep.grid import parse_range
 
     if not params:
         raise SceneError(name, [Problem(name, "give at least one scene key and its values")])
     keys, axes, bad = [], [], []
     for key, values in params.items():
         try:
-            vals = parse_angles(values if isinstance(values, str) else np.atleast_1d(values).tolist())
+            vals = parse_range(values if isinstance(values, str) else np.atleast_1d(values).tolist())
         except ValueError as err:
             bad.append(Problem(f"{name}[{key}]", str(err)))
             continue

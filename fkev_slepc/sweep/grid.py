@@ -57,7 +57,14 @@ def parse_angles(value) -> tuple[float, ...]:
     >>> parse_angles("0:90:45"), parse_angles([10, 20.5])
     ((0.0, 45.0, 90.0), (10.0, 20.5))
     """
-    return parse_range(value, "angles")
+    values = parse_range(value, "angles")
+    if any(not abs(v) <= MAX_ABS_ANGLE_DEG for v in values):
+        raise ValueError(f"crank angles must lie within ±{MAX_ABS_ANGLE_DEG:g} deg, where a double still resolves "
+                         f"1e-7 deg (got {value!r})")
+    return values
+
+
+MAX_ABS_ANGLE_DEG = 1e9  # beyond, one unit in the last place of an angle exceeds 1e-7 deg (1e155 deg: 1e139)
 
 
 def parse_speeds(value) -> tuple[float, ...]:
