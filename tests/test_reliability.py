@@ -287,3 +287,86 @@ def test_absurd_angles_and_scales_are_refused_naming_the_flag(tmp_path):
         r = fkev("response", BW, "--elements", "1", "--speed", "100", "--scale", bad, "--plot", tmp_path / "d.png")
         assert r.returncode == 2 and "--scale" in r.stderr and "Traceback" not in r.stderr, (bad, r.stderr)
         assert not (tmp_path / "d.png").exists()
+
+
+@pytest.mark.parametrize("key, value, instead", [("driver.speeds_rad_s", "1", "--speeds"),
+                                                 ("analysis.crank_angles_deg[0]", "3", "--angles"),
+                                                 ("analysis.modes", "2,3", "--modes"),
+                                                 ("solver.petsc.pep_max_it", "1,2", "--solver")])
+def test_design_refuses_a_key_the_study_holds_fixed(tmp_path, key, value, instead):
+    """Issue 27 item 11: ``fkev design --set driver.speeds_rad_s=1`` ran with no effect (every design
+    point is solved on the study's grid, with one eigen-solver). Such a key is now refused before
+    any work: exit 2, one line naming --set, the key, why and the flag that sets it; nothing written."""
+    out = tmp_path / "d.h5"
+    r = fkev("design", BW, "--set", "links[0].length_m=0.127", "--set", f"{key}={value}", "-o", out)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    line = [ln for ln in r.stderr.splitlines() if f"--set[{key}]" in ln]
+    assert len(line) == 1 and "cannot vary over a design study" in line[0] and instead in line[0], r.stderr
+    assert "links[0].length_m" not in r.stderr and not out.exists() and r.stdout == ""
+
+
+def test_study_design_names_its_own_argument_for_a_fixed_key(tmp_path):
+    """The API refuses the same keys in its own words (``speeds=``), before anything is written."""
+    import fkev_slepc as fk
+    from fkev_slepc.scene import SceneError
+
+    with pytest.raises(SceneError, match=r"params\[driver.speeds_rad_s\]: cannot vary .*; use speeds="):
+        fk.load(BW).design({"driver.speeds_rad_s": [1.0, 2.0]}, output=tmp_path / "d.h5")
+    assert not (tmp_path / "d.h5").exists()
+
+
+def test_a_designed_crank_acceleration_takes_effect(tmp_path):
+    """The keys a design study does not hold fixed change its points: at rest the driving torque is
+    linear in the crank acceleration (τ = J(θ)·α), so designing ``driver.acceleration_rad_s2`` =
+    -100, 0, +100 gives torque ranges that are each other's negatives (τ_min(-α) = -τ_max(α)), and
+    α = 0 gives none."""
+    r = fkev("design", BW, "--set", "driver.acceleration_rad_s2=-100,0,100", "--angles", "0:360:90", "--speeds", "0",
+             "--cases", "structure", "--json", "-q", "-o", tmp_path / "d.h5")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)["rows"]
+    assert [row["driver.acceleration_rad_s2"] for row in rows] == [-100.0, 0.0, 100.0]
+    lo, zero, hi = ((row["torque_min_n_m"], row["torque_max_n_m"]) for row in rows)
+    scale = max(abs(v) for v in hi)
+    assert scale > 1e-3 and max(abs(v) for v in zero) < 1e-12 * scale
+    np.testing.assert_allclose(lo, [-hi[1], -hi[0]], rtol=1e-12, atol=1e-12 * scale)
+
+
+def test_sensitivity_to_a_typo_is_an_unknown_key_with_close_matches():
+    """``fkev point --sensitivity links[1].lenght_m`` said "is not set in the scene: set it first
+    (Study.replace)" after the solve: API wording, and the wrong advice for a typo. Now it is
+    refused before any work (nothing on stdout) as an unknown key with the closest numeric keys of
+    the scene; the API keeps its own wording."""
+    import fkev_slepc as fk
+    from fkev_slepc.scene import SceneError
+
+    r = fkev("point", *B_W_111, "--sensitivity", "links[1].lenght_m", "--speed", "100")
+    assert r.returncode == 2 and r.stdout == "" and "Traceback" not in r.stderr, (r.stdout, r.stderr)
+    line = [ln for ln in r.stderr.splitlines() if "--sensitivity" in ln]
+    assert len(line) == 1 and "links[1].lenght_m: unknown key" in line[0], r.stderr
+    assert "did you mean 'links[1].length_m'" in line[0] and "Study.replace" not in r.stderr, r.stderr
+    point = fk.load(BW, elements=1).point(0.0, 100.0, "full")
+    with pytest.raises(SceneError, match=r"set it first \(Study.replace\)"):
+        point.sensitivity("links[1].lenght_m")
+
+
+def test_a_design_point_that_fails_in_its_solve_gives_exit_3_and_no_minima(tmp_path):
+    """Issue 27 item 4, second part: a design point that passes every up-front scene check and then
+    fails in its solve. SLEPc limited to one outer iteration through the options database
+    (``-fkev_pep_max_it 1``) converges on the 1-element coupler (9 free DOFs) and not on the
+    30-element one: exit 3, the failed point flagged in the table and in /design/status, its
+    minima absent (the converged point's are printed, and equal dense QZ's to 1e-9)."""
+    from fkev_slepc.design.results import open_design
+
+    out = tmp_path / "d.h5"
+    r = fkev("design", BW, "--set", "links[1].elements=1,30", "--angles", "0", "--speeds", "100", "--cases", "full",
+             "--solver", "slepc", "-q", "-o", out, "-fkev_pep_max_it", "1")
+    assert r.returncode == 3 and "Traceback" not in r.stderr, (r.returncode, r.stderr)
+    rows = {ln.split()[0]: ln for ln in r.stdout.splitlines() if ln.split() and ln.split()[0] in ("1", "30")}
+    assert "no minima" in rows["30"] and "no minima" not in rows["1"], r.stdout
+    ds = open_design(out)
+    assert ds.status.values.ravel().tolist() == ["ok", "not_converged"]
+    assert np.isnan(ds.frequency_min_hz.values[1]).all()
+    dense = fkev("point", BW, "--elements", "1,1,2", "--angle", "0", "--speed", "100", "--case", "full", "--solver",
+                 "dense", "--json")
+    assert dense.returncode == 0, dense.stderr
+    np.testing.assert_allclose(ds.frequency_min_hz.values[0].ravel(), json.loads(dense.stdout)["frequency_hz"], rtol=1e-9)

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from fkev_slepc.design.results import design_rows
+from fkev_slepc.design.study_keys import CLI_NAMES as CLI_KEY_NAMES
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_speeds_arguments
@@ -87,7 +88,7 @@ def run(args) -> int:
     rank0 = comm.rank == 0
     output = args.output or Path(args.scene).parent / "out" / f"{Path(args.scene).stem}-design.h5"
     try:
-        grid = design_grid(parse_sets(args.sets), "--set")
+        grid = design_grid(parse_sets(args.sets), "--set", CLI_KEY_NAMES)
         scene = configure(load_scene(args.scene), angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm, cases=args.cases,
                           modes=args.modes, names=CLI_NAMES)
         notify = None if args.quiet else (lambda m: print(f"fkev design: {m}", file=sys.stderr, flush=True))
@@ -193,7 +194,7 @@ def print_summary(ds, output) -> None:
         unsolved = np.isin(ds.status.isel(sel).values, UNSOLVED)
         if unsolved.any():
             print(" ".join(vals) + f"  {int(unsolved.sum())} of {unsolved.size} grid points failed or did not converge: "
-                  "no minima (fkev info names them)")
+                  "no minima (why: /design/errors in the archive)")
             continue
         f = [f"{float(v):>12.5g}" for v in fmin.isel(sel).values]
         d = ds.divergence_speed_rad_s.isel(sel)

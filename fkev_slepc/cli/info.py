@@ -318,8 +318,8 @@ def _tracking(res) -> list[str]:
 
     tracking = read_tracking(res.path)
     t, fb = tracking["attrs"], tracking["fallback"]
-    if "mac_min" not in t:
-        if "tracking_open_loops" in res.attrs:  # archives written before refinement existed
+    if "ambiguous_links" not in t:  # nothing tracked: sweep/tracking_angles.py wrote only the thresholds
+        if "mac_min" not in t and "tracking_open_loops" in res.attrs:  # archives written before refinement existed
             return [f"  tracking    MAC along crank angle; {int(res.attrs['tracking_open_loops'])} (speed, case) "
                     "line(s) whose modes come back permuted after a revolution"]
         return ["  tracking    none (one angle and one speed)"]

@@ -11,7 +11,7 @@ import sys
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from fkev_slepc.scene.units import RAD_S_PER_RPM, speeds_given_in_rpm, with_rpm
-from .sensitivity_table import add_sensitivity_argument, print_sensitivities, sensitivities
+from .sensitivity_table import add_sensitivity_argument, check_sensitivity_keys, print_sensitivities, sensitivities
 from .common import (
     preflight,
     add_accuracy_arguments, add_elements_argument, apply_element, as_flags, load_checked, report_scene_error,
@@ -57,6 +57,7 @@ def run(args) -> int:
         speed = scene.driver.speeds[0] if args.speed is None else args.speed
         if args.speed_rpm is not None:
             speed = args.speed_rpm * RAD_S_PER_RPM
+        check_sensitivity_keys(scene, args.sensitivity)
         preflight(scene, args, speeds=[speed], speed_flag="--speed-rpm" if args.speed_rpm is not None else "--speed",
                   plots=())
         res = Study(apply_element(scene, args.element)).point(

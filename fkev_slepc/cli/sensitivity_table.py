@@ -2,12 +2,45 @@
 
 from __future__ import annotations
 
+import difflib
+
+from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.solve.sensitivity import POINT_KEYS, key_value, number_keys, scene_value
+
 
 def add_sensitivity_argument(p) -> None:
     p.add_argument("--sensitivity", action="append", metavar="KEY", default=[],
                    help="also d f/d p and d ζ/d p of every mode for the numeric scene key KEY "
                         "(e.g. links[1].length_m, per unit of the key), or the point's own speed_rad_s or "
                         "angle_deg; repeatable")
+
+
+def check_sensitivity_keys(scene, keys) -> None:
+    """Refuse, before any work, every ``--sensitivity KEY`` at which ``scene`` holds no number
+    (a typo: the closest numeric keys of the scene named), or whose number has no derivative.
+
+    Raises
+    ------
+    SceneError
+        Naming ``--sensitivity`` and each bad key.
+    """
+    bad = []
+    for key in keys:
+        if key in POINT_KEYS:
+            continue
+        try:
+            path, node = scene_value(scene, key)
+            if node is None:
+                close = difflib.get_close_matches(path, number_keys(scene), n=3, cutoff=0.6)
+                tip = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
+                bad.append(Problem("--sensitivity", f"{key}: unknown key: the scene sets no number there ({tip}give "
+                                   "a numeric key of the scene file, or speed_rad_s or angle_deg)"))
+            else:
+                key_value(scene, key)
+        except SceneError as err:
+            bad += [Problem("--sensitivity", str(p)) for p in err.problems]
+    if bad:
+        raise SceneError(scene.source, bad)
 
 
 def sensitivities(res, keys) -> dict:

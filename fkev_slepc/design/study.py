@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from fkev_slepc.design.point_checks import CheckOptions, stress_problems
+from fkev_slepc.design.study_keys import fixed_key_problems
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 
@@ -53,14 +54,16 @@ class DesignGrid:
         return tuple(len(a) for a in self.axes)
 
 
-def design_grid(params: dict, name: str = "params") -> DesignGrid:
+def design_grid(params: dict, name: str = "params", names: dict | None = None) -> DesignGrid:
     """``{key: values}`` (values: ``"START:STOP:STEP"`` with STOP included, ``"a,b,c"``, a number
-    or a sequence) as a :class:`DesignGrid`.
+    or a sequence) as a :class:`DesignGrid`; ``names`` as in
+    :func:`~fkev_slepc.design.study_keys.fixed_key_problems`.
 
     Raises
     ------
     SceneError
-        An empty grid, a key given twice, or values that are not numbers, named with the key.
+        An empty grid, a key given twice, values that are not numbers, or a key the study holds
+        fixed (fkev_slepc/design/study_keys.py), named with the key.
 
     Examples
     --------
@@ -91,6 +94,7 @@ def design_grid(params: dict, name: str = "params") -> DesignGrid:
                                  "steps or fewer keys"))
     if len(set(keys)) != len(keys):
         bad.append(Problem(name, f"a key is given twice (got {', '.join(keys)})"))
+    bad += fixed_key_problems(params, name, names)
     if bad:
         raise SceneError(name, bad)
     return DesignGrid(tuple(keys), tuple(axes))

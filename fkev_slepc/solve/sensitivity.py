@@ -81,6 +81,26 @@ def key_value(scene: Scene, key: str) -> float:
     SceneError
         The key leads nowhere, holds no number, or is an integer setting.
     """
+    path, node = scene_value(scene, key)
+    if node is None:
+        raise SceneError(scene.source, [Problem(key, "is not set in the scene: set it first (Study.replace)")])
+    parts = parse_key(path)
+    if not is_number(node):
+        raise SceneError(scene.source, [Problem(key, f"is not a number (got {show(node)}): no derivative")])
+    if isinstance(node, int) and parts[-1] in ("elements", "third_elements", "modes"):
+        raise SceneError(scene.source, [Problem(key, f"is an integer setting (got {node}): no derivative")])
+    return float(node)
+
+
+def scene_value(scene: Scene, key: str):
+    """(``key`` with name indices as positions, the value the scene gives it or None): the scene's
+    text, a link key left to ``[link_defaults]``, a default of :data:`DEFAULTS`.
+
+    Raises
+    ------
+    SceneError
+        A malformed key path, or a name index no item has.
+    """
     doc = tomllib.loads(scene.source_text) if scene.source_text else {}
     try:
         path = canonical_key(doc, key)
@@ -92,17 +112,40 @@ def key_value(scene: Scene, key: str) -> float:
     for part in parts:
         node = node[part] if isinstance(node, (dict, list)) and _has(node, part) else None
     if node is None and parts[0] == "links" and len(parts) in (3, 5):  # inherited: segment <- link <- defaults
-        link = doc["links"][parts[1]] if len(parts) == 5 else {}
-        node = link.get(parts[-1], doc.get("link_defaults", {}).get(parts[-1]))
-    if node is None:
-        node = DEFAULTS.get(path)
-    if node is None:
-        raise SceneError(scene.source, [Problem(key, "is not set in the scene: set it first (Study.replace)")])
-    if not is_number(node):
-        raise SceneError(scene.source, [Problem(key, f"is not a number (got {show(node)}): no derivative")])
-    if isinstance(node, int) and parts[-1] in ("elements", "third_elements", "modes"):
-        raise SceneError(scene.source, [Problem(key, f"is an integer setting (got {node}): no derivative")])
-    return float(node)
+        link = doc["links"][parts[1]] if len(parts) == 5 and _has(doc.get("links", []), parts[1]) else {}
+        node = link.get(parts[-1], doc.get("link_defaults", {}).get(parts[-1])) if isinstance(link, dict) else None
+    return path, DEFAULTS.get(path) if node is None else node
+
+
+def number_keys(scene: Scene) -> list[str]:
+    """Every key path at which :func:`key_value` finds a number (positional indices): the numbers
+    of the scene's text, each link's keys left to ``[link_defaults]``, :data:`DEFAULTS` and the
+    point's own :data:`POINT_KEYS`.
+
+    Examples
+    --------
+    >>> from fkev_slepc.scene import load_scene
+    >>> "links[1].youngs_modulus_pa" in number_keys(load_scene(RUNS / "bahgat-willmert-1976.toml"))
+    True
+    """
+    doc = tomllib.loads(scene.source_text) if scene.source_text else {}
+    out = []
+
+    def walk(node, path):
+        if is_number(node):
+            out.append(path)
+        elif isinstance(node, dict):
+            for k, v in node.items():
+                walk(v, f"{path}.{k}" if path else k)
+        elif isinstance(node, list):
+            for i, v in enumerate(node):
+                walk(v, f"{path}[{i}]")
+
+    walk(doc, "")
+    defaults = {k: v for k, v in doc.get("link_defaults", {}).items() if is_number(v)}
+    for i, link in enumerate(doc.get("links", [])):
+        out += [f"links[{i}].{k}" for k in defaults if isinstance(link, dict) and k not in link]
+    return out + [k for k in (*DEFAULTS, *POINT_KEYS) if k not in out]
 
 
 def _has(node, part) -> bool:
