@@ -370,3 +370,14 @@ def test_a_design_point_that_fails_in_its_solve_gives_exit_3_and_no_minima(tmp_p
                  "dense", "--json")
     assert dense.returncode == 0, dense.stderr
     np.testing.assert_allclose(ds.frequency_min_hz.values[0].ravel(), json.loads(dense.stdout)["frequency_hz"], rtol=1e-9)
+
+
+def test_info_on_a_one_angle_one_speed_archive_is_no_traceback(tmp_path):
+    """``fkev info`` died with KeyError 'ambiguous_links' on every archive of one crank angle and one
+    speed (nothing to track: only the tracking thresholds are written). It now says so."""
+    out = tmp_path / "r.h5"
+    r = fkev("run", *B_W_111, "--angles", "0", "--speeds", "100", "--cases", "full", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    r = fkev("info", out)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert "  tracking    none (one angle and one speed)" in r.stdout.splitlines(), r.stdout
