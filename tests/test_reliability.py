@@ -69,6 +69,20 @@ def floquet_archive(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="module")
+def product_archives(tmp_path_factory):
+    """B-W 1-1-1: a finished response-vs-speed archive and a one-point design archive (seconds)."""
+    folder = tmp_path_factory.mktemp("products")
+    response, design = folder / "r.h5", folder / "d.h5"
+    r = fkev("response", *B_W_111, "--speeds", "50", "--angles", "0:360:90", "--harmonics", "4", "--no-shooting",
+             "-q", "-o", response)
+    assert r.returncode == 0, r.stderr
+    r = fkev("design", BW, "--set", "links[0].length_m=0.127", "--angles", "0:360:90", "--speeds", "100",
+             "--cases", "full", "-q", "-o", design)
+    assert r.returncode == 0, r.stderr
+    return response, design
+
+
 def _changed_byte(src, dst, path):
     """A copy of ``src`` with one byte of the stored values of dataset ``path`` changed."""
     import shutil
@@ -131,7 +145,7 @@ def test_checksums_cover_the_content_of_variable_length_strings(floquet_archive,
     assert seen >= 1
 
 
-def test_product_readers_warn_on_a_damaged_archive(floquet_archive, tmp_path):
+def test_product_readers_warn_on_a_damaged_archive(floquet_archive, product_archives, tmp_path):
     """``read_floquet``, ``read_response`` and ``open_design`` returned changed values without a word
     on archives ``fkev verify`` flags; each now verifies first, as ``fk.open`` does, and warns with
     DamagedArchiveWarning (the intact archive reads without one)."""
@@ -142,13 +156,7 @@ def test_product_readers_warn_on_a_damaged_archive(floquet_archive, tmp_path):
     from fkev_slepc.design.results import open_design
     from fkev_slepc.sweep.floquet_run import read_floquet
 
-    response, design = tmp_path / "r.h5", tmp_path / "d.h5"
-    r = fkev("response", *B_W_111, "--speeds", "50", "--angles", "0:360:90", "--harmonics", "4", "--no-shooting",
-             "-q", "-o", response)
-    assert r.returncode == 0, r.stderr
-    r = fkev("design", BW, "--set", "links[0].length_m=0.127", "--angles", "0:360:90", "--speeds", "100",
-             "--cases", "full", "-q", "-o", design)
-    assert r.returncode == 0, r.stderr
+    response, design = product_archives
     for reader, good, path in ((read_floquet, floquet_archive, "floquet/max_abs_multiplier"),
                                (read_response, response, "response/max_abs_multiplier"),
                                (open_design, design, "design/frequency_hz")):
@@ -381,3 +389,38 @@ def test_info_on_a_one_angle_one_speed_archive_is_no_traceback(tmp_path):
     r = fkev("info", out)
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     assert "  tracking    none (one angle and one speed)" in r.stdout.splitlines(), r.stdout
+
+
+def test_xarray_reads_of_every_product_are_verified(floquet_archive, product_archives, tmp_path):
+    """A user's own ``xr.open_dataset(path, group=...)`` returns a changed value without a word (it
+    cannot verify). ``fkev_slepc.open_dataset`` verifies first, as ``fk.open`` does: one changed byte
+    in a dataset of the root sweep, /mesh, /floquet, /response or /design warns naming it; the
+    intact archive reads without a warning and gives what xarray reads; a missing group is refused."""
+    import warnings
+
+    import xarray as xr
+
+    import fkev_slepc as fk
+    from fkev_slepc.archive.verified import ArchiveError, DamagedArchiveWarning
+
+    response, design = product_archives
+    for good, group, path in ((floquet_archive, None, "frequency_hz"), (floquet_archive, "mesh", "mesh/node_s"),
+                              (floquet_archive, "floquet", "floquet/max_abs_multiplier"),
+                              (response, "response", "response/max_abs_multiplier"),
+                              (design, "design", "design/frequency_hz")):
+        var = path.rpartition("/")[2]
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", DamagedArchiveWarning)
+            ours = fk.open_dataset(good, group=group)
+        with xr.open_dataset(good, group=group, engine="h5netcdf") as raw:
+            np.testing.assert_array_equal(ours[var].values, raw[var].values)
+        bad = _changed_byte(good, tmp_path / f"bad-{group}-{good.name}", path)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # the raw read: no warning, a changed value
+            with xr.open_dataset(bad, group=group, engine="h5netcdf") as raw:
+                changed = raw[var].values
+        assert changed.tobytes() != ours[var].values.tobytes(), path
+        with pytest.warns(DamagedArchiveWarning, match=f"/{path}"):
+            fk.open_dataset(bad, group=group)
+    with pytest.raises(ArchiveError, match="no group 'respons'"):
+        fk.open_dataset(response, group="respons")
