@@ -14,8 +14,19 @@ from scipy.special import mathieu_a, mathieu_b
 
 from fkev_slepc.periodic.magnus import monodromy
 from fkev_slepc.periodic.bands import (
-    Band, SpeedPoint, brackets, find_bands, label, margin, nearest_resonance, resonance_speeds,
+    DEFAULT_TOL, EDGE_RTOL, Band, SpeedPoint, bands_from, brackets, label, margin, nearest_resonance, refine_edges,
+    resonance_speeds,
 )
+
+
+def find_bands(speeds, evaluate, tol=DEFAULT_TOL, rtol=EDGE_RTOL, points=None):
+    """Scan (unless ``points`` are given: the grid already evaluated), bracket and refine, as
+    fkev_slepc/sweep/floquet_run.py does over MPI ranks: (grid points sorted by speed, bands
+    unlabelled, the extra points the refinement evaluated)."""
+    pts = sorted(points if points is not None else [evaluate(float(w)) for w in speeds], key=lambda p: p.speed)
+    known = {}
+    edges = refine_edges(pts, brackets(pts, tol), lambda ws: [evaluate(w) for w in ws], known, tol, rtol)
+    return pts, bands_from(pts, edges, tol), list(known.values())
 
 OMEGA0, EPS = 1.0, 0.2
 

@@ -44,7 +44,7 @@ def test_reduced_max_multiplier_converges_to_the_full_model(tm100):
     assert full.max_abs > 20.0
     assert sizes == sorted(set(sizes)) and sizes[-1] == model.n_free and sizes[0] < model.n_free
     err = np.abs(mu - full.max_abs) / full.max_abs
-    assert err[-1] < 1e-8 and auto.truncation.converged and auto.truncation_error == 0.0
+    assert err[-1] < 1e-8 and auto.truncation.converged and auto.truncation.value == 0.0
     assert err[-2] < 1e-3 and err[-3] < 1e-3  # two reduced levels already within 1e-3
     assert np.all(np.diff(err[-4:]) < 0)  # and the last ones approach it monotonically
 

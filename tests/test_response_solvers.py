@@ -5,8 +5,41 @@ periodic solution and against each other, the unstable (|μ| > 1) flag and the r
 import numpy as np
 import pytest
 
-from fkev_slepc.periodic.harmonic_balance import collocation_solve, galerkin_solve, harmonic_balance
+from fkev_slepc.periodic.harmonic_balance import (
+    MAX_UNKNOWNS, HarmonicResponse, _solve, galerkin_solve, harmonic_balance, harmonics_of,
+)
 from fkev_slepc.periodic.shooting import ResonanceError, shooting
+
+
+def fourier_derivative(N: int) -> np.ndarray:
+    """Differentiation matrix (N, N) on θ_j = 2πj/N, N odd: D_jk = ½(-1)^(j-k) / sin((j-k)π/N)."""
+    if N % 2 == 0 or N < 3:
+        raise ValueError(f"N: the collocation needs an odd number of angles >= 3 (got {N})")
+    j = np.arange(N)
+    d = j[:, None] - j[None, :]
+    with np.errstate(divide="ignore"):
+        D = 0.5 * (-1.0) ** d / np.sin(d * np.pi / N)
+    D[d == 0] = 0.0
+    return D
+
+
+def collocation_solve(coefficients, load, omega: float, N: int) -> HarmonicResponse:
+    """The periodic response on N (odd) collocation angles (one dense LU): the equation imposed
+    at each θ_j with the Fourier differentiation matrix (aliasing included; the check of the
+    Galerkin harmonic balance, fkev_slepc/periodic/harmonic_balance.py)."""
+    theta = 2.0 * np.pi * np.arange(N) / N
+    M, C, K = (np.asarray(x, dtype=float) for x in coefficients(theta))
+    f = np.asarray(load(theta), dtype=float)
+    n = M.shape[1]
+    assert N * n <= MAX_UNKNOWNS
+    D = fourier_derivative(N)
+    w = float(omega)
+    A = np.einsum("jk,jab->jakb", w * w * (D @ D), M) + np.einsum("jk,jab->jakb", w * D, C)
+    A[np.arange(N), :, np.arange(N), :] += K
+    y, rcond = _solve(A.reshape(N * n, N * n), f.reshape(-1))
+    q = y.reshape(N, n)
+    return HarmonicResponse(theta, q, D @ q, harmonics_of(q), float("nan"), rcond)
+
 
 W = 3.0  # Ω: the coefficients are in the time form, θ = Ωt
 

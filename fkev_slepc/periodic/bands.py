@@ -10,7 +10,8 @@ edge two multipliers collide (at ±1 for a parametric resonance 2ω/n, elsewhere
 a combination resonance) and leave it, max|μ| - 1 growing like the square root of the distance
 into the band. The margin is therefore a continuous function with a sign change at each edge:
 
-1. :func:`scan`: the margin on a speed grid (the caller's evaluations, e.g. spread over MPI ranks);
+1. the margin on a speed grid (the caller's evaluations, e.g. spread over MPI ranks:
+   fkev_slepc/sweep/floquet_run.py);
 2. :func:`brackets`: consecutive grid speeds whose margins differ in sign bracket an edge;
 3. :func:`edge`: bisection on the sign of the margin inside a bracket, to ``rtol`` relative
    (the edge is where max|μ| - 1 reaches tol + SAFETY·error, inside the band by about
@@ -133,11 +134,6 @@ def suppressing_damping(rate: float, modes: Sequence[int], mean_freq: Sequence[f
     return float(2.0 * rate / (w[0] + w[1]))
 
 
-def scan(speeds: Sequence[float], evaluate: Callable[[float], SpeedPoint]) -> list[SpeedPoint]:
-    """``evaluate`` at each speed, in order (one rank's loop; the caller may spread speeds over ranks)."""
-    return [evaluate(float(w)) for w in speeds]
-
-
 def brackets(points: Sequence[SpeedPoint], tol: float = DEFAULT_TOL) -> list[tuple[int, int]]:
     """Index pairs (i, i+1) of neighbouring grid speeds (sorted) whose margins differ in sign;
     a speed that did not converge breaks the grid (no bracket across it)."""
@@ -232,18 +228,6 @@ def bands_from(points: Sequence[SpeedPoint], edges: dict[tuple[int, int], float]
         out.append(Band(lower, upper, i == 0, j == n - 1, inside[k].speed, inside[k].max_abs))
         i = j + 1
     return out
-
-
-def find_bands(speeds: Sequence[float], evaluate: Callable[[float], SpeedPoint], tol: float = DEFAULT_TOL,
-               rtol: float = EDGE_RTOL, points: Sequence[SpeedPoint] | None = None
-               ) -> tuple[list[SpeedPoint], list[Band], list[SpeedPoint]]:
-    """Scan (unless ``points`` are given: the grid already evaluated), bracket and refine.
-
-    Returns (grid points sorted by speed, bands unlabelled, the extra points the refinement evaluated)."""
-    pts = sorted(points if points is not None else scan(speeds, evaluate), key=lambda p: p.speed)
-    known: dict[float, SpeedPoint] = {}
-    edges = refine_edges(pts, brackets(pts, tol), lambda ws: [evaluate(w) for w in ws], known, tol, rtol)
-    return pts, bands_from(pts, edges, tol), list(known.values())
 
 
 # ------------------------------------------------------------------------------ labels

@@ -35,15 +35,15 @@ How:
 
 Result (``LinkageFloquet``): ``multipliers`` (2n,) complex sorted by |μ|, ``exponents`` (2n,)
 complex in 1/s (Re: growth rate; Im unwrapped to the mode's frequency, rad/s, by its
-eigenvector's Rayleigh quotient on the frozen stiffness and mass at the start angle), ``max_abs``,
-``growth_per_revolution`` (= max|μ|), ``monodromy`` (the :class:`Monodromy`, Φ in the scaled
+eigenvector's Rayleigh quotient on the frozen stiffness and mass at the start angle), ``max_abs``
+(max|μ|, the growth factor per revolution), ``monodromy`` (the :class:`Monodromy`, Φ in the scaled
 coordinates), ``error`` (multiplier error estimate: the monodromy's step-doubling estimate plus
 ``interp_multiplier_error`` = 2π · ``interp_error`` · max|A| · max|μ|, the first-order bound of
 the interpolation error on Φ, where the interpolant stopped at its sample cap above ``interp_tol``;
 one that meets ``interp_tol`` is as accurate as its samples, whose own round-off every monodromy
 shares, and adds nothing), ``interp_error``, ``samples``, ``n_dof``,
-``basis`` (None or the basis size), ``truncation`` (None or the :class:`Truncation` measured)
-and ``truncation_error`` (its larger measure).
+``basis`` (None or the basis size) and ``truncation`` (None or the :class:`Truncation` measured;
+``truncation.value`` its larger measure).
 
 ``TrigInterpolant`` and ``to_dense`` are re-exported from :mod:`fkev_slepc.periodic.interpolant`.
 """
@@ -85,18 +85,8 @@ class LinkageFloquet:
     covered_rad_s: float | None = None  # link-frame components: highest retained fixed-interface frequency
 
     @property
-    def truncation_error(self) -> float | None:
-        """None unless reduced with its truncation measured: the larger of |Δ max|μ|| and the
-        largest relative change of a retained Floquet frequency (:class:`Truncation`)."""
-        return None if self.truncation is None else self.truncation.value
-
-    @property
     def max_abs(self) -> float:
         return float(np.max(np.abs(self.multipliers)))
-
-    @property
-    def growth_per_revolution(self) -> float:
-        return self.max_abs
 
     @property
     def error(self) -> float:

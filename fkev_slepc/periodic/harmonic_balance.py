@@ -8,8 +8,8 @@ and the harmonics |k| <= H of the residual of the equation in θ,
 
 vanish (Galerkin harmonic balance, :func:`galerkin_solve`): one dense complex LU of size
 (2H + 1) n, the blocks Toeplitz in the coefficients' Fourier coefficients. Trigonometric
-collocation (:func:`collocation_solve`, the equation imposed at 2H + 1 angles) is kept as a check:
-it aliases the harmonics above H of the products M q'' ... into the equations, and where a
+collocation (the equation imposed at 2H + 1 angles; tests/test_response_solvers.py keeps it as a
+check) aliases the harmonics above H of the products M q'' ... into the equations, and where a
 harmonic kΩ near the truncation meets a natural frequency of an undamped linkage that aliasing is
 amplified (measured: Bahgat-Willmert at 300 rad/s, collocation at 129 angles 1.5 % off the
 converged response, Galerkin at the same H converged).
@@ -53,18 +53,6 @@ class HarmonicResponse:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         k = np.arange(self.harmonics.shape[0])
         return np.real(np.exp(1j * np.outer(theta, k)) @ self.harmonics)
-
-
-def fourier_derivative(N: int) -> np.ndarray:
-    """Differentiation matrix (N, N) on θ_j = 2πj/N, N odd: D_jk = ½(-1)^(j-k) / sin((j-k)π/N)."""
-    if N % 2 == 0 or N < 3:
-        raise ValueError(f"N: the collocation needs an odd number of angles >= 3 (got {N})")
-    j = np.arange(N)
-    d = j[:, None] - j[None, :]
-    with np.errstate(divide="ignore"):
-        D = 0.5 * (-1.0) ** d / np.sin(d * np.pi / N)
-    D[d == 0] = 0.0
-    return D
 
 
 def harmonics_of(q: np.ndarray) -> np.ndarray:
@@ -127,25 +115,6 @@ def _solve(A, b):
     for _ in range(2):
         y = y + la.lu_solve(lu, r * (b - A @ (c * y)), check_finite=False)
     return c * y, rcond
-
-
-def collocation_solve(coefficients, load, omega: float, N: int) -> HarmonicResponse:
-    """The periodic response on N (odd) collocation angles (one dense LU): the equation imposed
-    at each θ_j with the Fourier differentiation matrix (aliasing included; kept as a check)."""
-    theta = 2.0 * np.pi * np.arange(N) / N
-    M, C, K = (np.asarray(x, dtype=float) for x in coefficients(theta))
-    f = np.asarray(load(theta), dtype=float)
-    n = M.shape[1]
-    if N * n > MAX_UNKNOWNS:
-        raise ValueError(f"harmonic balance: {N} angles x {n} DOFs = {N * n} unknowns exceeds the dense "
-                         f"limit {MAX_UNKNOWNS}; use fewer harmonics or shooting")
-    D = fourier_derivative(N)
-    w = float(omega)
-    A = np.einsum("jk,jab->jakb", w * w * (D @ D), M) + np.einsum("jk,jab->jakb", w * D, C)
-    A[np.arange(N), :, np.arange(N), :] += K
-    y, rcond = _solve(A.reshape(N * n, N * n), f.reshape(-1))
-    q = y.reshape(N, n)
-    return HarmonicResponse(theta, q, D @ q, harmonics_of(q), float("nan"), rcond)
 
 
 def _pow2(x: np.ndarray) -> np.ndarray:

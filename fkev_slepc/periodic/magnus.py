@@ -29,7 +29,7 @@ start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps
 ``Monodromy`` (frozen dataclass)
     ``phi`` (n, n) Φ = x(start + P) for x(start) = I; ``multipliers`` (n,) complex, eigenvalues
     of Φ sorted by decreasing |μ|; ``exponents`` (n,) complex principal log(μ)/P (imaginary part
-    defined modulo 2π/P); ``max_abs`` max |μ|; ``growth_per_period`` the same factor (per
+    defined modulo 2π/P); ``max_abs`` max |μ| (the growth factor per period, per
     revolution for a linkage); ``growth_rate`` log(max|μ|)/P; ``error`` the estimated absolute
     multiplier error, ``phi_error`` the estimated relative error of Φ (Frobenius); ``steps``,
     ``order``, ``period``, ``start``, ``converged`` (error <= tol, always True for fixed steps);
@@ -38,8 +38,6 @@ start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps
 ``exponential_monodromy(A, period=2π, start=0.0) -> (Monodromy, λ, X)``
     the monodromy exp(P A) of a constant generator from its eigen-decomposition (``steps`` 1,
     ``order`` 0: exact up to the eigenvalues' round-off, which ``error`` bounds).
-``periodic_initial_state(mono) -> x0``
-    x0 = (I - Φ)⁻¹ x_p of the P-periodic response (raises if 1 is a multiplier to round-off).
 ``trajectory(generator, x0, thetas, *, forcing=None, order=6, steps) -> x (len(thetas), n[, m])``
     the state at the given θ (increasing, first = start) from x(thetas[0]) = x0, by the same
     Magnus steps (``steps`` per period P = thetas[-1] - thetas[0] unless ``period`` is given).
@@ -198,11 +196,6 @@ class Monodromy:
         return float(np.max(np.abs(self.multipliers)))
 
     @property
-    def growth_per_period(self) -> float:
-        """Amplitude factor of the fastest-growing Floquet solution over one period."""
-        return self.max_abs
-
-    @property
     def growth_rate(self) -> float:
         """log(max |μ|)/P, the largest real part of the Floquet exponents (1/[θ])."""
         return float(np.log(self.max_abs) / self.period)
@@ -287,17 +280,6 @@ def exponential_monodromy(A: np.ndarray, period: float = 2.0 * np.pi, start: flo
     mono = Monodromy(phi=phi, multipliers=mu[order_], period=float(period), start=float(start), steps=1, order=0,
                      error=err, phi_error=err / max(float(np.max(np.abs(mu))), 1e-300), converged=True)
     return mono, lam, X
-
-
-def periodic_initial_state(mono: Monodromy) -> np.ndarray:
-    """x0 of the P-periodic forced response: (I - Φ) x0 = x_p(P) (the shooting condition)."""
-    if mono.particular is None:
-        raise ValueError("periodic_initial_state: the monodromy was computed without a forcing")
-    if np.min(np.abs(mono.multipliers - 1.0)) < 1e-12:
-        raise ValueError("periodic_initial_state: 1 is a Floquet multiplier (resonant forcing); "
-                         "the periodic response is not unique")
-    n = mono.phi.shape[0]
-    return np.linalg.solve(np.eye(n) - mono.phi, mono.particular)
 
 
 def trajectory(generator, x0, thetas, *, forcing=None, order: int = 6, steps: int = 256,
