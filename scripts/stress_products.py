@@ -7,7 +7,10 @@ in their archives (issue 27). Not part of the package.
 2. **Faults**: a finished archive of each product (``fkev floquet``, ``fkev response --speeds -o``,
    ``fkev design``, Bahgat-Willmert with one element per link), then one byte changed in the stored
    values of every dataset of its group: ``fkev verify`` must flag it, ``--resume`` must refuse it
-   (exit 2) and leave the file as it was (never re-stamped), and the product's reader must warn.
+   (exit 2) and leave the file as it was (never re-stamped), and the product's reader and
+   ``fkev_slepc.open_dataset`` of its group (the verified xarray read) must warn.
+3. **A design point failing in its solve** (SLEPc limited to one iteration by ``-fkev_pep_max_it 1``:
+   the 30-element coupler does not converge, the 1-element one does): exit 3, no minima for it.
 """
 
 from __future__ import annotations
@@ -55,6 +58,12 @@ ADVERSARIAL = {  # id: (fkev arguments, with {tmp} and the scene builders of SCE
                              "--set"),
     "check-strict-height-1e155": (("check", "--strict", "height"), "height_m"),
     "check-strict-beta-1e30": (("check", "--strict", "beta"), "stiffness_proportional_s = 1e+30"),
+    "design-set-driver-speeds": (("design", BW, "--set", "driver.speeds_rad_s=1", "-o", "{tmp}/d.h5"),
+                                 "--set[driver.speeds_rad_s]"),
+    "design-set-solver-option": (("design", BW, "--set", "solver.petsc.pep_max_it=1,2", "-o", "{tmp}/d.h5"),
+                                 "--set[solver.petsc.pep_max_it]"),
+    "point-sensitivity-typo": (("point", BW, *ONE, "--sensitivity", "links[1].lenght_m"),
+                               "did you mean 'links[1].length_m'"),
 }
 
 
@@ -132,6 +141,7 @@ def _value_offsets(path: Path, group: str) -> dict:
 
 
 def cmd_products(args) -> Tally:
+    from fkev_slepc import open_dataset
     from fkev_slepc.archive.reader import DamagedArchiveWarning
     from fkev_slepc.archive.verify import verify
 
@@ -180,4 +190,22 @@ def cmd_products(args) -> Tally:
                 if not any(issubclass(w.category, DamagedArchiveWarning) for w in seen):
                     t.add("damaged archives read without a warning")
                     t.notes.append(f"{product} {name}: no warning")
+                with warnings.catch_warnings(record=True) as seen:
+                    warnings.simplefilter("always")
+                    try:
+                        open_dataset(bad, group=group)
+                    except Exception as exc:  # noqa: BLE001 - counted like the readers'
+                        t.notes.append(f"{product} {name}: open_dataset raised {type(exc).__name__}")
+                        t.add("xarray read exceptions")
+                if not any(issubclass(w.category, DamagedArchiveWarning) for w in seen):
+                    t.add("damaged archives read by open_dataset without a warning")
+                    t.notes.append(f"{product} {name}: open_dataset gave no warning")
+    with tempfile.TemporaryDirectory() as tmp:
+        r = fkev("design", BW, "--set", "links[1].elements=1,30", "--angles", "0", "--speeds", "100", "--cases", "full",
+                 "--solver", "slepc", "-q", "-o", Path(tmp) / "d.h5", "-fkev_pep_max_it", "1")
+        rows = [ln for ln in r.stdout.splitlines() if ln.split()[:1] in (["1"], ["30"])]
+        flagged = (r.returncode == 3 and len(rows) == 2 and "no minima" in rows[1] and "no minima" not in rows[0]
+                   and "Traceback" not in r.stderr)
+        t.add("design points failing in their solve flagged (exit 3, no minima)" if flagged
+              else "design points failing in their solve not flagged")
     return t
