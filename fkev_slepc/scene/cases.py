@@ -7,6 +7,7 @@ aliases in Table 3.1's row order (not the Fortran INDEX order, which swaps 3 and
 from __future__ import annotations
 
 from dataclasses import dataclass
+import difflib
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,6 @@ def case_name(value: str | int) -> str:
         return case_name(int(text))
     if text in CASES:
         return text
-    import difflib
 
     near = difflib.get_close_matches(text.lower().replace("-", "_").replace(" ", "_"), CASE_NAMES, n=1, cutoff=0.6)
     hint = f"did you mean {near[0]!r}? " if near else ""

@@ -21,10 +21,12 @@ import re
 import tomllib
 from dataclasses import replace as _replace
 from typing import Any
+import difflib
 
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.schema import join, show
 from fkev_slepc.scene.toml_text import dumps
+from fkev_slepc.scene.reader import parse_scene
 
 __all__ = ["parse_key", "set_key", "canonical_key", "replace_values", "dumps"]
 _PART = re.compile(r"(?P<key>[A-Za-z_][A-Za-z0-9_-]*)(?P<index>(?:\[[^\[\]]*\])*)")
@@ -132,7 +134,6 @@ def _item(items: list, part: str | int, where: str) -> int:
     names = [it.get("name") if isinstance(it, dict) else None for it in items]
     if part in names:
         return names.index(part)
-    import difflib
 
     close = difflib.get_close_matches(part, [n for n in names if isinstance(n, str)], n=1)
     tip = f"; did you mean '{close[0]}'?" if close else ""
@@ -175,8 +176,6 @@ def replace_values(scene: Scene, changes: dict[str, Any]) -> Scene:
     fkev_slepc.scene.model.SceneError: ... with links[1].length_m = -0.3: 1 problem
       links[1].length_m: must be > 0 (got -0.3)
     """
-    from fkev_slepc.scene.reader import parse_scene
-
     if not scene.source_text:
         raise SceneError(scene.source, [Problem("scene", "has no TOML text to edit (build it with load or from_text)")])
     doc = tomllib.loads(scene.source_text)
@@ -197,8 +196,6 @@ def replace_values(scene: Scene, changes: dict[str, Any]) -> Scene:
 def _carry_overrides(old: Scene, new: Scene, keys: list[str]) -> Scene:
     """Keep what ``old`` holds beyond its text (a re-mesh, an element type, a grid set from Python)
     in ``new``, except what the edit set itself."""
-    from fkev_slepc.scene.reader import parse_scene
-
     base = parse_scene(old.source_text, old.source)
     touched = lambda prefix: any(k == prefix or k.startswith(prefix + ".") or k.startswith(prefix + "[")  # noqa: E731
                                  for k in keys)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 END_NAMES = ("root", "tip")
@@ -231,8 +231,6 @@ class Scene:
 
 def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
     """Return ``scene`` with its links re-meshed (``--elements N`` or ``n1,n2,...``)."""
-    from dataclasses import replace
-
     if isinstance(elements, int):
         elements = (elements,) * len(scene.links)
     if len(elements) != len(scene.links):
@@ -250,8 +248,6 @@ def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
 def _remesh(link: Link, n: int) -> Link:
     """``link`` with ``n`` axis elements; a stepped link shares them among its segments in
     proportion to their lengths (at least one each)."""
-    from dataclasses import replace
-
     if not link.segments:
         return replace(link, elements=n)
     share = [max(1, round(n * s.length / link.length)) for s in link.segments]

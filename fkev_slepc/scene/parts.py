@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from fkev_slepc.scene.model import THIRD, Joint, Link, LumpedMass, Segment
+from fkev_slepc.scene.model import THIRD, Joint, Link, LumpedMass, Segment, END_NAMES
 from fkev_slepc.scene import materials, shapes
 from fkev_slepc.scene.schema import REQUIRED, Reader, join, show
 
@@ -186,7 +186,5 @@ def read_masses(r: Reader, doc, joints: list[Joint | None], joint_names: list[st
 
 def end_names(link_names, ternary) -> list[str]:
     """Valid joint references ``<link>.<end>`` ('third' for ternary links)."""
-    from fkev_slepc.scene.model import END_NAMES
-
     refs = [f"{n}.{e}" for n in link_names or () for e in END_NAMES]
     return refs + [f"{n}.{THIRD}" for n in link_names or () if n in ternary]

@@ -17,6 +17,8 @@ from fkev_slepc.scene.materials import read_materials
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.process_loads import read_process_loads
 from fkev_slepc.scene.schema import Reader
+from fkev_slepc.scene.toml_text import dumps
+from fkev_slepc.scene.units import read_units, to_si, units_label
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -83,9 +85,6 @@ def _parse_in_units(doc: dict, text: str, source: str) -> Scene:
     """A scene with ``[units]``: validated as written (messages quote the values the user typed),
     then converted to SI once; the Scene's ``source_text`` is the SI document, headed by the file
     as written in comments (scene/units.py)."""
-    from fkev_slepc.scene.toml_text import dumps
-    from fkev_slepc.scene.units import read_units, to_si, units_label
-
     r = Reader(sec.SECTIONS)
     factors = read_units(r, doc)
     problems = list(r.problems)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from fkev_slepc.scene.process_loads import split_station
 
 RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 
@@ -107,8 +108,6 @@ def to_si(doc: dict, factors: tuple[float, float, float]) -> dict:
     """A copy of ``doc`` without ``[units]``, every dimensional value (:data:`DIMENSIONS`) of the
     linkage sections multiplied by its SI factor; values of the wrong type are left for the
     reader to report."""
-    from fkev_slepc.scene.process_loads import split_station
-
     length, force, mass = factors
 
     def factor(key):
