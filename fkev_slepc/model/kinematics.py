@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.model.mechanism import Mechanism
+from fkev_slepc.model.mechanism import Mechanism, build_mechanism
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 
@@ -282,8 +282,6 @@ def grashof_class(mech: Mechanism) -> str | None:
 def assembly_problems(scene: Scene) -> list[Problem]:
     """Problems of the requested crank angles at which the linkage cannot be assembled:
     one per interval (``cannot be assembled for θ in [a°, b°]``), with the Grashof class."""
-    from fkev_slepc.model.mechanism import build_mechanism
-
     try:
         mech = build_mechanism(scene)
     except SceneError as err:

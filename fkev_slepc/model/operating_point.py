@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.model.kinematics import solve_kinematics
+from fkev_slepc.model.mechanism import build_mechanism
 
 
 def operating_point_problems(speed_rad_s, accel_rad_s2, gravity_m_s2, names=None) -> list[Problem]:
@@ -26,8 +28,6 @@ def operating_point_problems(speed_rad_s, accel_rad_s2, gravity_m_s2, names=None
 
 def checked_angles(scene: Scene, mech, angles_deg, name="angles_deg") -> np.ndarray:
     """The crank angles (deg; default the scene's), refused where not finite or not assemblable."""
-    from fkev_slepc.model.kinematics import solve_kinematics
-
     a = np.atleast_1d(np.asarray(scene.analysis.crank_angles_deg if angles_deg is None else angles_deg, float))
     if a.size == 0 or not np.isfinite(a).all():
         raise SceneError(scene.source, [Problem(name, f"must be finite crank angles, deg (got {list(a)})")])
@@ -46,9 +46,6 @@ def full_turn_problem(scene: Scene, mech=None) -> Problem | None:
     """None where the linkage assembles at every crank angle of a revolution (every
     ``FULL_TURN_STEP_DEG``), else the Problem naming the scene's driver: the periodic analyses
     (``fkev floquet``, ``fkev response``) need a crank that turns fully, refused before any work."""
-    from fkev_slepc.model.kinematics import solve_kinematics
-    from fkev_slepc.model.mechanism import build_mechanism
-
     a = np.arange(0.0, 360.0, FULL_TURN_STEP_DEG)
     ok = solve_kinematics(build_mechanism(scene) if mech is None else mech, np.radians(a)).ok
     if ok.all():
