@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.solve.thresholds import SolveSettings
+from fkev_slepc.solve.modes import reported
 
 _EPS = np.finfo(float).eps  # hoisted: np.finfo costs microseconds per call, check_pairs runs per point
 
@@ -139,8 +140,6 @@ def check_pairs(qep, lam: np.ndarray, X: np.ndarray, err: np.ndarray, n_modes: i
     floor is at least ε (‖|A||x|‖ ≥ ‖Ax‖), so pairs with error ≤ ``max_floor_ratio``·ε pass
     without computing it (most pairs, at a fair share of a small model's solve).
     """
-    from fkev_slepc.solve.modes import reported
-
     osc, is_real = reported(lam, n_modes, settings.imag_tol)
     used = np.concatenate([osc, np.flatnonzero(is_real)])
     worst = float(np.asarray(err)[used].max()) if used.size else np.inf

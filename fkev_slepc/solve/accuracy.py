@@ -20,6 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.scene import ELEMENT_NAMES, Scene, with_elements
+from fkev_slepc.model.mechanism import build_mechanism
+from fkev_slepc.model.operators import Model
+from fkev_slepc.solve.engines import engine_kind, make_engine
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.solve.thresholds import SolveSettings
 
 RATE_AGREEMENT = 0.5
 START = {"thesis": 4, "cubic": 2}  # first mesh of the sequence (elements per link)
@@ -155,9 +160,6 @@ def plan_point(scene: Scene, points, n_modes: int, rel_error: float, engine_for,
 
     ``engine_for(n_free)`` returns an engine for a model of that size (reused, not closed here).
     """
-    from fkev_slepc.model.operators import Model
-    from fkev_slepc.solve.modes import postprocess
-
     cases = tuple(dict.fromkeys(c for _, _, c in points))
 
     def solve(element, n):
@@ -170,8 +172,6 @@ def plan_point(scene: Scene, points, n_modes: int, rel_error: float, engine_for,
         return np.concatenate(out)
 
     def n_free_of(element, n):
-        from fkev_slepc.model.mechanism import build_mechanism
-
         return build_mechanism(with_elements(with_element(scene, element), n)).n_free
 
     return choose([plan_element(solve, e, rel_error, n_free_of) for e in elements], rel_error)
@@ -188,8 +188,6 @@ class EngineCache:
         self.method, self.petsc, self.settings, self._engines = method, petsc_options, settings, {}
 
     def __call__(self, n_free: int):
-        from fkev_slepc.solve.engines import engine_kind, make_engine
-
         kind = engine_kind(self.method, n_free)
         if kind not in self._engines:
             self._engines[kind] = make_engine(kind, n_free, self.petsc, settings=self.settings)
@@ -215,8 +213,6 @@ def planned_scene(scene: Scene, points, n_modes: int, rel_error: float, method: 
     >>> plan.element, plan.elements                                          # doctest: +SKIP
     ('cubic', 31)
     """
-    from fkev_slepc.solve.thresholds import SolveSettings
-
     engines = EngineCache(method, scene.solver.petsc, SolveSettings.from_scene(scene))
     try:
         plan = plan_point(scene, points, n_modes, rel_error, engines)

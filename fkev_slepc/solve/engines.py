@@ -11,12 +11,18 @@ grows like n³ (measured by ``scripts/bench_crossover.py``; numbers in docs/engi
 from __future__ import annotations
 
 import logging
+import dataclasses
 
 import numpy as np
 
 from fkev_slepc.model.qep import QEP
 from fkev_slepc.solve.protocol import EigenSolution, Engine
 from fkev_slepc.solve.thresholds import SolveSettings, max_pair_error_option
+from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.solve.dense import DenseEngine
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.solve.petsc_init import command_line_options
+from fkev_slepc.solve.stability import DENSE_LIMIT
 
 METHODS = ("auto", "slepc", "dense")
 log = logging.getLogger(__name__)
@@ -94,7 +100,6 @@ def _one_engine(kind: str, petsc_options, settings: SolveSettings, max_pair_erro
 
 def _slepc_engine(petsc_options, **kw):
     from fkev_slepc.solve.slepc import OptionsError, SlepcEngine  # imports PETSc: only now, after the CLI initialised it
-    from fkev_slepc.scene import Problem, SceneError
 
     try:
         return SlepcEngine(petsc_options, **kw)
@@ -107,8 +112,6 @@ def check_petsc_options(petsc_options=()) -> None:
     object (a misspelt name: PETSc itself would ignore it). Only fkev's own options given (or
     none): nothing to check, PETSc is not even imported. Otherwise the solver objects are
     configured with the options and destroyed (solve/slepc.py ``check_options``)."""
-    from fkev_slepc.solve.petsc_init import command_line_options
-
     fkev_keys = {"max_pair_error"}
     scene = [k for k, _ in petsc_options if str(k).lstrip("-").removeprefix("fkev_") not in fkev_keys]
     argv = command_line_options()
@@ -117,7 +120,6 @@ def check_petsc_options(petsc_options=()) -> None:
     if not scene and not cmd:
         return
     from fkev_slepc.solve.slepc_options import OptionsError, check_options
-    from fkev_slepc.scene import Problem, SceneError
 
     try:
         check_options(petsc_options)
@@ -127,8 +129,6 @@ def check_petsc_options(petsc_options=()) -> None:
 
 def frequencies(engine: Engine, qep: QEP, n_modes: int) -> np.ndarray:
     """The ``n_modes`` lowest frequencies (Hz) one engine finds (NaN where it found fewer)."""
-    from fkev_slepc.solve.modes import postprocess
-
     return postprocess(engine.solve(qep, n_modes), n_modes).frequency_hz
 
 
@@ -148,7 +148,6 @@ def cross_check(qep: QEP, n_modes: int, petsc_options=(), settings: SolveSetting
     >>> cross_check(qep, 4)          # doctest: +SKIP
     3.1e-12
     """
-    from fkev_slepc.solve.dense import DenseEngine
     from fkev_slepc.solve.slepc import SlepcEngine
 
     settings = SolveSettings() if settings is None else settings
@@ -208,8 +207,6 @@ class CrossCheckEngine(_Paired):
         return sols
 
     def _compare(self, sol: EigenSolution, ref: EigenSolution, n_modes: int) -> None:
-        from fkev_slepc.solve.modes import postprocess
-
         if sol.converged and ref.converged:
             d = relative_difference(postprocess(sol, n_modes).frequency_hz, postprocess(ref, n_modes).frequency_hz)
             self.max_rel_diff = max(self.max_rel_diff, d)
@@ -243,10 +240,6 @@ class FallbackEngine(_Paired):
         return self._other
 
     def solve_many(self, qeps: list, n_modes: int, want_vectors: bool = False, hints=None) -> list[EigenSolution]:
-        import dataclasses
-
-        from fkev_slepc.solve.stability import DENSE_LIMIT
-
         hints = [None] * len(qeps) if hints is None else list(hints)
         sols = self.primary.solve_many(qeps, n_modes, want_vectors, hints)
         for i, (q, sol) in enumerate(zip(qeps, sols)):

@@ -11,6 +11,8 @@ the companion pencil of the dense engine then overflow).
 from __future__ import annotations
 
 import numpy as np
+from fkev_slepc.model.operators import Model
+from fkev_slepc.scene import Problem
 
 # λ² up to this size leaves room for the products λ²·‖M‖·‖x‖, λ⁴ (quadratic roots) and the
 # scaling of the dense engine (1e300 would already overflow λ⁴ = 1e600 in np.roots' companion).
@@ -59,9 +61,6 @@ def overflow_problems(scene) -> list:
     """Problems (``scene.Problem``) of a scene whose operators overflow: the QEP of every case at
     the first crank angle and the largest crank speed, judged by :func:`operator_problem`. A
     problem of the ``structure`` case (no speed in it) names the links, else the crank speeds."""
-    from fkev_slepc.model.operators import Model
-    from fkev_slepc.scene import Problem
-
     cases = tuple(scene.analysis.cases)
     speeds = np.abs(np.asarray(scene.driver.speeds, dtype=float))
     top = float(speeds.max()) if speeds.size else 0.0

@@ -16,6 +16,7 @@ from fkev_slepc.solve.protocol import EigenSolution
 from fkev_slepc.solve.thresholds import IMAG_TOL
 from fkev_slepc.scene import DAMPING_TOL
 from fkev_slepc.status import Status
+from fkev_slepc.solve.stability import damping_ratio, real_positive
 
 
 @dataclass(frozen=True)
@@ -65,8 +66,6 @@ def postprocess(
     the one the engine decided with (``sol.imag_tol``; another one given is an error), so that
     the modes selected here and the engine's divergence verdict and acceptance agree on what is real.
     """
-    from fkev_slepc.solve.stability import damping_ratio, real_positive
-
     lam = np.asarray(sol.eigenvalues, dtype=complex)
     err = np.asarray(sol.errors, dtype=float)
     if imag_tol is not None and imag_tol != sol.imag_tol:  # the verdict and acceptance used the engine's

@@ -23,6 +23,7 @@ import scipy.sparse.linalg as spla
 from fkev_slepc.model.qep import QEP
 from fkev_slepc.solve.acceptance import pair_error_floor, polished_pair_error, staged_products, staged_residual
 from fkev_slepc.solve.thresholds import SolveSettings
+from fkev_slepc.solve.modes import mac, reported
 
 _DEFAULT = SolveSettings()
 
@@ -126,8 +127,6 @@ def polish(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray, which: 
 def _collapsed(lam: np.ndarray, X: np.ndarray, which: np.ndarray, max_mac: float) -> str:
     """'' or why two of the pairs ``which`` are one pair: (nearly) equal eigenvalues whose
     vectors are parallel (MAC > ``max_mac``). Independent vectors of a double eigenvalue pass."""
-    from fkev_slepc.solve.modes import mac
-
     if which.size < 2:
         return ""
     lw, xw = lam[which], X[:, which]
@@ -164,8 +163,6 @@ def polish_reported(qep: QEP, lam: np.ndarray, X: np.ndarray, errors: np.ndarray
     eigenvalues passed; polished they pass, within 2.2e-7 of 40-digit values of the same
     matrices (``scripts/stress.py toggle --mpmath``).
     """
-    from fkev_slepc.solve.modes import reported
-
     if X is None or qep.staged is None:
         return lam, X, errors, ""
     errors = np.asarray(errors, dtype=float)

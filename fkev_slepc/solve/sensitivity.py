@@ -33,6 +33,10 @@ import scipy.sparse.linalg as spla
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.scene.edit import canonical_key, parse_key, replace_values
 from fkev_slepc.scene.schema import is_number, show
+from fkev_slepc.model.operators import AssemblyError, Model
+from fkev_slepc.solve.engines import make_engine
+from fkev_slepc.solve.modes import postprocess
+from fkev_slepc.solve.thresholds import SolveSettings
 
 REL_STEP = 1e-6  # operator differences: truncation h² ~ 1e-12, round-off ε/h ~ 1e-10 of the derivative
 REPEATED_RTOL = 1e-9  # eigenvalues this close (relative) are taken as one double eigenvalue
@@ -278,8 +282,6 @@ def point_sensitivity(model, theta: float, speed: float, case: str, eigenvalues:
         A bad key (named, with its value), or a scene at p ± h that is invalid or cannot be
         assembled at this crank angle.
     """
-    from fkev_slepc.model.operators import AssemblyError
-
     scene = model.scene
     p = POINT_KEYS[key](theta, speed) if key in POINT_KEYS else key_value(scene, key)
     lam = np.asarray(eigenvalues, dtype=complex)
@@ -333,11 +335,6 @@ def point_solver(theta: float, speed: float, case: str, n_modes: int, method: st
     """``solve(scene) -> eigenvalues`` of the ``n_modes`` reported modes of ``scene`` at one point
     (θ rad, Ω rad/s, case) with the engine ``method``: what :func:`point_sensitivity` differences
     where a key changes the mesh."""
-    from fkev_slepc.model.operators import Model
-    from fkev_slepc.solve.engines import make_engine
-    from fkev_slepc.solve.modes import postprocess
-    from fkev_slepc.solve.thresholds import SolveSettings
-
     def solve(scene):
         model = Model(scene, cases=(case,))
         engine = make_engine(method, model.n_free, scene.solver.petsc, settings=SolveSettings.from_scene(scene))
@@ -353,8 +350,6 @@ def point_solver(theta: float, speed: float, case: str, n_modes: int, method: st
 
 def _moved(model, key: str, value: float, case: str, must: bool = True):
     """The model of ``model``'s scene with ``key`` at ``value`` (None when out of range and not ``must``)."""
-    from fkev_slepc.model.operators import Model
-
     try:
         return Model(replace_values(model.scene, {key: value}), cases=(case,))
     except SceneError as err:
