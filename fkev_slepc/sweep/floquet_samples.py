@@ -20,11 +20,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from fkev_slepc.archive import products as P
+from fkev_slepc.archive import products as P, lock
 from fkev_slepc.archive.products_floquet import F_SAMPLE, SAMPLE_ROWS, SAMPLE_STATUS
 from fkev_slepc.archive.store import text
 from fkev_slepc.periodic.bands import SpeedPoint
 from fkev_slepc.status import Status
+from fkev_slepc.sweep.interrupt import StopRequest, SweepInterrupted
 
 PURPOSES = ("edge", "probe")
 _COLUMNS = {v.source: v for v in SAMPLE_ROWS if v.source and v is not SAMPLE_STATUS}
@@ -91,8 +92,6 @@ class Sampler:
 
     def __init__(self, part: Path, out: Path, evaluate, status, comm, n_index: int, notify=None,
                  resume_command: str = ""):
-        from fkev_slepc.sweep.interrupt import StopRequest
-
         self.part, self.out, self.evaluate, self.status, self.comm, self.n_index = (
             part, out, evaluate, status, comm, n_index)
         archived = read_samples(part) if comm.rank == 0 else None
@@ -110,9 +109,6 @@ class Sampler:
         self.stop = StopRequest(notify=say)
 
     def __call__(self, speeds, purpose: str) -> list[SpeedPoint]:
-        from fkev_slepc.archive import lock
-        from fkev_slepc.sweep.interrupt import SweepInterrupted
-
         new = list(dict.fromkeys(float(w) for w in speeds if float(w) not in self.known))
         mine = {w: self.evaluate(w) for w in new[self.comm.rank::self.comm.size]}
         got: dict = {}

@@ -14,6 +14,9 @@ import numpy as np
 from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
 from fkev_slepc.scene.units import RAD_S_PER_RPM
+from fkev_slepc.model.kinematics import assembly_problems
+from fkev_slepc.model.mechanism import build_mechanism
+from fkev_slepc.solve.finite import overflow_problems
 
 MAX_POINTS_PER_AXIS = 1_000_000
 API_NAMES = {"angles": "angles_deg", "speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "cases": "cases",
@@ -156,10 +159,6 @@ def scene_problems(scene: Scene) -> list[Problem]:
     point of ``fkev design``): the crank angles at which the linkage cannot be assembled, else more
     modes than DOFs, else operators that overflow double precision
     (:func:`fkev_slepc.solve.finite.overflow_problems`)."""
-    from fkev_slepc.model.kinematics import assembly_problems
-    from fkev_slepc.model.mechanism import build_mechanism
-    from fkev_slepc.solve.finite import overflow_problems
-
     problems = assembly_problems(scene)
     if not problems:
         problems = [p for p in [modes_problem(scene.analysis.modes, build_mechanism(scene).n_free, None)] if p]
@@ -243,9 +242,6 @@ def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=
     if problems:
         raise SceneError(scene.source, problems)
     scene = replace(scene, analysis=replace(an, mode_shapes=an.mode_shapes or bool(mode_shapes)), driver=drv)
-    from fkev_slepc.model.kinematics import assembly_problems
-    from fkev_slepc.model.mechanism import build_mechanism
-
     bad = assembly_problems(scene)
     if bad and angles is not None:
         bad = [Problem(p.path.replace("analysis.crank_angles_deg", names["angles"]), p.message) for p in bad]

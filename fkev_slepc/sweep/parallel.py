@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import sys
+from fkev_slepc._version import __version__
 
 
 def world():
@@ -61,7 +62,6 @@ def software_versions() -> dict:
     import h5py
     from mpi4py import MPI
 
-    from fkev_slepc._version import __version__
     out = {
         "fkev_version": __version__,
         "h5py_version": h5py.version.version,

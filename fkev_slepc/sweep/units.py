@@ -20,6 +20,7 @@ import logging
 from typing import Callable
 
 import numpy as np
+from fkev_slepc.status import codes, Status
 
 log = logging.getLogger(__name__)
 
@@ -74,6 +75,4 @@ def run_units(todo: np.ndarray, solve: Callable, writer, comm, n_unit_axes: int 
 def pending(status: np.ndarray, retry: tuple = ()) -> np.ndarray:
     """Mask of the points of a product still to solve: ``pending`` ones, and those whose status
     is in ``retry`` (e.g. :data:`fkev_slepc.status.RETRYABLE` for a retry of failed points)."""
-    from fkev_slepc.status import Status, codes
-
     return np.isin(status, codes([Status.PENDING, *retry]))
