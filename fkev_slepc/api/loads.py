@@ -14,6 +14,7 @@ from fkev_slepc.model.operating_point import (  # noqa: F401 (re-exported)
     checked_angles, full_turn_problem, operating_point_problems,
 )
 from fkev_slepc.scene import Scene, SceneError
+from fkev_slepc.model.mechanism import build_mechanism
 
 LOADS_FORMAT = "fkev-loads"
 
@@ -116,8 +117,6 @@ def study_loads(scene: Scene, speed_rad_s: float, angles_deg=None, accel_rad_s2=
     >>> round(float(sc.torque[0]), 3), sc.power_residual < 1e-12
     (74.896, True)
     """
-    from fkev_slepc.model.mechanism import build_mechanism
-
     names = names or {}
     accel = scene.driver.acceleration if accel_rad_s2 is None else accel_rad_s2
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2

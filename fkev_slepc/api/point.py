@@ -12,6 +12,13 @@ from fkev_slepc.api.results import PointResult
 from fkev_slepc.archive.reader import NodeDofMap
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.solve import modes as _modes
+from fkev_slepc.model.mechanism import build_mechanism
+from fkev_slepc.model.operators import PLANES, AssemblyError
+from fkev_slepc.model.out_of_plane import section_of
+from fkev_slepc.solve.accuracy import planned_scene
+from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
+from fkev_slepc.solve.engines import cross_check as _cross_check
+from fkev_slepc.solve.thresholds import SolveSettings
 
 
 def mesh_of(model) -> NodeDofMap:
@@ -24,8 +31,6 @@ def mesh_of(model) -> NodeDofMap:
 def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error,
                 plane="in") -> PointResult:
     """One operating point of ``pool.scene`` (see ``Study.point`` for the arguments)."""
-    from fkev_slepc.solve.engines import cross_check as _cross_check
-    from fkev_slepc.solve.thresholds import SolveSettings
     from fkev_slepc.sweep.runner import recoverable_errors
 
     sc = pool.scene
@@ -71,10 +76,6 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
 
 def out_of_plane_arguments(sc: Scene, plane, rel_error) -> None:
     """SceneError naming every argument the out-of-plane point cannot take (docs/theory.md §19)."""
-    from fkev_slepc.model.mechanism import build_mechanism
-    from fkev_slepc.model.operators import PLANES
-    from fkev_slepc.model.out_of_plane import section_of
-
     bad = []
     if plane not in PLANES:
         bad.append(Problem("plane", f"must be one of {', '.join(PLANES)} (got {plane!r})"))
@@ -95,7 +96,6 @@ def _planned(sc: Scene, angle_deg, speed_rad_s, case, modes, rel_error, solver) 
     rel_error = sc.analysis.rel_error if rel_error is None else rel_error
     if rel_error is None:
         return sc, None
-    from fkev_slepc.solve.accuracy import planned_scene
 
     try:
         planned, plan = planned_scene(sc, [(float(angle_deg), float(speed_rad_s), case)], modes, rel_error,
@@ -107,10 +107,6 @@ def _planned(sc: Scene, angle_deg, speed_rad_s, case, modes, rel_error, solver) 
 
 def critical_scan(pool, case, angle_deg, max_speed_rad_s, modes, solver, plane="in"):
     """Critical speeds of ``pool.scene`` (see ``Study.critical``)."""
-    from fkev_slepc.model.operators import AssemblyError
-    from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
-    from fkev_slepc.solve.thresholds import SolveSettings
-
     sc = pool.scene
     case, n_modes = point_arguments(sc, case, modes, angle_deg=angle_deg, max_speed_rad_s=max_speed_rad_s)
     if plane != "in":

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from fkev_slepc.scene import Scene
 from fkev_slepc.scene.cases import terms_used
+from fkev_slepc.model.operators import OUT_OF_PLANE_ABSENT, Model
 
 
 class ModelPool:
@@ -26,8 +27,6 @@ class ModelPool:
         """A model of ``plane`` ("in" or "out", docs/theory.md §19) that can solve ``case``: one
         already built whose terms include the case's (the fewest such terms), else a new one for
         this case."""
-        from fkev_slepc.model.operators import OUT_OF_PLANE_ABSENT, Model
-
         need = frozenset(t for t in terms_used((case,)) if plane == "in" or t not in OUT_OF_PLANE_ABSENT)
         fits = [key for key in self._models if key[0] == plane and need <= key[1]]
         if fits:

@@ -12,6 +12,8 @@ from fkev_slepc.archive import reader
 from fkev_slepc.solve import modes as _modes
 from fkev_slepc.solve.stability import FROZEN_TIME
 from fkev_slepc.status import CONVERGED
+from fkev_slepc.model.operators import Model
+from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
 
 __all__ = ["PointResult", "ModeShape"]
 
@@ -126,9 +128,7 @@ class PointResult:
         """
         if self.plane != "in":
             raise ValueError(f"sensitivities are in plane only (this point is plane {self.plane!r})")
-        from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
 
-        from fkev_slepc.model.operators import Model
 
         engine = next((m for m in ("dense", "slepc") if self.solver.startswith(m)), "auto")
         solve = point_solver(self.theta_rad, self.speed_rad_s, self.case, len(self.eigenvalues), engine)

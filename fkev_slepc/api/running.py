@@ -4,6 +4,11 @@ module of the operating-point and sweep methods; the bodies are in api/loads.py 
 api/response.py."""
 
 from __future__ import annotations
+from fkev_slepc.api.floquet import study_floquet
+from fkev_slepc.api.loads import study_loads
+from fkev_slepc.api.response import study_response
+from fkev_slepc.api.response_speeds import response_vs_speed
+from fkev_slepc.design.check import design_check
 
 
 class RunningSpeed:
@@ -12,24 +17,18 @@ class RunningSpeed:
 
     def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
         """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
-        from fkev_slepc.api.loads import study_loads
-
         return study_loads(self.scene, speed_rad_s, angles_deg, accel_rad_s2, gravity_m_s2)
 
     def response(self, speed_rad_s: float, case="full", angles_deg=None, **options):
         """The steady periodic elastic response (``fkev response``):
         :func:`fkev_slepc.api.response.study_response` (options ``gravity_m_s2``, ``harmonics``,
         ``tol``, ``shoot``, ``stations``)."""
-        from fkev_slepc.api.response import study_response
-
         return study_response(self.scene, speed_rad_s, case, angles_deg, **options)
 
     def design_check(self, speed_rad_s: float, criterion: str = "goodman", **options):
         """Per link peak |σ|, static and fatigue safety factors, weak-axis buckling factor and peak
         pin loads (``fkev design-check``): :func:`fkev_slepc.design.check.design_check` (options
         ``case``, ``angles_deg``, ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``)."""
-        from fkev_slepc.design.check import design_check
-
         return design_check(self.scene, speed_rad_s, criterion=criterion, **options)
 
     def response_vs_speed(self, speeds_rad_s, case="full", output=None, **options):
@@ -37,7 +36,6 @@ class RunningSpeed:
         :func:`fkev_slepc.api.response_speeds.response_vs_speed`; with ``output`` archived there
         over the MPI ranks of ``comm`` and resumable (``resume``, ``force``):
         :func:`fkev_slepc.api.response_archive.archived_response_vs_speed`."""
-        from fkev_slepc.api.response_speeds import response_vs_speed
         from fkev_slepc.api.response_archive import archived_response_vs_speed
 
         if output is None:
@@ -48,6 +46,4 @@ class RunningSpeed:
         """Floquet multipliers over a speed range, unstable bands labelled (``fkev floquet``):
         :func:`fkev_slepc.api.floquet.study_floquet` (options: angles_deg, resume, force, tol, rtol,
         resonance_order, probe, ...)."""
-        from fkev_slepc.api.floquet import study_floquet
-
         return study_floquet(self, speeds_rad_s, case, output, **options)
