@@ -13,8 +13,12 @@ import argparse
 import logging
 import os
 import sys
+import importlib
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOT_CONVERGED, EXIT_OK  # noqa: F401 (re-exported)
+from fkev_slepc.cli import pipes
+from fkev_slepc.solve.petsc_init import init_petsc
+from fkev_slepc.sweep.parallel import configure_logging, software_versions, world
 SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "design",
                "design-check", "loads", "floquet", "response")
 COLLECTIVE = ("run", "design", "floquet")  # every rank of mpiexec takes part; any other command runs on rank 0 alone
@@ -107,8 +111,6 @@ def _is_number(tok: str) -> bool:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    import importlib
-
     ap = argparse.ArgumentParser(
         prog="fkev",
         description="Free kineto-elastovibration of flexible planar linkages (FE + SLEPc).",
@@ -135,8 +137,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def version_text() -> str:
     """``fkev X.Y (PETSc a.b.c, SLEPc a.b.c, h5py ..., HDF5 ..., MPI library)``."""
-    from fkev_slepc.sweep.parallel import software_versions
-
     v = software_versions()
     return (f"fkev {v['fkev_version']} (PETSc {v['petsc_version']}, SLEPc {v['slepc_version']}, "
             f"h5py {v['h5py_version']}, HDF5 {v['hdf5_version']}, MPI: {v['mpi_version']})")
@@ -147,10 +147,8 @@ def main(argv: list[str] | None = None) -> int:
     full_argv, environ = list(argv), dict(os.environ)  # before MPI starts (it adds variables)
     argv, flags = split_global_flags(argv)
     ours, petsc = split_petsc_options(argv)
-    from fkev_slepc.solve.petsc_init import init_petsc
 
     init_petsc(petsc)
-    from fkev_slepc.cli import pipes
 
     pipes.guard()  # a closed stdout ends quietly (exit 141), not in PETSc's SIGPIPE handler
     try:
@@ -179,7 +177,6 @@ def _main(full_argv: list[str], environ: dict, flags: dict, ours: list[str]) -> 
             return code
     args.verbose, args.quiet = flags["verbose"], flags["quiet"] or getattr(args, "quiet", 0)
     level = logging.ERROR if args.quiet else logging.WARNING - 10 * min(args.verbose, 2)
-    from fkev_slepc.sweep.parallel import configure_logging, world
 
     archived_scan = args.command == "response" and args.speeds is not None and args.output  # fkev response --speeds -o
     if args.command not in COLLECTIVE and not archived_scan and world().rank > 0:

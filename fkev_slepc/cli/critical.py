@@ -16,11 +16,12 @@ import numpy as np
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
 from .common import add_model_arguments, as_flags, load_checked, report_scene_error
+from fkev_slepc.api import Study
+from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR
+from fkev_slepc.solve.stability import FROZEN_TIME
 
 
 def add_parser(sub) -> None:
-    from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR
-
     p = sub.add_parser(
         "critical", help="divergence (buckling) and flutter onset speeds",
         description="Lowest crank speed at which K(Ω) = K₀ + Ω²K₂ becomes singular (divergence, an "
@@ -43,9 +44,6 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from fkev_slepc.api import Study
-    from fkev_slepc.solve.stability import FROZEN_TIME
-
     try:
         scene = load_checked(args.scene, args.elements, check_angles=args.angle is None)
         with Study(scene, None) as study:

@@ -17,16 +17,20 @@ import numpy as np
 
 from fkev_slepc.design.results import design_rows
 from fkev_slepc.design.study_keys import CLI_NAMES as CLI_KEY_NAMES
-from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.scene import Problem, SceneError, load_scene
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_speeds_arguments
+from fkev_slepc.design.fatigue import CRITERIA
+from fkev_slepc.design.point_checks import CheckOptions
+from fkev_slepc.design.study import design_grid, run_design
+from fkev_slepc.sweep.grid import CLI_NAMES, configure
+from fkev_slepc.sweep.parallel import install_abort_hook, world
+from fkev_slepc.sweep.session import RunRefused, SweepInterrupted
 
 UNSOLVED = ("failed", "not_converged")  # a design point with one of these at any grid point has no minima
 
 
 def add_parser(sub) -> None:
-    from fkev_slepc.design.fatigue import CRITERIA
-
     p = sub.add_parser(
         "design", help="design study: the sweep over a grid of scene-key values (MPI-parallel)",
         description="Solve the scene's sweep grid at every design point, the product of the values given "
@@ -75,14 +79,7 @@ def parse_sets(sets: list[str]) -> dict:
 
 
 def run(args) -> int:
-    from fkev_slepc.design.point_checks import CheckOptions
     from fkev_slepc.design.results import open_design
-    from fkev_slepc.design.study import design_grid, run_design
-    from fkev_slepc.scene import load_scene
-    from fkev_slepc.sweep.grid import CLI_NAMES, configure
-    from fkev_slepc.sweep.parallel import install_abort_hook, world
-    from fkev_slepc.sweep.session import RunRefused, SweepInterrupted
-
     comm = world()
     install_abort_hook()
     rank0 = comm.rank == 0

@@ -21,6 +21,7 @@ import sys
 
 from fkev_slepc.status import EXIT_BAD_INPUT
 from fkev_slepc.sweep.interrupt import NP_VARIABLE  # set for the launched ranks: their resume hint repeats --np N
+from fkev_slepc.sweep.parallel import world
 
 ROOT_VARS = ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM")
 
@@ -61,8 +62,6 @@ def relaunch(n: int, argv: list[str], environ: dict | None = None) -> int:
 
     ``environ`` is the environment as it was before this process started MPI: the variables
     a singleton MPI_Init adds (Open MPI's ``OMPI_*``/``PMIX_*``) would make mpiexec fail."""
-    from fkev_slepc.sweep.parallel import world
-
     comm = world()
     try:
         if n < 1:

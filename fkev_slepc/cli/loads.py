@@ -16,6 +16,9 @@ from .common import (
     add_elements_argument, add_speed_arguments, angles_and_gravity, chosen_speed, load_checked, preflight,
     report_scene_error,
 )
+from fkev_slepc.api.loads import study_loads
+from fkev_slepc.model.buckling import weak_axis_buckling
+from fkev_slepc.model.mechanism import build_mechanism
 
 FLAGS = {"speed_rad_s": "--speed", "accel_rad_s2": "--accel", "gravity_m_s2": "--gravity",
          "angles_deg": "--angles"}
@@ -57,8 +60,6 @@ def _parse(args):
 
 
 def run(args) -> int:
-    from fkev_slepc.api.loads import study_loads
-
     try:
         angles, gravity = _parse(args)
         scene = load_checked(args.scene, args.elements, check_angles=angles is None)
@@ -92,9 +93,6 @@ def run(args) -> int:
 
 def _buckling(scene, loads):
     """The weak-axis Euler margins of the links (fkev_slepc/model/buckling.py)."""
-    from fkev_slepc.model.buckling import weak_axis_buckling
-    from fkev_slepc.model.mechanism import build_mechanism
-
     return weak_axis_buckling(build_mechanism(scene), loads)
 
 

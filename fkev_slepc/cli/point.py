@@ -17,6 +17,7 @@ from .common import (
     add_accuracy_arguments, add_elements_argument, apply_element, as_flags, load_checked, report_scene_error,
     transmission_warning,
 )
+from fkev_slepc.api import Study
 
 
 
@@ -44,8 +45,6 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from fkev_slepc.api import Study
-
     flags = {"speed_rad_s": "--speed-rpm"} if args.speed_rpm is not None else {}
     flags["plane"] = "--plane"
     if args.plane != "in" and args.sensitivity:  # refused before any work

@@ -10,6 +10,8 @@ import sys
 from pathlib import Path
 
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
+from fkev_slepc.archive.verify import verify
+from fkev_slepc.sweep.parallel import world
 
 
 def add_parser(sub) -> None:
@@ -21,9 +23,6 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from fkev_slepc.archive.verify import verify
-    from fkev_slepc.sweep.parallel import world
-
     if world().rank != 0:
         return EXIT_OK
     code = EXIT_OK
