@@ -90,8 +90,6 @@ def make_engine(method: str, n_free: int, petsc_options=(), *, settings: SolveSe
 
 def _one_engine(kind: str, petsc_options, settings: SolveSettings, max_pair_error) -> Engine:
     if kind == "dense":
-        from fkev_slepc.solve.dense import DenseEngine
-
         check_petsc_options(petsc_options)
         code = settings.max_pair_error if max_pair_error is None else max_pair_error
         return DenseEngine(settings.replace(max_pair_error=max_pair_error_option(petsc_options, code)))

@@ -14,6 +14,8 @@ import dataclasses
 from dataclasses import dataclass
 
 from fkev_slepc.scene import DAMPING_TOL, IMAG_TOL  # the scene's defaults: |Im λ| <= IMAG_TOL·|λ| is real
+from fkev_slepc.scene import Problem, SceneError
+from fkev_slepc.solve.petsc_init import command_line_options
 
 # A point whose reported pairs have pair_error above this is not converged, whatever the
 # solver's own test said (option -fkev_max_pair_error, or max_pair_error in [solver.petsc]).
@@ -130,9 +132,6 @@ class SolveSettings:
 def max_pair_error_option(petsc_options, explicit=None) -> float:
     """``max_pair_error`` with the precedence command line (``-fkev_max_pair_error``) > scene
     ``[solver.petsc]`` > ``explicit`` (a caller's code default) > :data:`MAX_PAIR_ERROR`."""
-    from fkev_slepc.scene import Problem, SceneError
-    from fkev_slepc.solve.petsc_init import command_line_options
-
     value, source = (MAX_PAIR_ERROR, "default") if explicit is None else (explicit, "code")
     scene = {str(k).lstrip("-").removeprefix("fkev_"): v for k, v in dict(petsc_options).items()}
     if "max_pair_error" in scene:
