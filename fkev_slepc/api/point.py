@@ -13,11 +13,12 @@ from fkev_slepc.archive.reader import NodeDofMap
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.solve import modes as _modes
 from fkev_slepc.model.mechanism import build_mechanism
-from fkev_slepc.model.operators import PLANES, AssemblyError
+from fkev_slepc.model.operators import PLANES, AssemblyError, Model
 from fkev_slepc.model.out_of_plane import section_of
 from fkev_slepc.solve.accuracy import planned_scene
 from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
 from fkev_slepc.solve.engines import cross_check as _cross_check
+from fkev_slepc.solve.engines import make_engine
 from fkev_slepc.solve.thresholds import SolveSettings
 
 
@@ -52,9 +53,6 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
     if plan is None:
         engine, close = pool.engine(method, model, settings), False
     else:  # this point on the element and mesh planned for rel_error: its own model and engine
-        from fkev_slepc.model.operators import Model
-        from fkev_slepc.solve.engines import make_engine
-
         model = Model(planned, cases=(case,))
         engine, close = make_engine(method, model.n_free, sc.solver.petsc, settings=settings), True
     qep = model.qep(model.pieces(theta), float(speed_rad_s), case)

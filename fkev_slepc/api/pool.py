@@ -13,6 +13,7 @@ from __future__ import annotations
 from fkev_slepc.scene import Scene
 from fkev_slepc.scene.cases import terms_used
 from fkev_slepc.model.operators import OUT_OF_PLANE_ABSENT, Model
+from fkev_slepc.solve.engines import make_engine
 
 
 class ModelPool:
@@ -43,8 +44,6 @@ class ModelPool:
         PETSc/SLEPc reject)."""
         key = (method, id(model))
         if key not in self._engines:
-            from fkev_slepc.solve.engines import make_engine
-
             self._engines[key] = make_engine(method, model.n_free, self.scene.solver.petsc, settings=settings)
         return self._engines[key]
 
