@@ -41,6 +41,7 @@ from fkev_slepc.plots.common import (
     speed_label,
     suptitle,
 )
+from fkev_slepc.plots.bands import band_campbell
 from fkev_slepc.plots.maps import campbell, stability
 from fkev_slepc.plots.shapes import mode_shape
 from fkev_slepc.archive.reader import ArchiveError, SweepResults
@@ -256,8 +257,6 @@ def draw(results: SweepResults | Sequence[SweepResults], kind: str, *, cases=Non
     if kind == "campbell":
         return campbell(res, only_one(angles, "angles"), cases, modes, orders, order or "tracked")
     if kind == "bands":  # plots/bands.py (fkev margins --plot)
-        from fkev_slepc.plots.bands import band_campbell
-
         along = order if order in ("tracked", "sorted") else None
         return band_campbell(res, only_one(cases, "cases"), modes, orders, along, only_one(speeds, "speeds"))
     if kind == "mode-shape":

@@ -35,6 +35,7 @@ from fkev_slepc.plots.common import (  # align_phase, node_displacement: re-expo
     suptitle,
 )
 from fkev_slepc.archive.reader import ArchiveError, NodeDofMap, SweepResults
+from fkev_slepc.plots.out_of_plane import out_of_plane_figure
 from fkev_slepc.scene import SceneError, parse_scene
 
 N_SUB = 17  # samples per element: enough for a smooth cubic at figure resolution
@@ -180,8 +181,6 @@ def mode_shape(
     heading = f"{scene_heading(res)}\nmode shapes at {where}"
     xy = np.asarray(res.node_xy[a], dtype=float)
     if res.plane == "out":  # w along the links, the twist marked; the first case asked
-        from fkev_slepc.plots.out_of_plane import out_of_plane_figure
-
         case, shapes, freq = lines[0]
         return out_of_plane_figure(res.mesh, xy, shapes, freq, mode_idx, f"{heading}, case {case}")
     if res.mesh.node_axis is not None:  # the archived axes: exact
