@@ -20,16 +20,25 @@ array([ 362.71,  652.08, 1078.94, 2898.89])
 from __future__ import annotations
 
 import builtins
+import io
 import logging
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.api.point import critical_scan, out_of_plane_arguments, solve_point
+from fkev_slepc.api.pool import ModelPool
 from fkev_slepc.api.results import PointResult
 from fkev_slepc.api.running import RunningSpeed
+from fkev_slepc.api.table import table, write_csv
 from fkev_slepc.archive import reader
 from fkev_slepc.scene import Problem, Scene, SceneError, load_scene, parse_scene, with_elements
+from fkev_slepc.scene.edit import replace_values
+from fkev_slepc.sweep.grid import configure
+
+# Imported where used, measured: the sweep and design stages (h5py with them) add about 0.5-0.9 s to
+# ``import fkev_slepc`` and so to every ``fkev`` command, matplotlib (plots.draw) about 2 s.
 
 __all__ = ["load", "open", "Study", "SweepResults"]
 log = logging.getLogger(__name__)
@@ -81,8 +90,6 @@ class Study(RunningSpeed):
     """
 
     def __init__(self, scene: Scene, path: Path | None = None):
-        from fkev_slepc.api.pool import ModelPool
-
         self.scene, self.path = scene, path
         self.pool = ModelPool(scene)  # models by motion terms, engines per (method, model): reused by every call
 
@@ -119,8 +126,6 @@ class Study(RunningSpeed):
     def replace(self, key, value=None) -> Study:
         """A new study with one scene key path set (``None`` removes it), or several (a dict), in SI,
         validated like a file (SceneError naming key and value): :func:`fkev_slepc.scene.edit.replace_values`."""
-        from fkev_slepc.scene.edit import replace_values
-
         return Study(replace_values(self.scene, dict(key) if isinstance(key, dict) else {key: value}), self.path)
 
     def design(self, params: dict, speeds=None, cases=None, angles=None, output=None, **options):
@@ -178,8 +183,6 @@ class Study(RunningSpeed):
         >>> r.status, np.abs(r.damping_ratio).max() < 1e-9  # undamped, no gyroscopic term
         (<Status.OK: 'ok'>, True)
         """
-        from fkev_slepc.api.point import solve_point
-
         return solve_point(self.pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error,
                            plane)
 
@@ -221,8 +224,6 @@ class Study(RunningSpeed):
         >>> round(speed, 4), angle
         (66.6916, 10.0)
         """
-        from fkev_slepc.api.point import critical_scan
-
         return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver, plane)
 
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
@@ -285,15 +286,12 @@ class Study(RunningSpeed):
         >>> plan["element"], plan["elements_per_link"], res.settings()["elements"], plan["predicted_rel_error"] < 1e-3
         ('thesis', 7, (7, 7, 7), True)
         """
-        from fkev_slepc.sweep.grid import configure
         from fkev_slepc.sweep.accuracy_mesh import mesh_for_accuracy
         from fkev_slepc.sweep.session import SweepRequest, default_output, run_sweep
 
         scene = configure(self.scene, angles=angles_deg, speeds=speeds_rad_s, cases=cases, modes=modes,
                           mode_shapes=mode_shapes, element=element, rel_error=rel_error)
         if plane != "in":
-            from fkev_slepc.api.point import out_of_plane_arguments
-
             out_of_plane_arguments(scene, plane, rel_error)
         if output is None:
             if self.path is None:
@@ -302,7 +300,8 @@ class Study(RunningSpeed):
         scene, plan = mesh_for_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
                                cross_check=cross_check, force=force, accuracy=plan, plane=plane)
-        outcome = run_sweep(request, comm, notify=log.info, progress=progress)
+        model = self.pool.for_scene(scene).model(scene.analysis.cases, plane)  # re-meshed for rel_error: a new one
+        outcome = run_sweep(request, comm, notify=log.info, progress=progress, model=model)
         return open(outcome.output)
 
 
@@ -336,10 +335,6 @@ class SweepResults(reader.SweepResults):
         >>> print(res.to_csv().splitlines()[1])
         0.0,0.0,structure,1,228.6885738113997,0.0,ok
         """
-        import io
-
-        from fkev_slepc.api.table import table, write_csv
-
         if path is None:
             buf = io.StringIO()
             write_csv(table(self), buf)
