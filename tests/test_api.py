@@ -321,10 +321,11 @@ def test_study_reuses_models_by_terms_and_one_engine_per_model():
 
 
 def test_study_sweeps_take_their_model_from_the_pool(tmp_path):
-    """Issue 27 (design review): Study.sweep (and the frozen-time scan of Study.floquet, on its own grid)
-    takes its model from the study's pool, whose models serve every grid of the scene
-    (``ModelPool.for_scene``): two sweeps build one model, and a no_coriolis sweep on the pool's full
-    model gives the frequencies of a model of no_coriolis alone (``run_sweep``, fkev run's) to 1e-12."""
+    """Issue 27 (design review): Study.sweep, the base sweep of Study.design (and the frozen sweep, work
+    check and frozen-time scan of Study.floquet) take their model from the study's pool, whose models
+    serve every grid of the scene (``ModelPool.for_scene``): two sweeps and a design study build one
+    model, and a no_coriolis sweep on the pool's full model gives the frequencies of a model of
+    no_coriolis alone (``run_sweep``, fkev run's) to 1e-12."""
     from fkev_slepc.scene import with_elements
     from fkev_slepc.sweep.grid import configure
     from fkev_slepc.sweep.session import SweepRequest, run_sweep
@@ -338,6 +339,8 @@ def test_study_sweeps_take_their_model_from_the_pool(tmp_path):
     np.testing.assert_allclose(res.frequency("no_coriolis"), own.frequency("no_coriolis"), rtol=1e-12)
     assert study.pool.for_scene(scene).model("full") is study.pool.model("full") and len(study.pool) == 1
     assert len(study.pool.for_scene(with_elements(scene, 2))) == 0  # another mesh: a pool of its own
+    ds = study.design({"links[coupler].length_m": "0.2794,0.28"}, [150], ["full"], [0], tmp_path / "d.h5")
+    assert len(study.pool) == 1 and ds.sizes["links[coupler].length_m"] == 2  # its base sweep: the same model
     study.close()
 
 

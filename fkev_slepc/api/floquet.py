@@ -121,7 +121,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     request = FloquetRequest(scene, Path(output), tol=float(tol), rtol=float(rtol),
                              monodromy_tol=float(monodromy_tol or MONODROMY_TOL), resonance_order=int(resonance_order),
                              probe=bool(probe), reduce=reduce, resume=resume, force=force,
-                             solver=solver, command_line=command_line, plane=plane)
+                             solver=solver, command_line=command_line, plane=plane, model=pool.model(case, plane))
     comm = local(comm)
     out = run_floquet(request, comm, notify=notify, progress=progress)
     res = read_floquet(out)

@@ -198,11 +198,12 @@ class DesignSolver:
 
 def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: bool = False, force: bool = False,
                solver: str | None = None, notify=None, progress: bool = False, command_line: str = "",
-               checks: CheckOptions | None = None, names=None) -> Path:
+               checks: CheckOptions | None = None, names=None, model=None) -> Path:
     """Collective over ``comm`` (default this process alone): the base sweep of ``scene`` (its grid
     already configured) into ``output``, then every pending design point into its ``/design``,
     with the design check's columns of ``checks`` (fkev_slepc/design/point_checks.py; default
-    the kinetostatic ones only). ``names`` maps argument names to the caller's in messages.
+    the kinetostatic ones only). ``names`` maps argument names to the caller's in messages;
+    ``model``: the base sweep's model (``Study.design``: its pool's; default a new one).
 
     Raises
     ------
@@ -224,7 +225,7 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     base_resume = resume and (output.exists() or store.partial_path(output).exists())
     command_line = command_line or "fkev design"
     run_sweep(SweepRequest(scene, output, resume=base_resume, force=force and not resume, solver=solver,
-                           command_line=command_line), comm, notify=notify, progress=progress)
+                           command_line=command_line), comm, notify=notify, progress=progress, model=model)
     points = grid.points
     scales = {P.D_POINT: np.arange(len(points), dtype="i4"), P.D_KEY: list(grid.keys),
               P.D_LINK: [lk.name for lk in scene.links], P.D_JOINT: [j.name for j in scene.joints]}
@@ -293,7 +294,8 @@ def study_design(study, params: dict, speeds=None, cases=None, angles=None, outp
         output = Path(study.path).parent / "out" / f"{Path(study.path).stem}-design.h5"
     run_design(scene, grid, output, comm, resume=resume, force=force, solver=solver,
                notify=logging.getLogger(__name__).info, progress=progress, command_line="Study.design",
-               checks=CheckOptions(stress, sensitivity, criterion, harmonics))
+               checks=CheckOptions(stress, sensitivity, criterion, harmonics),
+               model=study.pool.for_scene(scene).model(scene.analysis.cases))
     return open_design(output)
 
 

@@ -9,7 +9,7 @@ steps every product shares with the frozen sweep and the design study) add the p
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from fkev_slepc.scene import Scene
@@ -30,6 +30,7 @@ class ProductRequest:
     command_line: str = ""
     make_dirs: bool = True
     plane: str = "in"  # the frozen sweep's and the product's problem (docs/theory.md §19: "out")
+    model: object = field(default=None, compare=False, repr=False)  # the frozen sweep's (Study: its pool's)
 
     @property
     def case(self) -> str:
@@ -40,4 +41,4 @@ class ProductRequest:
         run_sweep(SweepRequest(self.scene, Path(self.output), resume=self.resume, force=self.force,
                                solver=self.solver, command_line=self.command_line, make_dirs=self.make_dirs,
                                plane=self.plane), comm,
-                  notify=notify, progress=progress)
+                  notify=notify, progress=progress, model=self.model)
