@@ -143,7 +143,7 @@ class DesignSolver:
         self.scenes, self.engine = scenes, engine
         self.design, self.checks = grid, checks or CheckOptions()
         self.grid = P.Grid(np.asarray(an.crank_angles_deg, float), np.asarray(base.driver.speeds, float),
-                         tuple(an.cases), int(n_modes))
+                           tuple(an.cases), int(n_modes))
         self.opts = SweepOptions(int(n_modes), an.imag_tol, an.damping_tol)
 
     def solve(self, unit: tuple, mask: np.ndarray):
