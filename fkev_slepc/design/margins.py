@@ -17,7 +17,9 @@ angles). Bands come from a sweep archive at one speed, over the converged points
 Beside each mode's closest order, the table has one row per mode and chosen order (default 1×,
 2×, 3×: ``per_order``) with the band and that order's margin. Modes are labelled ``tracked``
 only where tracking held at that (speed, case) line; where it fell back to sorted order
-(``/tracking/fallback``, fkev_slepc/sweep/tracking.py) the table says ``sorted``.
+(``/tracking/fallback``, fkev_slepc/sweep/tracking.py) the table says ``sorted``. The modes are
+those of the archive's plane (``plane``: ``out`` for the out-of-plane problem of docs/theory.md
+§19, whose tracking weighs the eigenvector entries by the mass, docs/tracking.md).
 """
 
 from __future__ import annotations
@@ -85,12 +87,13 @@ class MarginTable:
     n_angles: int
     per_order: tuple[tuple[ModeMargin, Approach], ...] = ()  # (mode, its approach to one chosen order)
     tracking_fell_back: bool = False  # tracked order asked, but tracking fell back to sorted at this line
+    plane: str = "in"  # the archive's problem: "out" = bending out of the plane and torsion (docs/theory.md §19)
 
     def as_dict(self) -> dict:
         rows = [{"mode": m.mode, "f_min_hz": m.f_min_hz, "f_max_hz": m.f_max_hz, "inside": a.margin_percent == 0.0,
                  **a.as_dict()} for m, a in self.per_order]
         return {"speed_rad_s": self.speed_rad_s, "crank_order_hz": self.speed_rad_s / (2 * math.pi),
-                "case": self.case, "order": self.order, "tracking_fell_back": self.tracking_fell_back,
+                "case": self.case, "plane": self.plane, "order": self.order, "tracking_fell_back": self.tracking_fell_back,
                 "orders": self.n_orders, "near_percent": NEAR_PERCENT,
                 "n_angles": self.n_angles, "modes": [m.as_dict() for m in self.modes], "per_order": rows}
 
@@ -176,7 +179,7 @@ def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_or
     chosen = tuple((m, _approach(n, n * base, angles, f_all[:, k], m.f_min_hz, m.f_max_hz))
                    for m, k in zip(rows, picked) if m.f_min_hz is not None for n in per_order)
     return MarginTable(speed, res.cases[ci], "sorted" if fell_back else order, int(n_orders), tuple(rows),
-                       angles.size, chosen, fell_back)
+                       angles.size, chosen, fell_back, res.plane)
 
 
 def _mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarray, base: float) -> ModeMargin:
