@@ -175,14 +175,17 @@ def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_or
     elif n_orders < 1:
         raise ArchiveError(f"--orders: must be >= 1 (got {n_orders})")
     orders = np.arange(1, n_orders + 1)
-    rows = [_mode_margin(int(res.modes[k]), angles, f_all[:, k], orders, base) for k in picked]
+    rows = [mode_margin(int(res.modes[k]), angles, f_all[:, k], orders, base) for k in picked]
     chosen = tuple((m, _approach(n, n * base, angles, f_all[:, k], m.f_min_hz, m.f_max_hz))
                    for m, k in zip(rows, picked) if m.f_min_hz is not None for n in per_order)
     return MarginTable(speed, res.cases[ci], "sorted" if fell_back else order, int(n_orders), tuple(rows),
                        angles.size, chosen, fell_back, res.plane)
 
 
-def _mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarray, base: float) -> ModeMargin:
+def mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarray, base: float) -> ModeMargin:
+    """The :class:`ModeMargin` of one mode's curve ``f`` (Hz, NaN where not converged) over
+    ``angles`` (deg) against the crank ``orders`` n at ``base`` = Ω/2π (module docstring); its
+    ``closest`` is None for no orders."""
     ok = np.isfinite(f)
     if not ok.any():
         return ModeMargin(mode, None, None, None, None, (), (), None, None, None)
@@ -193,7 +196,7 @@ def _mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarra
     near = tuple(a.order for a in approaches if 0.0 < a.margin_percent <= NEAR_PERCENT)
     below = [a for a in approaches if a.frequency_hz < fmin]
     above = [a for a in approaches if a.frequency_hz > fmax]
-    closest = min(approaches, key=lambda a: (a.margin_percent, a.order))
+    closest = min(approaches, key=lambda a: (a.margin_percent, a.order)) if approaches else None
     return ModeMargin(mode, fmin, fmax, float(angles[ok][np.argmin(f[ok])]), float(angles[ok][np.argmax(f[ok])]),
                       inside, near, closest, below[-1] if below else None, above[0] if above else None,
                       {a.order: a.angles_deg for a in approaches if a.margin_percent == 0.0}, int(ok.sum()))
