@@ -98,3 +98,29 @@ def test_no_out_of_plane_section_is_not_checked(tmp_path, capsys):
     assert "  out of plane: not checked (no out-of-plane section)" in out.splitlines()
     check = fk.load(plain, elements=1).design_check(2000 * RPM, angles_deg=np.arange(0.0, 360.0, 30.0))
     assert check.as_dict()["out_of_plane"] == {"checked": False, "note": "not checked (no out-of-plane section)"}
+
+
+def test_divergent_angles_are_listed_not_counted_as_frequencies(tmp_path):
+    """Bahgat-Willmert's thin bars out of plane at 1000 rad/s buckle about the weak axis at some
+    angles (weak-axis factor 0.08-0.12): the check lists exactly the angles where the frozen
+    out-of-plane point is divergent, and takes the band over the others only."""
+    from fkev_slepc.design.out_of_plane import out_of_plane_check
+    from fkev_slepc.model.buckling import weak_axis_buckling
+    from fkev_slepc.model.mechanism import build_mechanism
+    from fkev_slepc.api.loads import study_loads
+
+    scene = tmp_path / "bw.toml"
+    scene.write_text((ROOT / "runs/bahgat-willmert-1976.toml").read_text().replace(
+        "[link_defaults]\n", "[link_defaults]\nsecond_moment_out_of_plane_m4 = 5.42e-10\n"
+        "torsion_constant_m4 = 1.826e-9\nshear_modulus_pa = 7.96e10\n", 1))
+    st = fk.load(scene, elements=1)
+    angles = np.arange(0.0, 360.0, 30.0)
+    points = [st.point(a, 1000.0, "full", modes=1, plane="out") for a in angles]
+    divergent = [a for a, p in zip(angles, points) if p.status == "divergent"]
+    assert 0 < len(divergent) < angles.size
+    buckling = weak_axis_buckling(build_mechanism(st.scene), study_loads(st.scene, 1000.0))
+    o = out_of_plane_check(st.scene, 1000.0, "full", angles, buckling).as_dict()
+    assert o["divergent_angles_deg"] == divergent
+    f1 = np.array([np.nan if p.status == "divergent" else p.frequency_hz[0] for p in points])
+    assert o["f1_min_hz"] == np.nanmin(f1) and o["f1_max_hz"] == np.nanmax(f1)
+    assert o["buckling_sf"] == min(b.factor for b in buckling if b.factor is not None) < 1

@@ -132,8 +132,8 @@ def _orders(o: dict) -> str:
     if inside:
         n = f"{inside[0]}Ω" + (f"-{inside[-1]}Ω" if len(inside) > 1 else "")
         return f"; crank orders {n} inside the band (margin 0: crossed every revolution)"
-    near = [f"{a['order']}Ω {a['margin_percent']:.1f} % {side}" for a, side in ((o["below"], "below"), (o["above"], "above"))
-            if a is not None]
+    sides = ((o["below"], "below"), (o["above"], "above"))
+    near = [f"{a['order']}Ω {a['margin_percent']:.1f} % {side}" for a, side in sides if a is not None]
     return f"; nearest crank orders {', '.join(near)}" if near else ""
 
 
@@ -149,8 +149,8 @@ def _out_of_plane(o: dict) -> None:
         print(f"  out of plane: lowest frequency {o['f1_min_hz']:.5g} Hz at θ = {o['angle_min_deg']:g}° "
               f"(band {o['f1_min_hz']:.5g}-{o['f1_max_hz']:.5g} Hz over {o['n_angles']} crank angles, frozen-time){order}")
     if o["divergent_angles_deg"]:
-        where = ", ".join(f"{x:g}" for x in o["divergent_angles_deg"][:6]) + ("…" if len(o["divergent_angles_deg"]) > 6
-                                                                             else "")
+        bad = o["divergent_angles_deg"]
+        where = ", ".join(f"{x:g}" for x in bad[:6]) + ("…" if len(bad) > 6 else "")
         print(f"  out of plane: divergent (weak-axis buckling, frozen-time) at θ = {where}°")
     low = "no link in compression" if o["buckling_sf"] is None else \
         f"smallest weak-axis buckling SF {o['buckling_sf']:.3g} (link {o['buckling_link']})"

@@ -93,7 +93,8 @@ class MarginTable:
         rows = [{"mode": m.mode, "f_min_hz": m.f_min_hz, "f_max_hz": m.f_max_hz, "inside": a.margin_percent == 0.0,
                  **a.as_dict()} for m, a in self.per_order]
         return {"speed_rad_s": self.speed_rad_s, "crank_order_hz": self.speed_rad_s / (2 * math.pi),
-                "case": self.case, "plane": self.plane, "order": self.order, "tracking_fell_back": self.tracking_fell_back,
+                "case": self.case, "plane": self.plane, "order": self.order,
+                "tracking_fell_back": self.tracking_fell_back,
                 "orders": self.n_orders, "near_percent": NEAR_PERCENT,
                 "n_angles": self.n_angles, "modes": [m.as_dict() for m in self.modes], "per_order": rows}
 
