@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clitools import fkev
+from fkev_slepc.cli import main
 from fkev_slepc import open as open_archive
 from fkev_slepc.archive.store import read_tracking_inputs
 from fkev_slepc.archive.tracks import read_tracking
@@ -37,8 +37,7 @@ def archives(tmp_path_factory):
     out = {}
     for name, scene in (("flat", FLAT), ("bw", bw)):
         path = tmp / f"{name}-out.h5"
-        r = fkev("run", scene, "--plane", "out", "--elements", "1", *RUNS[name], "-q", "-o", path)
-        assert r.returncode == 0, r.stderr
+        assert main(["run", str(scene), "--plane", "out", "--elements", "1", *RUNS[name], "-q", "-o", str(path)]) == 0
         out[name] = (scene, path)
     return out
 
@@ -81,7 +80,7 @@ def test_raw_out_of_plane_entries_cannot_tell_the_modes_apart(archives):
     assert weighted.unresolved < unweighted.unresolved and unweighted.fallback.all()
 
 
-def test_margins_out_of_plane_are_labelled_and_hand_computed(archives):
+def test_margins_out_of_plane_are_labelled_and_hand_computed(archives, capsys):
     """``fkev margins`` on the out-of-plane archive: ``plane`` "out" in the JSON, "out of plane"
     in the header; each mode's band and closest crank order are those computed here from the
     archived tracked frequencies by the rule of docs/design.md (distance of n·Ω/2π from the band
@@ -89,9 +88,8 @@ def test_margins_out_of_plane_are_labelled_and_hand_computed(archives):
     _, path = archives["flat"]
     res = open_archive(path)
     speed = float(res.speed_rad_s[1])
-    r = fkev("margins", path, "--speed", speed, "--json")
-    assert r.returncode == 0, r.stderr
-    out = json.loads(r.stdout)
+    assert main(["margins", str(path), "--speed", repr(speed), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
     assert out["plane"] == "out" and out["order"] == "tracked"
     f = res.frequency(order="tracked")[:, 1, 0, :]
     base = speed / (2 * math.pi)
@@ -103,5 +101,5 @@ def test_margins_out_of_plane_are_labelled_and_hand_computed(archives):
         margin = np.where((orders >= lo) & (orders <= hi), 0.0, 100 * np.abs(edge - orders) / edge)
         n = int(np.argmin(margin))
         assert m["closest_order"] == n + 1 and m["margin_percent"] == pytest.approx(margin[n], rel=1e-12)
-    text = fkev("margins", path, "--speed", speed).stdout
-    assert "out of plane" in text.splitlines()[0]
+    assert main(["margins", str(path), "--speed", repr(speed)]) == 0
+    assert "out of plane" in capsys.readouterr().out.splitlines()[0]
