@@ -166,11 +166,12 @@ def add_product(path, product: P.Product, values: dict, data: dict | None = None
         describe_groups(f, product)
 
 
-def read_state(path) -> ArchiveState:
-    """Status and |λ1| of every point (|λ1| only where the point converged)."""
+def read_state(path, plane: str = "in") -> ArchiveState:
+    """Status and |λ1| of every point of the sweep of ``plane`` (|λ1| only where the point converged;
+    "out": the ``/planes/out`` product of a two-plane archive)."""
     with h5py.File(path, "r") as f:
-        status = np.asarray(f[P.STATUS_VAR.path][()], dtype=np.uint8)
-        lam1 = modulus(f[P.EIGENVALUE.path][..., 0])
+        status = np.asarray(f[P.on_plane(P.STATUS_VAR, plane).path][()], dtype=np.uint8)
+        lam1 = modulus(f[P.on_plane(P.EIGENVALUE, plane).path][..., 0])
     lam1[~np.isin(status, converged_codes())] = np.nan
     return ArchiveState(status, lam1)
 

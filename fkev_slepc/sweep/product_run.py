@@ -56,10 +56,10 @@ class ProductRequest:
 
 
 def open_product(out: Path, product, values: dict, settings: dict, resume: bool, comm, data: dict | None = None,
-                 same: Callable | None = None) -> tuple[Path, np.ndarray]:
+                 same: Callable | None = None, needs=()) -> tuple[Path, np.ndarray]:
     """Collective: ``(part, status)`` of ``product`` in the reopened archive ``out`` on every rank.
 
-    ``values``/``data``: the product's scales and fixed datasets (``store.add_product``).
+    ``values``/``data``: the product's scales and fixed datasets, ``needs`` its options (``store.add_product``).
     ``same(part) -> bool``: whether the archived product was computed with this run's settings
     (default: yes); a resume keeps its statuses only then, and otherwise every unit is pending."""
     part, status = None, None
@@ -68,7 +68,7 @@ def open_product(out: Path, product, values: dict, settings: dict, resume: bool,
         part = store.reopen_finished(out)
         status = store.read_status(part, product)
         if status is None or not resume or (same is not None and not same(part)):
-            store.add_product(part, product, values, data)
+            store.add_product(part, product, values, data, needs)
             status = store.read_status(part, product)
         with h5py.File(part, "r+") as f:
             f[product.name].attrs.update(settings)
