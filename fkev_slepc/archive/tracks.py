@@ -17,12 +17,13 @@ from fkev_slepc.archive import products as P
 from fkev_slepc.archive.groups import build, describe_groups
 
 
-def read_refined(path) -> SimpleNamespace | None:
+def read_refined(path, plane: str = "in") -> SimpleNamespace | None:
     """Arrays of ``/tracking/refined`` (the extra angles solved for tracking) as attributes named
     by their table ``source`` (``angles_deg``, ``freq``, ``tracked``, ``eigenvalue``, ``status``,
-    ``sig``: the fields of :class:`fkev_slepc.sweep.tracking_angles.Samples`), or None."""
+    ``sig``: the fields of :class:`fkev_slepc.sweep.tracking_angles.Samples`), or None (always out of plane:
+    ``plane`` "out", the ``/planes/out`` sweep of a two-plane archive, has no refined angles)."""
     with h5py.File(path, "r") as f:
-        if P.R_ANGLE not in f:
+        if P.R_ANGLE not in f or plane != "in":
             return None
         return SimpleNamespace(**{v.source: f[v.path][()] for v in P.REFINED})
 
@@ -57,23 +58,28 @@ def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict,
         describe_groups(f, P.SWEEP)
 
 
-def read_tracking(path) -> dict:
+def read_tracking(path, plane: str = "in") -> dict:
     """What figures need of tracking: ``attrs`` of ``/tracking``, ``fallback`` (speed, case)
     and ``speed_fallback`` (angle, case) flags (None when absent), ``speed_tracked`` (angle,
-    speed, case, mode) or None. Archives without tracking give empty attrs and Nones."""
+    speed, case, mode) or None. Archives without tracking give empty attrs and Nones.
+    ``plane`` "out": those of the ``/planes/out`` sweep of a two-plane archive (along angle only)."""
+    fallback = P.on_plane(P.FALLBACK, plane)
     with h5py.File(path, "r") as f:
-        g = f[P.FALLBACK.group] if P.FALLBACK.group in f else None
+        g = f[fallback.group] if fallback.group in f else None
         out = {"attrs": dict(g.attrs) if g is not None else {}}
-        for v in (P.FALLBACK, P.SPEED_FALLBACK):
-            out[v.source] = f[v.path][()].astype(bool) if v.path in f else None
-        out["speed_tracked"] = f[P.SPEED_TRACKED.path][()] if P.SPEED_TRACKED.path in f else None
+        along_speed = plane == "in"  # out of plane: tracked along crank angle only
+        for v in (fallback, P.SPEED_FALLBACK):
+            out[v.source] = f[v.path][()].astype(bool) if v.path in f and (along_speed or v is fallback) else None
+        out["speed_tracked"] = f[P.SPEED_TRACKED.path][()] if P.SPEED_TRACKED.path in f and along_speed else None
     return out
 
 
-def read_signature(path, speed: int | None = None) -> np.ndarray | None:
-    """``/tracking/signature`` (angle, speed, case, n_sig, mode), or one speed of it; None if absent."""
+def read_signature(path, speed: int | None = None, plane: str = "in") -> np.ndarray | None:
+    """``/tracking/signature`` (angle, speed, case, n_sig, mode), or one speed of it; None if absent
+    (``plane`` "out": ``/planes/out/tracking/signature``)."""
+    sig = P.on_plane(P.SIGNATURE, plane).path
     with h5py.File(path, "r") as f:
-        if P.SIGNATURE.path not in f:
+        if sig not in f:
             return None
-        ds = f[P.SIGNATURE.path]
+        ds = f[sig]
         return ds[()] if speed is None else ds[:, speed]

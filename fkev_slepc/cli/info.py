@@ -316,7 +316,7 @@ def _tracking(res) -> list[str]:
     """What mode tracking found (``/tracking`` attributes, docs/tracking.md)."""
     from fkev_slepc.archive.tracks import read_tracking
 
-    tracking = read_tracking(res.path)
+    tracking = read_tracking(res.path, res.table_plane)
     t, fb = tracking["attrs"], tracking["fallback"]
     if "mac_min" not in t:
         if "tracking_open_loops" in res.attrs:  # archives written before refinement existed
