@@ -114,7 +114,7 @@ def report(res, n_errors: int = 5) -> list[str]:
         f"  points      {total} = {na} x {ns} x {nc}"
         + (" (all accounted for)" if total == na * ns * nc and counts["pending"] == 0 else ""),
         "  status      " + ", ".join(f"{k} {v}" for k, v in counts.items()),
-    ]
+    ] + _planes(res)
     lines.append("  frequency range per mode (Hz, converged points):")
     conv = res.converged
     for jc, case in enumerate(res.cases):
@@ -254,7 +254,7 @@ def resumed_by(product: str) -> str:
     from fkev_slepc.archive import products as P
 
     return {P.SWEEP.name: "run", P.DESIGN.name: "design", P.FLOQUET.name: "floquet",
-            P.RESPONSE.name: "response"}[product]
+            P.RESPONSE.name: "response", P.PLANE_OUT.name: "run"}[product]
 
 
 def pending_products(path) -> list[tuple[str, int, int]]:
@@ -310,6 +310,25 @@ def _floquet_lines(path) -> list[str]:
 
     return ["  cycle       Floquet verdict of this archive (fkev floquet):"] + ["  " + ln for ln in
                                                                               lines(read_floquet(path).as_dict())[1:]]
+
+
+def _planes(res) -> list[str]:
+    """The planes of a two-plane archive: the out-of-plane sweep's size, its points by status and,
+    while some are pending, the command that continues it (one-plane archives: nothing)."""
+    from fkev_slepc.archive import products as P
+    from fkev_slepc.archive.store import status_counts
+
+    if len(res.planes) < 2:
+        return []
+    out = res.on_plane("out")
+    counts = status_counts(out.status)
+    lines = [f"  planes      in (root group) and out (/planes/out: bending out of the plane and torsion, "
+             f"{out.attrs.get('n_free', '?')} free DOFs; fkev plot/margins/export --plane out)",
+             "    out       " + ", ".join(f"{k} {v}" for k, v in counts.items())]
+    if counts["pending"]:
+        lines.append(f"    out       {counts['pending']} of {out.status.size} points pending: "
+                     f"{resume_command(res.attrs, P.PLANE_OUT.name)}")
+    return lines
 
 
 def _tracking(res) -> list[str]:
