@@ -19,6 +19,7 @@ import pytest
 from clitools import BW, ROOT, fkev
 from fkev_slepc import load, open as open_archive
 from fkev_slepc.archive import products as P
+from fkev_slepc.cli import main
 from fkev_slepc.scene import SceneError
 
 FLAT = ROOT / "runs/flat-rod-slider-crank.toml"
@@ -27,6 +28,16 @@ GRID = ("--elements", "2", "--angles", "0,90,180", "--speeds-rpm", "1200,1600", 
 ROOT_ROWS = (P.FREQUENCY, P.TRACKED, P.EIGENVALUE, P.RESIDUAL, P.DAMPING, P.MAX_REAL, P.STATUS_VAR, P.SIGNATURE)
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+
+
+def cli(capsys, *args):
+    """``fkev ARGS`` in this process: (exit code, stdout, stderr)."""
+    try:
+        code = main([str(a) for a in args])
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -42,17 +53,17 @@ def runs(tmp_path_factory):
     return scene, both, inplane
 
 
-def test_default_is_both_planes_out_of_plane_equals_fkev_point_in_plane_bit_for_bit(runs):
+def test_default_is_both_planes_out_of_plane_equals_fkev_point_in_plane_bit_for_bit(runs, capsys):
     scene, both, inplane = runs
     res = open_archive(both)
     assert res.planes == ("in", "out") and res.plane == "in" and open_archive(inplane).planes == ("in",)
     out = res.on_plane("out")
     assert out.plane == "out" and out.attrs["n_free"] == 9 and out.mesh.n_free == 9 and res.attrs["n_free"] == 12
     assert np.all(out.status == 1)  # every out-of-plane point converged (ok)
-    r = fkev("point", scene, "--elements", "2", "--angle", "90", "--speed-rpm", "1200", "--plane", "out",
-             "--modes", "3", "--solver", "dense", "--json")
-    assert r.returncode == 0, r.stderr
-    np.testing.assert_allclose(out.frequency()[1, 0, 0], json.loads(r.stdout)["frequency_hz"], rtol=1e-10)
+    code, text, err = cli(capsys, "point", scene, "--elements", "2", "--angle", "90", "--speed-rpm", "1200", "--plane",
+                          "out", "--modes", "3", "--solver", "dense", "--json")
+    assert code == 0, err
+    np.testing.assert_allclose(out.frequency()[1, 0, 0], json.loads(text)["frequency_hz"], rtol=1e-10)
     study = load(scene, elements=2)
     for a, angle in enumerate(ANGLES):
         for s, rpm in enumerate(RPM):
@@ -64,7 +75,7 @@ def test_default_is_both_planes_out_of_plane_equals_fkev_point_in_plane_bit_for_
         assert f.attrs["plane"] == "in" and P.PLANE_OUT.status not in g
 
 
-def test_xarray_has_the_plane_dimension_and_info_lists_the_planes(runs):
+def test_xarray_has_the_plane_dimension_and_info_lists_the_planes(runs, capsys):
     _scene, both, inplane = runs
     res = open_archive(both)
     ds = res.to_xarray()
@@ -72,15 +83,15 @@ def test_xarray_has_the_plane_dimension_and_info_lists_the_planes(runs):
     np.testing.assert_array_equal(ds["frequency_hz"].sel(plane="in").values, open_archive(inplane).frequency())
     np.testing.assert_array_equal(ds["frequency_hz"].sel(plane="out").values, res.on_plane("out").frequency())
     assert "plane" not in res.on_plane("out").to_xarray().dims and "plane" not in open_archive(inplane).to_xarray().dims
-    r = fkev("info", both)
-    assert r.returncode == 0 and "planes      in (root group) and out (/planes/out" in r.stdout, r.stderr
-    r = fkev("export", both, "--plane", "out")
-    assert r.returncode == 0 and f"{res.on_plane('out').frequency()[0, 0, 0, 0]!r}" in r.stdout.splitlines()[1]
-    r = fkev("export", inplane, "--plane", "out")
-    assert r.returncode == 2 and "--plane: 'out' is not in" in r.stderr
+    code, text, err = cli(capsys, "info", both)
+    assert code == 0 and "planes      in (root group) and out (/planes/out" in text, err
+    code, text, err = cli(capsys, "export", both, "--plane", "out")
+    assert code == 0 and f"{res.on_plane('out').frequency()[0, 0, 0, 0]!r}" in text.splitlines()[1], err
+    code, text, err = cli(capsys, "export", inplane, "--plane", "out")
+    assert code == 2 and "--plane: 'out' is not in" in err
 
 
-def test_flipped_byte_of_the_out_of_plane_data_is_flagged_and_refused(runs, tmp_path):
+def test_flipped_byte_of_the_out_of_plane_data_is_flagged_and_refused(runs, tmp_path, capsys):
     scene, both, _ = runs
     bad = tmp_path / "bad.h5"
     shutil.copy(both, bad)
@@ -92,13 +103,13 @@ def test_flipped_byte_of_the_out_of_plane_data_is_flagged_and_refused(runs, tmp_
         byte = fh.read(1)
         fh.seek(offset + 3)
         fh.write(bytes([byte[0] ^ 0x10]))
-    r = fkev("verify", bad)
-    assert r.returncode != 0 and f"/{path}" in r.stdout + r.stderr
+    code, text, err = cli(capsys, "verify", bad)
+    assert code != 0 and f"/{path}" in text + err
     r = fkev("run", scene, *GRID, "-q", "-o", bad, "--resume")
     assert r.returncode == 2 and "damaged, not resumed" in r.stderr
 
 
-def test_interrupted_out_of_plane_product_resumes_to_the_uninterrupted_archive(runs, tmp_path):
+def test_interrupted_out_of_plane_product_resumes_to_the_uninterrupted_archive(runs, tmp_path, capsys):
     """An in-plane archive, then ``--resume`` with the default plane (both): the out-of-plane product
     paused at its first sync (FKEV_PAUSE_AFTER) and stopped by Ctrl-C; ``fkev info`` shows what is
     pending with the command, ``--resume`` finishes it with the numbers of an uninterrupted run."""
@@ -115,8 +126,8 @@ def test_interrupted_out_of_plane_product_resumes_to_the_uninterrupted_archive(r
     with h5py.File(part) as f:
         done = int(np.count_nonzero(f[P.PLANE_OUT.status][()]))
     assert done == written == 2
-    r = fkev("info", part)
-    assert r.returncode == 0 and "out       4 of 6 points pending: fkev run" in r.stdout and "--resume" in r.stdout
+    code, text, err = cli(capsys, "info", part)
+    assert code == 0 and "out       4 of 6 points pending: fkev run" in text and "--resume" in text, err
     r = fkev("run", scene, *GRID, "-q", "-o", out, "--resume")
     assert r.returncode == 0, r.stderr
     with h5py.File(out) as f, h5py.File(both) as g:
@@ -124,10 +135,11 @@ def test_interrupted_out_of_plane_product_resumes_to_the_uninterrupted_archive(r
         for v in ROOT_ROWS:
             for p in {v.path, P.on_plane(v, "out").path}:
                 assert np.array_equal(f[p][()], g[p][()], equal_nan=v.dtype != P.STATUS), p
-    assert fkev("verify", out).returncode == 0
+    assert cli(capsys, "verify", out)[0] == 0
 
 
-def test_two_ranks_write_the_same_archive_as_one(runs, tmp_path):
+@pytest.mark.mpi
+def test_two_ranks_write_the_same_archive_as_one(runs, tmp_path, capsys):
     if shutil.which("mpiexec") is None:  # pragma: no cover - part of the stack
         pytest.skip("mpiexec not found")
     scene, both, _ = runs
@@ -145,7 +157,7 @@ def test_two_ranks_write_the_same_archive_as_one(runs, tmp_path):
                     assert np.array_equal(x, y), p
                 else:
                     np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-9 if v is P.SIGNATURE else 0, err_msg=p)
-    assert fkev("verify", out).returncode == 0
+    assert cli(capsys, "verify", out)[0] == 0
 
 
 def test_study_sweep_mirrors_the_cli_and_one_plane_archives_still_open(runs, tmp_path):
