@@ -20,9 +20,10 @@ from fkev_slepc.archive.verified import ArchiveError
 PLANES = ("in", "out")
 
 
-def plane_view(res, plane: str):
+def plane_view(res, plane: str, root):
     """``res`` (a :class:`~fkev_slepc.archive.reader.SweepResults`) on ``plane``; ArchiveError naming
-    ``plane`` when it is not one of :data:`PLANES` or not in the archive."""
+    ``plane`` when it is not one of :data:`PLANES` or not in the archive. ``root()``: the archive's
+    root sweep read again (the in-plane sweep of a two-plane archive)."""
     if plane not in PLANES:
         raise ArchiveError(f"plane: must be one of {', '.join(PLANES)} (got {plane!r})")
     if plane not in res.planes:
@@ -31,9 +32,7 @@ def plane_view(res, plane: str):
     if plane == res.plane:
         return res
     if plane == "in":  # back to the root sweep of a two-plane archive
-        from fkev_slepc.archive.reader import load
-
-        return load(res.path, type(res), verify=False)
+        return root()
     import h5py
 
     with h5py.File(res.path, "r") as h5:

@@ -100,7 +100,7 @@ class SweepResults:
         (:func:`fkev_slepc.archive.plane_view.plane_view`)."""
         from fkev_slepc.archive.plane_view import plane_view
 
-        return plane_view(self, plane)
+        return plane_view(self, plane, lambda: load(self.path, type(self), verify=False))
 
     # ---------------------------------------------------------------- selection by labels
     @property
