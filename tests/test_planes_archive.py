@@ -176,3 +176,14 @@ def test_study_sweep_mirrors_the_cli_and_one_plane_archives_still_open(runs, tmp
     with pytest.raises(SceneError, match="plane: must be one of in, out, both"):
         study.sweep([0], [0], ["full"], tmp_path / "x.h5", plane="sideways")
     assert load(BW).sweep([0], [0], ["structure"], tmp_path / "bw.h5", modes=2).planes == ("in",)  # no section data
+
+
+def test_both_planes_refused_before_any_work_naming_the_flag(tmp_path):
+    """``--plane both`` needs every link's out-of-plane section and no accuracy plan: one line naming
+    the flag and the value given, exit 2, nothing written."""
+    r = fkev("run", BW, "--plane", "both", "--angles", "0", "--speeds", "0", "-q", "-o", tmp_path / "x.h5")
+    assert r.returncode == 2 and "--plane: out-of-plane analysis needs every link's" in r.stderr
+    assert "(got 'both')" in r.stderr and not (tmp_path / "x.h5").exists()
+    r = fkev("run", FLAT, "--plane", "both", "--rel-error", "0.01", "--angles", "0", "--speeds", "0", "-q", "-o",
+             tmp_path / "y.h5")
+    assert r.returncode == 2 and "--rel-error: the accuracy plan is in plane only" in r.stderr

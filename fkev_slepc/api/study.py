@@ -306,7 +306,7 @@ class Study(RunningSpeed):
         if plane != "in":
             from fkev_slepc.api.point import out_of_plane_arguments
 
-            out_of_plane_arguments(scene, "out", rel_error)
+            out_of_plane_arguments(scene, "out", rel_error, plane)
         sweep_plane = "out" if plane == "out" else "in"
         if output is None:
             if self.path is None:

@@ -84,7 +84,7 @@ def run(args) -> int:
             from fkev_slepc.api.point import out_of_plane_arguments
 
             try:
-                out_of_plane_arguments(scene, "out", args.rel_error)
+                out_of_plane_arguments(scene, "out", args.rel_error, plane)
             except SceneError as err:
                 raise as_flags(err, {"plane": "--plane", "rel_error": "--rel-error"}) from None
         scene, plan = mesh_for_accuracy(scene, args.solver, comm, None if args.quiet else _note, CLI_NAMES["rel_error"])
