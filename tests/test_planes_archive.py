@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from clitools import BW, ROOT, fkev
+from test_reliability import _changed_byte
 from fkev_slepc import load, open as open_archive
 from fkev_slepc.archive import products as P
 from fkev_slepc.cli import main
@@ -93,16 +94,8 @@ def test_xarray_has_the_plane_dimension_and_info_lists_the_planes(runs, capsys):
 
 def test_flipped_byte_of_the_out_of_plane_data_is_flagged_and_refused(runs, tmp_path, capsys):
     scene, both, _ = runs
-    bad = tmp_path / "bad.h5"
-    shutil.copy(both, bad)
     path = P.on_plane(P.FREQUENCY, "out").path
-    with h5py.File(bad) as f:
-        offset = f[path].id.get_offset()
-    with open(bad, "r+b") as fh:
-        fh.seek(offset + 3)
-        byte = fh.read(1)
-        fh.seek(offset + 3)
-        fh.write(bytes([byte[0] ^ 0x10]))
+    bad = _changed_byte(both, tmp_path / "bad.h5", path)
     code, text, err = cli(capsys, "verify", bad)
     assert code != 0 and f"/{path}" in text + err
     r = fkev("run", scene, *GRID, "-q", "-o", bad, "--resume")
