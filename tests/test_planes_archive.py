@@ -156,15 +156,15 @@ def test_two_ranks_write_the_same_archive_as_one(runs, tmp_path, capsys):
 def test_study_sweep_mirrors_the_cli_and_one_plane_archives_still_open(runs, tmp_path):
     scene, both, _ = runs
     study = load(scene, elements=2)
-    res = study.sweep([0, 90], [125.0], ["full"], tmp_path / "s.h5", modes=2, solver="dense", mode_shapes=True)
+    res = study.sweep([90], [0.0, 125.0], ["full"], tmp_path / "s.h5", modes=2, solver="dense", mode_shapes=True)
     assert res.planes == ("in", "out")  # the default: every link gives its out-of-plane section
     out = res.on_plane("out")
-    assert out.mode_shape(1, 0, 0).shape == (9, 2) and res.mode_shape(1, 0, 0).shape == (12, 2)
-    np.testing.assert_allclose(out.frequency()[1, 0, 0],
+    assert out.mode_shape(0, 1, 0).shape == (9, 2) and res.mode_shape(0, 1, 0).shape == (12, 2)
+    np.testing.assert_allclose(out.frequency()[0, 1, 0],
                                study.point(90, 125.0, "full", modes=2, solver="dense", plane="out").frequency_hz,
                                rtol=1e-10)
     assert out.on_plane("in").frequency().tobytes() == res.frequency().tobytes()
-    one = study.sweep([0, 90], [125.0], ["full"], tmp_path / "o.h5", modes=2, solver="dense", plane="out")
+    one = study.sweep([90], [125.0], ["full"], tmp_path / "o.h5", modes=2, solver="dense", plane="out")
     assert one.planes == ("out",) and open_archive(tmp_path / "o.h5", plane="out").plane == "out"
     with pytest.raises(SceneError, match="plane: must be one of in, out, both"):
         study.sweep([0], [0], ["full"], tmp_path / "x.h5", plane="sideways")

@@ -27,10 +27,13 @@ def moved(v: Var, scales: dict) -> Var:
 
 
 def plane_product(sweep: Product, frequency, tracked, eigenvalue, residual, damping, max_real, status, signature,
-                  fallback, shape, node_dofs, dofs: str, free_dof: str, component: str) -> tuple[Product, dict]:
+                  fallback, shape, node_dofs, dofs: str, free_dof: str, component: str,
+                  tracking: tuple = ()) -> tuple[Product, dict]:
     """The out-of-plane product built from the in-plane sweep's rows, and ``{sweep path: plane path}`` of the
-    rows its units write (what :class:`~fkev_slepc.sweep.runner.Sweep` returns, moved)."""
+    rows its units write (what :class:`~fkev_slepc.sweep.runner.Sweep` returns, moved). ``tracking``: the
+    further rows of tracking (along speed, the refined angles with their angle scale), moved as they are."""
     scales = {dofs: f"{OUT}/{dofs}", free_dof: f"{OUT}/{free_dof}", component: f"{OUT}/{component}"}
+    scales.update({v.path: f"{OUT}/{v.path}" for v in tracking if v.scale})
     own = (
         Var(scales[dofs], (scales[dofs],), "i4", "1", "free DOF index of the kept entries (out of plane)",
             scale=True, needs="signatures"),
@@ -40,7 +43,7 @@ def plane_product(sweep: Product, frequency, tracked, eigenvalue, residual, damp
             "displacement along Z)", scale=True, needs="mechanism", values=("theta_X", "theta_Y", "w")),
     )
     rows = tuple(moved(v, scales) for v in (frequency, tracked, eigenvalue, residual, damping, max_real, status,
-                                            signature, fallback, shape))
+                                            signature, fallback, shape) + tuple(tracking))
     dof_map = replace(moved(node_dofs, scales), long_name="free DOF index of (theta_X, theta_Y, w) at each node out "
                       "of plane, -1 if constrained", source=None)
     errors = error_table(f"{OUT}/errors", ("angle", "speed", "case"))
@@ -51,8 +54,10 @@ def plane_product(sweep: Product, frequency, tracked, eigenvalue, residual, damp
                 OUT: "the out-of-plane sweep (docs/theory.md §19) of the root grid: bending out of the plane and "
                      "torsion; attributes n_free (its DOFs) and the run's settings",
                 f"{OUT}/errors": "messages of failed and not-converged out-of-plane points (one row per point)",
-                f"{OUT}/tracking": "eigenvector entries at the out-of-plane free DOFs `dofs`, for MAC tracking along "
-                                   "crank angle (no refined angles: ambiguous lines stay in sorted order)",
+                f"{OUT}/tracking": "eigenvector entries at the out-of-plane free DOFs `dofs`, used to follow modes "
+                                   "between neighbouring crank angles by MAC",
+                f"{OUT}/tracking/refined": "extra crank angles solved out of plane only for mode tracking, where the "
+                                           "MAC between neighbouring grid angles was ambiguous",
                 f"{OUT}/modes": "out-of-plane mode shapes over the plane's free DOFs (node positions: /modes/node_xy)"},
     )
     written = {v.path: f"{OUT}/{v.path}" for v in (frequency, eigenvalue, residual, damping, max_real, signature,

@@ -293,11 +293,11 @@ def reopen_finished(path) -> Path:
 
 
 # ------------------------------------------------------------------------------ completion
-def read_tracking_inputs(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """(frequency_hz, status, tracking signature or None) of every point."""
+def read_tracking_inputs(path, plane: str = "in") -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(frequency_hz, status, tracking signature or None) of every point (of the sweep of ``plane``)."""
+    sig, freq, status = (P.on_plane(v, plane).path for v in (P.SIGNATURE, P.FREQUENCY, P.STATUS_VAR))
     with h5py.File(path, "r") as f:
-        sig = f[P.SIGNATURE.path][()] if P.SIGNATURE.path in f else None
-        return f[P.FREQUENCY.path][()], np.asarray(f[P.STATUS_VAR.path][()], dtype=np.uint8), sig
+        return f[freq][()], np.asarray(f[status][()], dtype=np.uint8), f[sig][()] if sig in f else None
 
 
 def finalize(part, path, attrs: dict, add_wall_time: float = 0.0) -> Path:

@@ -11,9 +11,9 @@
    The cases keep their Table 3.1 names; out of plane the Coriolis and tangential terms are identically
    zero (:data:`fkev_slepc.model.operators.OUT_OF_PLANE_ABSENT`), so ``no_coriolis`` and ``no_tangential``
    solve the same problem as ``full`` there.
-3. **Tracking** (rank 0): modes followed along crank angle by MAC on the stored eigenvector entries
-   (:func:`fkev_slepc.sweep.tracking_angles.track_angles`) without refined angles: a line left ambiguous
-   stays in sorted order and is flagged in ``/planes/out/tracking/fallback``.
+3. **Tracking** (collective): modes followed along crank angle and along speed by MAC, as in plane
+   (:func:`fkev_slepc.sweep.tracking_angles.track_archive`: extra angles solved where the MAC is
+   ambiguous, in ``/planes/out/tracking/refined``; a line left ambiguous stays in sorted order, flagged).
 """
 
 from __future__ import annotations
@@ -81,6 +81,7 @@ def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) ->
     from fkev_slepc.sweep.runner import Sweep, SweepOptions
     from fkev_slepc.sweep.session import exit_code
     from fkev_slepc.sweep.tracking import tracking_dofs
+    from fkev_slepc.sweep.tracking_angles import track_archive
     from fkev_slepc.sweep.units import pending
 
     comm = local(comm)
@@ -121,10 +122,9 @@ def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) ->
         finally:
             if bar is not None:
                 bar.close()
+        track_archive(part, sweep, comm, plane="out")  # may solve extra angles (collective)
     finally:
         engine.close()
-    if comm.rank == 0:
-        _track(part, grid)
     final = comm.bcast(status_counts(_status(part)) if comm.rank == 0 else None, root=0)
     codes = comm.bcast(_status(part) if comm.rank == 0 else None, root=0)
     finish(part, out, request.command_line, t0, comm)
@@ -155,25 +155,3 @@ def _hints(part) -> np.ndarray:
     from fkev_slepc.archive.store import read_state
 
     return read_state(part, plane="out").lam1
-
-
-def _track(part, grid) -> None:
-    """Rank 0: the out-of-plane modes followed along crank angle (module docstring, step 3)."""
-    from fkev_slepc.archive.groups import build
-    from fkev_slepc.sweep.tracking import Criteria, track_speeds
-    from fkev_slepc.sweep.tracking_angles import Samples, track_angles
-
-    sig_path, tracked_path = P.on_plane(P.SIGNATURE, "out").path, P.on_plane(P.TRACKED, "out").path
-    fallback = P.on_plane(P.FALLBACK, "out")
-    with h5py.File(part, "r") as f:
-        freq, status = f[P.on_plane(P.FREQUENCY, "out").path][()], _status(part)
-        sig = f[sig_path][()] if sig_path in f else None
-    if sig is None:  # one angle and one speed: the sorted order
-        tracked, flags, attrs = track_speeds(freq, status, None)[0], np.zeros(status.shape[1:], bool), Criteria().attrs()
-    else:
-        res, _requests = track_angles(Samples(np.asarray(grid.angles_deg, float), freq, status, sig))
-        tracked, flags, attrs = res.tracked, res.fallback, res.attrs()
-    with h5py.File(part, "r+") as f:
-        f[tracked_path][...] = tracked
-        build(f, (fallback,), {}, {fallback.path: np.asarray(flags, dtype=fallback.dtype)})
-        f[fallback.group].attrs.update(attrs)
