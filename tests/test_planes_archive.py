@@ -156,9 +156,14 @@ def test_two_ranks_write_the_same_archive_as_one(runs, tmp_path, capsys):
 def test_study_sweep_mirrors_the_cli_and_one_plane_archives_still_open(runs, tmp_path):
     scene, both, _ = runs
     study = load(scene, elements=2)
-    res = study.sweep([90], [0.0, 125.0], ["full"], tmp_path / "s.h5", modes=2, solver="dense", mode_shapes=True)
+    res = study.sweep([90], [0.0, 125.0], ["full", "no_coriolis"], tmp_path / "s.h5", modes=2, solver="dense",
+                      mode_shapes=True)
     assert res.planes == ("in", "out")  # the default: every link gives its out-of-plane section
     out = res.on_plane("out")
+    # no Coriolis term out of plane (§19.6): no_coriolis is the full problem there, stored for both cases;
+    # in plane it is another problem
+    assert out.frequency_hz[..., 1, :].tobytes() == out.frequency_hz[..., 0, :].tobytes()
+    assert np.all(out.status == 1) and res.frequency()[0, 1, 0].tobytes() != res.frequency()[0, 1, 1].tobytes()
     assert out.mode_shape(0, 1, 0).shape == (9, 2) and res.mode_shape(0, 1, 0).shape == (12, 2)
     np.testing.assert_allclose(out.frequency()[0, 1, 0],
                                study.point(90, 125.0, "full", modes=2, solver="dense", plane="out").frequency_hz,

@@ -10,7 +10,8 @@
    resumable (``resume``: only pending points; ``retry_failed``: failed ones too), checksummed on finish.
    The cases keep their Table 3.1 names; out of plane the Coriolis and tangential terms are identically
    zero (:data:`fkev_slepc.model.operators.OUT_OF_PLANE_ABSENT`), so ``no_coriolis`` and ``no_tangential``
-   solve the same problem as ``full`` there.
+   pose the same problem as ``full`` there: each problem is solved once per point and its results are
+   stored under every case that poses it (:func:`_solved_once`).
 3. **Tracking** (collective): modes followed along crank angle and along speed by MAC, as in plane
    (:func:`fkev_slepc.sweep.tracking_angles.track_archive`: extra angles solved where the MAC is
    ambiguous, in ``/planes/out/tracking/refined``; a line left ambiguous stays in sorted order, flagged).
@@ -117,8 +118,9 @@ def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) ->
             notify(f"out of plane: {int(todo.sum())} of {todo.size} points to solve on {comm.size} rank(s) "
                    f"-> {part} (/{P.PLANE_OUT.name})")
         try:
-            n_solved = solve_pending(part, out, P.PLANE_OUT, todo, lambda unit, mask: _moved(sweep.solve_angle(
-                unit[0], mask)), comm, n_unit_axes=1, notify=notify, label="points", progress=bar)
+            twins = _twins(model, grid.cases)
+            n_solved = solve_pending(part, out, P.PLANE_OUT, todo, lambda unit, mask: _moved(_solved_once(
+                sweep, unit[0], mask, twins)), comm, n_unit_axes=1, notify=notify, label="points", progress=bar)
         finally:
             if bar is not None:
                 bar.close()
@@ -129,6 +131,29 @@ def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) ->
     codes = comm.bcast(_status(part) if comm.rank == 0 else None, root=0)
     finish(part, out, request.command_line, t0, comm)
     return PlaneOutcome(out, grid.n_points, n_solved, final, exit_code(codes))
+
+
+def _twins(model, cases) -> np.ndarray:
+    """For each case, the first case of ``cases`` that poses the same problem on ``model`` (the same
+    term flags out of plane, Table 3.1 with §19.6); itself when none before it does."""
+    terms = [model.case_terms(c) for c in cases]
+    return np.array([terms.index(t) for t in terms], dtype=int)
+
+
+def _solved_once(sweep, ia: int, mask: np.ndarray, twins: np.ndarray) -> Block:
+    """The points ``mask`` (speed, case) of crank angle ``ia``: each problem solved once, on the first case
+    that poses it (:func:`_twins`), and copied to the other cases of ``mask`` that pose it."""
+    own = twins == np.arange(twins.size)
+    need = np.zeros_like(mask)
+    np.logical_or.at(need.T, twins, mask.T)  # a case asked: its twin is solved
+    b = sweep.solve_angle(ia, need & own[None, :])
+    copy = np.flatnonzero(~own)
+    data, status = {k: v.copy() for k, v in b.data.items()}, b.status.copy()
+    for arr in (*data.values(), status):
+        arr[:, copy] = arr[:, twins[copy]]
+    errors = b.errors + [((ia, js, int(j)), code, msg) for (_, js, jc), code, msg in b.errors for j in copy
+                         if twins[j] == jc and mask[js, j]]
+    return Block(b.ia, need | mask, data, status, errors)
 
 
 def _moved(block: Block) -> Block:
