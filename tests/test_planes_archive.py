@@ -84,6 +84,11 @@ def test_xarray_has_the_plane_dimension_and_info_lists_the_planes(runs, capsys):
     np.testing.assert_array_equal(ds["frequency_hz"].sel(plane="in").values, open_archive(inplane).frequency())
     np.testing.assert_array_equal(ds["frequency_hz"].sel(plane="out").values, res.on_plane("out").frequency())
     assert "plane" not in res.on_plane("out").to_xarray().dims and "plane" not in open_archive(inplane).to_xarray().dims
+    import xarray as xr
+
+    for group in ("planes/out", "planes/out/mesh", "planes/out/tracking"):  # each group opens on its own
+        with xr.open_dataset(both, group=group, engine="h5netcdf") as g:
+            assert g.sizes, group
     code, text, err = cli(capsys, "info", both)
     assert code == 0 and "planes      in (root group) and out (/planes/out" in text, err
     code, text, err = cli(capsys, "export", both, "--plane", "out")

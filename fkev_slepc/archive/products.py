@@ -233,7 +233,7 @@ from fkev_slepc.archive.products_planes import OUT as PLANE_OUT_GROUP, plane_pro
 # /planes/out: the out-of-plane sweep of a two-plane archive; PLANE_OUT_PATHS: sweep path -> its path there
 PLANE_OUT, PLANE_OUT_PATHS = plane_product(SWEEP, FREQUENCY, TRACKED, EIGENVALUE, RESIDUAL, DAMPING, MAX_REAL,
                                            STATUS_VAR, SIGNATURE, FALLBACK, SHAPE, NODE_DOFS, DOFS, FREE_DOF, COMPONENT,
-                                           (SPEED_TRACKED, SPEED_FALLBACK) + REFINED)
+                                           NODE, (SPEED_TRACKED, SPEED_FALLBACK) + REFINED)
 
 
 def on_plane(v: Var, plane: str) -> Var:

@@ -27,12 +27,12 @@ def moved(v: Var, scales: dict) -> Var:
 
 
 def plane_product(sweep: Product, frequency, tracked, eigenvalue, residual, damping, max_real, status, signature,
-                  fallback, shape, node_dofs, dofs: str, free_dof: str, component: str,
+                  fallback, shape, node_dofs, dofs: str, free_dof: str, component: str, node: str,
                   tracking: tuple = ()) -> tuple[Product, dict]:
     """The out-of-plane product built from the in-plane sweep's rows, and ``{sweep path: plane path}`` of the
     rows its units write (what :class:`~fkev_slepc.sweep.runner.Sweep` returns, moved). ``tracking``: the
     further rows of tracking (along speed, the refined angles with their angle scale), moved as they are."""
-    scales = {dofs: f"{OUT}/{dofs}", free_dof: f"{OUT}/{free_dof}", component: f"{OUT}/{component}"}
+    scales = {d: f"{OUT}/{d}" for d in (dofs, free_dof, component, node)}
     scales.update({v.path: f"{OUT}/{v.path}" for v in tracking if v.scale})
     own = (
         Var(scales[dofs], (scales[dofs],), "i4", "1", "free DOF index of the kept entries (out of plane)",
@@ -41,6 +41,8 @@ def plane_product(sweep: Product, frequency, tracked, eigenvalue, residual, damp
             needs="shapes"),
         Var(scales[component], (scales[component],), STRING, "1", "nodal DOF out of plane (rotations about X and Y, "
             "displacement along Z)", scale=True, needs="mechanism", values=("theta_X", "theta_Y", "w")),
+        Var(scales[node], (scales[node],), "i4", "1", "node number (those of /mesh; here so that the group opens "
+            "with xarray on its own)", scale=True, needs="mechanism"),
     )
     rows = tuple(moved(v, scales) for v in (frequency, tracked, eigenvalue, residual, damping, max_real, status,
                                             signature, fallback, shape) + tuple(tracking))

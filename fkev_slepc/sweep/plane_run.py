@@ -95,7 +95,7 @@ def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) ->
     engine = make_engine(request.solver or scene.solver.method, model.n_free, scene.solver.petsc,
                          settings=SolveSettings.from_scene(scene))
     track = tracking_dofs(model.n_free, len(grid.angles_deg), len(grid.speeds))
-    values, needs = {}, {"mechanism"}
+    values, needs = {P.on_plane(P.find(P.NODE), "out").path: np.arange(model.mechanism.node_link.size)}, {"mechanism"}
     if track is not None:
         needs.add("signatures")
         values[P.on_plane(P.TRACKING[0], "out").path] = np.asarray(track, "i4")
