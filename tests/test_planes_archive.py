@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
-from clitools import BW, ROOT, fkev
+from clitools import BW, ROOT, digest, fkev
 from test_reliability import _changed_byte
 from fkev_slepc import load, open as open_archive
 from fkev_slepc.archive import products as P
@@ -134,6 +134,9 @@ def test_interrupted_out_of_plane_product_resumes_to_the_uninterrupted_archive(r
             for p in {v.path, P.on_plane(v, "out").path}:
                 assert np.array_equal(f[p][()], g[p][()], equal_nan=v.dtype != P.STATUS), p
     assert cli(capsys, "verify", out)[0] == 0
+    before = digest(out)  # a resume of the finished two-plane archive: nothing to do, the file left alone
+    r = fkev("run", scene, *GRID, "-o", out, "--resume")
+    assert r.returncode == 0 and digest(out) == before and "(/planes/out) is complete; nothing to do" in r.stderr
 
 
 @pytest.mark.mpi

@@ -110,7 +110,7 @@ def run(args) -> int:
         summary = ", ".join(f"{k} {v}" for k, v in outcome.counts.items() if v)
         print(f"fkev run: wrote {outcome.output}: {outcome.n_points} points ({summary}) in "
               f"{outcome.wall_time_s:.1f} s on {outcome.n_ranks} rank(s)", flush=True)
-    if rank0 and not args.quiet and other is not None:
+    if rank0 and not args.quiet and other is not None and not other.already_complete:
         summary = ", ".join(f"{k} {v}" for k, v in other.counts.items() if v)
         print(f"fkev run: out of plane (/planes/out): {other.n_points} points ({summary}), "
               f"{other.n_solved} solved by this run", flush=True)

@@ -43,6 +43,7 @@ class PlaneOutcome:
     n_solved: int  # points solved by this run
     counts: dict  # points of each status, by status name
     exit_code: int
+    already_complete: bool = False  # resume of a finished two-plane archive: nothing was solved
 
 
 def both_planes_possible(scene) -> bool:
@@ -105,11 +106,19 @@ def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) ->
     settings = {"n_free": model.n_free, "mode_shapes": int(an.mode_shapes), "n_signature_dofs": 0 if track is None
                 else len(track), "solver_settings": json.dumps(engine.settings(), sort_keys=True, default=str)}
     node_dofs = P.on_plane(P.NODE_DOFS, "out").path
+    retry = RETRYABLE if request.retry_failed else ()
+    have = comm.bcast(_finished(out, settings, retry) if comm.rank == 0 and (request.resume or request.retry_failed)
+                      else None, root=0)
+    if have is not None:  # a resume of a finished two-plane archive: nothing to solve, the file left alone
+        engine.close()
+        if notify is not None and comm.rank == 0:
+            notify(f"{out}: the out-of-plane sweep (/{P.PLANE_OUT.name}) is complete; nothing to do")
+        return PlaneOutcome(out, grid.n_points, 0, status_counts(have), exit_code(have), already_complete=True)
     try:
         part, status = open_product(out, P.PLANE_OUT, values, settings, request.resume or request.retry_failed, comm,
                                     data={node_dofs: np.asarray(model.mechanism.node_dofs)}, needs=needs,
                                     same=lambda p: _same(p, settings))
-        todo = pending(status, RETRYABLE if request.retry_failed else ())
+        todo = pending(status, retry)
         lam1 = comm.bcast(_hints(part) if comm.rank == 0 else None, root=0)
         sweep = Sweep(model, grid, engine, None, SweepOptions(grid.n_modes, an.imag_tol, an.damping_tol,
                                                                an.mode_shapes, track), lam1)
@@ -168,6 +177,21 @@ def _same(part, settings: dict) -> bool:
         have = f[P.PLANE_OUT.name].attrs
         return all(k in have and int(have[k]) == int(settings[k]) for k in ("n_free", "mode_shapes",
                                                                               "n_signature_dofs"))
+
+
+def _finished(out: Path, settings: dict, retry) -> np.ndarray | None:
+    """The statuses of the out-of-plane sweep of the finished archive ``out`` when it has this run's
+    settings and no point to solve (``retry``: also none of these statuses), else None."""
+    from fkev_slepc.archive.store import partial_path
+    from fkev_slepc.sweep.units import pending
+
+    if not out.exists() or partial_path(out).exists():
+        return None
+    with h5py.File(out, "r") as f:
+        if P.PLANE_OUT.status not in f:
+            return None
+    status = _status(out)
+    return status if _same(out, settings) and not pending(status, retry).any() else None
 
 
 def _status(part) -> np.ndarray:
