@@ -91,6 +91,8 @@ def test_xarray_has_the_plane_dimension_and_info_lists_the_planes(runs, capsys):
             assert g.sizes, group
     code, text, err = cli(capsys, "info", both)
     assert code == 0 and "planes      in (root group) and out (/planes/out" in text, err
+    code, text, err = cli(capsys, "info", both, "--plane", "out")
+    assert code == 0 and "9 free DOFs" in text and "; out of plane (bending out of the plane" in text, err
     code, text, err = cli(capsys, "export", both, "--plane", "out")
     assert code == 0 and f"{res.on_plane('out').frequency()[0, 0, 0, 0]!r}" in text.splitlines()[1], err
     code, text, err = cli(capsys, "export", inplane, "--plane", "out")

@@ -18,6 +18,8 @@ import numpy as np
 
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 
+from .common import ARCHIVE_FLAGS, add_plane_selection, flag_words
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser("info", help="summarise a sweep archive",
@@ -31,6 +33,7 @@ def add_parser(sub) -> None:
                    help="--crossings: crank angle (default 10 if on the grid, else the first)")
     p.add_argument("--orders", type=int, metavar="K", help="--crossings: crank orders 1..K (default: enough to "
                    "reach the highest frequency, at most 8)")
+    add_plane_selection(p)
     p.set_defaults(func=run)
 
 
@@ -49,17 +52,15 @@ def run(args) -> int:
         print(f"fkev info: {check.summary()}", file=sys.stderr)
         return 2
     try:
-        res = load(args.archive, verify=False)  # verified above
+        res = load(args.archive, verify=False, plane=args.plane)  # verified above
     except ArchiveError as err:
-        print(f"fkev info: {err}", file=sys.stderr)
+        print(f"fkev info: {flag_words(err, ARCHIVE_FLAGS)}", file=sys.stderr)
         return 2
     lines = report(res, args.errors)
     if args.crossings:
         try:
             lines += crossing_lines(res, args.angle, args.orders)
         except ArchiveError as err:
-            from fkev_slepc.cli.common import ARCHIVE_FLAGS, flag_words
-
             print(f"fkev info: {flag_words(err, ARCHIVE_FLAGS)}", file=sys.stderr)
             return 2
     print("\n".join(lines))
