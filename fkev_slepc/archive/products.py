@@ -231,7 +231,7 @@ from fkev_slepc.archive.products_response import (  # noqa: E402 (the /response 
 from fkev_slepc.archive.products_planes import OUT as PLANE_OUT_GROUP, plane_product  # noqa: E402
 
 # /planes/out: the out-of-plane sweep of a two-plane archive; PLANE_OUT_PATHS: sweep path -> its path there
-PLANE_OUT, PLANE_OUT_PATHS = plane_product(SWEEP, FREQUENCY, TRACKED, EIGENVALUE, RESIDUAL, DAMPING, MAX_REAL,
+PLANE_OUT, PLANE_OUT_PATHS = plane_product(FREQUENCY, TRACKED, EIGENVALUE, RESIDUAL, DAMPING, MAX_REAL,
                                            STATUS_VAR, SIGNATURE, FALLBACK, SHAPE, NODE_DOFS, DOFS, FREE_DOF, COMPONENT,
                                            NODE, (SPEED_TRACKED, SPEED_FALLBACK) + REFINED)
 

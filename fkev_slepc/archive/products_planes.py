@@ -26,7 +26,7 @@ def moved(v: Var, scales: dict) -> Var:
                    rows=scales.get(v.rows, v.rows))
 
 
-def plane_product(sweep: Product, frequency, tracked, eigenvalue, residual, damping, max_real, status, signature,
+def plane_product(frequency, tracked, eigenvalue, residual, damping, max_real, status, signature,
                   fallback, shape, node_dofs, dofs: str, free_dof: str, component: str, node: str,
                   tracking: tuple = ()) -> tuple[Product, dict]:
     """The out-of-plane product built from the in-plane sweep's rows, and ``{sweep path: plane path}`` of the
