@@ -62,11 +62,13 @@ def load(path, elements=None) -> Study:
     return Study(_remesh(scene, elements), Path(path))
 
 
-def open(archive, verify: bool = True) -> SweepResults:  # noqa: A001 - fkev_slepc.open(archive) reads like io.open
+def open(archive, verify: bool = True, plane: str | None = None) -> SweepResults:  # noqa: A001 - reads like io.open
     """Read a sweep archive (``fkev run`` / :meth:`Study.sweep` output) as :class:`SweepResults`.
 
     ``verify`` (default): check it against its checksums first and warn
     (``reader.DamagedArchiveWarning``) when it changed since its run finished; ``False`` reads it unchecked.
+    ``plane`` ("in", "out"): that plane's sweep of a two-plane archive (``res.planes``; also
+    ``res.on_plane("out")``); default the root sweep (in plane, or the one plane of a ``--plane out`` archive).
 
     Raises
     ------
@@ -74,7 +76,7 @@ def open(archive, verify: bool = True) -> SweepResults:  # noqa: A001 - fkev_sle
         The file is missing, not an fkev archive of a supported version, has damaged metadata,
         or is being written.
     """
-    return reader.load(archive, cls=SweepResults, verify=verify)
+    return reader.load(archive, cls=SweepResults, verify=verify, plane=plane)
 
 
 def _remesh(scene: Scene, elements) -> Scene:
@@ -230,7 +232,7 @@ class Study(RunningSpeed):
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
               retry_failed: bool = False, cross_check: bool = False, progress: bool = False,
               force: bool = False, element: str | None = None, rel_error: float | None = None,
-              plane: str = "in") -> SweepResults:
+              plane: str | None = None) -> SweepResults:
         """Sweep crank angle x speed x case into an HDF5 archive: the code path of ``fkev run``.
 
         Parameters
@@ -258,9 +260,13 @@ class Study(RunningSpeed):
             default the scene's ``analysis.rel_error``): before the sweep the element and the
             elements per link are chosen at a few sample points of the grid, and the plan is
             archived as the root attribute ``accuracy`` (docs/accuracy.md §3).
-        plane : {"in", "out"}
-            The in-plane problem (default) or the out-of-plane one (docs/theory.md §19; one plane
-            per archive, root attribute ``plane``; default output ``<scene stem>-out.h5``).
+        plane : {"in", "out", "both"}, optional
+            As ``fkev run --plane``: the in-plane problem, the out-of-plane one (docs/theory.md §19;
+            alone in its archive, root attribute ``plane``; default output ``<scene stem>-out.h5``), or
+            both in one archive (the out-of-plane sweep of the same grid in ``/planes/out``; the
+            returned results are the in-plane sweep, ``.on_plane("out")`` the other). Default
+            ``both`` when every link gives its out-of-plane section data and no ``rel_error`` is
+            asked, else ``in``.
 
         Returns
         -------
@@ -288,20 +294,28 @@ class Study(RunningSpeed):
         """
         from fkev_slepc.sweep.accuracy_mesh import mesh_for_accuracy
         from fkev_slepc.sweep.session import SweepRequest, default_output, run_sweep
+        from fkev_slepc.sweep.plane_run import PLANE_CHOICES, default_plane, run_out_of_plane
 
         scene = configure(self.scene, angles=angles_deg, speeds=speeds_rad_s, cases=cases, modes=modes,
                           mode_shapes=mode_shapes, element=element, rel_error=rel_error)
+        plane = default_plane(scene, plane, rel_error)
+        if plane not in PLANE_CHOICES:
+            raise SceneError(self.scene.source, [Problem("plane", f"must be one of {', '.join(PLANE_CHOICES)} "
+                                                                  f"(got {plane!r})")])
         if plane != "in":
-            out_of_plane_arguments(scene, plane, rel_error)
+            out_of_plane_arguments(scene, "out", rel_error, plane)
+        sweep_plane = "out" if plane == "out" else "in"
         if output is None:
             if self.path is None:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
-            output = default_output(self.path, plane)
+            output = default_output(self.path, sweep_plane)
         scene, plan = mesh_for_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
-                               cross_check=cross_check, force=force, accuracy=plan, plane=plane)
-        model = self.pool.for_scene(scene).model(scene.analysis.cases, plane)  # re-meshed for rel_error: a new one
+                               cross_check=cross_check, force=force, accuracy=plan, plane=sweep_plane)
+        model = self.pool.for_scene(scene).model(scene.analysis.cases, sweep_plane)  # re-meshed for rel_error: a new one
         outcome = run_sweep(request, comm, notify=log.info, progress=progress, model=model)
+        if plane == "both":
+            run_out_of_plane(request, comm, log.info, progress)
         return open(outcome.output)
 
 
