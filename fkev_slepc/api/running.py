@@ -4,6 +4,7 @@ module of the operating-point and sweep methods; the bodies are in api/loads.py 
 api/response.py."""
 
 from __future__ import annotations
+
 from fkev_slepc.api.floquet import study_floquet
 from fkev_slepc.api.loads import study_loads
 from fkev_slepc.api.response import study_response
@@ -27,8 +28,10 @@ class RunningSpeed:
 
     def design_check(self, speed_rad_s: float, criterion: str = "goodman", **options):
         """Per link peak |σ|, static and fatigue safety factors, weak-axis buckling factor and peak
-        pin loads (``fkev design-check``): :func:`fkev_slepc.design.check.design_check` (options
-        ``case``, ``angles_deg``, ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``)."""
+        pin loads, and the lowest out-of-plane frequency over the cycle with its crank-order margin
+        (``out_of_plane``; None where the scene has no out-of-plane section) (``fkev design-check``):
+        :func:`fkev_slepc.design.check.design_check` (options ``case``, ``angles_deg``,
+        ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``)."""
         return design_check(self.scene, speed_rad_s, criterion=criterion, **options)
 
     def response_vs_speed(self, speeds_rad_s, case="full", output=None, **options):
