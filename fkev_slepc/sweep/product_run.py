@@ -5,7 +5,9 @@ the steps shared by ``fkev floquet`` (fkev_slepc/sweep/floquet_run.py) and ``fke
 1. :func:`open_product` (collective; the archive's lock held by rank 0 from here to the end):
    the finished archive copied back to its ``.part`` (``store.reopen_finished``), the product's
    statuses kept when resuming the same settings, else its datasets created afresh (all pending),
-   its settings written as attributes of its group;
+   its settings written as attributes of its group, the whole
+   :class:`~fkev_slepc.periodic.settings.PeriodicSettings` in its ``settings`` subgroup
+   (:func:`refuse_changed_settings` compares them on a resume first);
 2. :func:`solve_pending` (collective): the pending units dealt to the ranks by
    :func:`~fkev_slepc.sweep.units.run_units`, with a clean stop on Ctrl-C/SIGTERM (every rank
    leaves after the same sync; :class:`~fkev_slepc.sweep.interrupt.SweepInterrupted` is raised on
@@ -56,12 +58,13 @@ class ProductRequest:
 
 
 def open_product(out: Path, product, values: dict, settings: dict, resume: bool, comm, data: dict | None = None,
-                 same: Callable | None = None) -> tuple[Path, np.ndarray]:
+                 same: Callable | None = None, periodic=None) -> tuple[Path, np.ndarray]:
     """Collective: ``(part, status)`` of ``product`` in the reopened archive ``out`` on every rank.
 
     ``values``/``data``: the product's scales and fixed datasets (``store.add_product``).
     ``same(part) -> bool``: whether the archived product was computed with this run's settings
-    (default: yes); a resume keeps its statuses only then, and otherwise every unit is pending."""
+    (default: yes); a resume keeps its statuses only then, and otherwise every unit is pending.
+    ``periodic``: the run's PeriodicSettings, written whole as the attributes of ``<product>/settings``."""
     part, status = None, None
     if comm.rank == 0:
         lock.hold(out)
@@ -72,7 +75,39 @@ def open_product(out: Path, product, values: dict, settings: dict, resume: bool,
             status = store.read_status(part, product)
         with h5py.File(part, "r+") as f:
             f[product.name].attrs.update(settings)
+            if periodic is not None:
+                g = f[product.name].require_group("settings")
+                g.attrs.update(periodic.to_attrs())
+                g.attrs["description"] = product.groups.get(g.name.lstrip("/"), "")
     return comm.bcast((part, status), root=0)
+
+
+def refuse_changed_settings(out: Path, product, settings, comm) -> None:
+    """Collective, on a resume before the product's work: raise
+    :class:`~fkev_slepc.sweep.session.OutputError` (exit 2, on every rank; nothing written) when the
+    archive's ``<product>/settings`` differ from ``settings`` (one line naming every differing field
+    with both values, :func:`fkev_slepc.periodic.settings.resume_refusal`) or are missing from an
+    archive that holds the product (written before they were archived). No product yet: nothing to compare."""
+    from fkev_slepc.periodic.settings import PeriodicSettings, SettingsError, resume_refusal
+    from fkev_slepc.sweep.session import OutputError
+
+    why = None
+    if comm.rank == 0:
+        part = store.partial_path(out)
+        src = part if part.exists() else out
+        if src.exists():
+            with h5py.File(src, "r") as f:
+                if product.name in f:
+                    g = f[product.name].get("settings")
+                    try:
+                        archived = None if g is None else PeriodicSettings.from_attrs(g.attrs)
+                        why = resume_refusal(archived, settings, product.name)
+                    except SettingsError as err:
+                        why = f"cannot resume: the archived /{product.name}/settings are unreadable ({err})"
+        why = None if why is None else f"--resume: {src}: {why}"
+    why = comm.bcast(why, root=0)
+    if why is not None:
+        raise OutputError(why)
 
 
 def solve_pending(part: Path, out: Path, product, todo: np.ndarray, solve: Callable, comm, n_unit_axes: int, notify=None,
