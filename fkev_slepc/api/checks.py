@@ -67,28 +67,3 @@ def modes_fit(scene: Scene, n_modes: int, n_free: int, explicit: bool) -> None:
     too_many = modes_problem(n_modes, n_free, "modes" if explicit else None)
     if too_many:
         raise SceneError(scene.source, [too_many])
-
-
-def checked_settings(scene: Scene, settings, overrides: dict, names: dict, bad: list[Problem] | None = None):
-    """The :class:`~fkev_slepc.periodic.settings.PeriodicSettings` of a periodic run: ``settings``
-    (None: the defaults) with ``overrides`` ({field: value}; None values not given) applied, or
-    SceneError listing ``bad`` and the bad value named as the caller calls it (``names[field]``,
-    else ``settings.<field>``). Each override is checked alone, so that every bad one is named."""
-    from dataclasses import replace
-
-    from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings, SettingsError
-
-    bad = list(bad or [])
-    base = DEFAULTS if settings is None else settings
-    if not isinstance(base, PeriodicSettings):
-        bad.append(Problem("settings", f"must be a PeriodicSettings (got {type(settings).__name__})"))
-        raise SceneError(scene.source, bad)
-    given = {k: v for k, v in overrides.items() if v is not None}
-    for key, value in given.items():
-        try:
-            replace(base, **{key: value})
-        except SettingsError as err:
-            bad.append(Problem(names.get(key, f"settings.{key}"), f"{err.rule} (got {err.value!r})"))
-    if bad:
-        raise SceneError(scene.source, bad)
-    return replace(base, **given)

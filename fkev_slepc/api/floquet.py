@@ -71,7 +71,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     and reduce. The result is archived whole (``/floquet/settings``) and compared whole on ``resume``."""
     from fkev_slepc.api.loads import full_turn_problem
     from fkev_slepc.scene.cases import case_name
-    from fkev_slepc.api.checks import checked_settings
+    from fkev_slepc.periodic.settings import checked_settings
     from fkev_slepc.periodic.truncation import resolve_reduce
     from fkev_slepc.sweep.floquet_run import FloquetRequest, read_floquet, run_floquet
     from fkev_slepc.sweep.grid import configure
@@ -90,7 +90,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     turn = full_turn_problem(sc)
     if turn is not None:
         bad.append(turn)
-    st = checked_settings(sc, settings, dict(verdict_tol=tol, edge_rtol=rtol, monodromy_tol=monodromy_tol,
+    st = checked_settings(sc.source, settings, dict(verdict_tol=tol, edge_rtol=rtol, monodromy_tol=monodromy_tol,
                                              resonance_order=resonance_order, probe=probe, reduce=reduce),
                           {field: names[key] for field, key in SETTING_NAMES.items() if key in names}, bad)
     reduce = resolve_reduce(st.reduce)

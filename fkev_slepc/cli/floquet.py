@@ -69,9 +69,8 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from fkev_slepc.api import Study
-    from fkev_slepc.api.floquet import study_floquet
-    from fkev_slepc.api.checks import checked_settings
-    from fkev_slepc.api.floquet import SETTING_NAMES
+    from fkev_slepc.api.floquet import SETTING_NAMES, study_floquet
+    from fkev_slepc.periodic.settings import checked_settings
     from fkev_slepc.sweep.interrupt import SweepInterrupted
     from fkev_slepc.sweep.parallel import install_abort_hook, world
     from fkev_slepc.sweep.session import RunRefused
@@ -82,7 +81,7 @@ def run(args) -> int:
     try:
         study = Study(load_checked(args.scene, args.elements, check_angles=False), Path(args.scene))
         preflight(study.scene, args, periodic=True)  # figure path, mesh size, damping; speeds: study_floquet
-        settings = checked_settings(study.scene, None, dict(  # the defaults, with the flags given
+        settings = checked_settings(study.scene.source, None, dict(  # the defaults, with the flags given
             verdict_tol=args.tol, edge_rtol=args.rtol, monodromy_tol=args.monodromy_tol,
             resonance_order=args.resonance_order, probe=args.probe_resonances or None, reduce=args.reduce),
             {field: NAMES[key] for field, key in SETTING_NAMES.items()})

@@ -220,3 +220,27 @@ def _show(v) -> str:
     if isinstance(v, tuple):
         return f"{len(v)} angles {v[0]:g}..{v[-1]:g}" if len(v) > 3 else ",".join(f"{x:g}" for x in v)
     return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def checked_settings(source, settings, overrides: dict, names: dict, bad: list | None = None) -> PeriodicSettings:
+    """The :class:`~fkev_slepc.periodic.settings.PeriodicSettings` of a periodic run: ``settings``
+    (None: the defaults) with ``overrides`` ({field: value}; None values not given) applied, or
+    SceneError (of the scene file ``source``) listing ``bad`` and each bad value named as the caller
+    calls it (``names[field]``, else ``settings.<field>``); each override is checked alone, so that
+    every bad one is named, before any work."""
+    from fkev_slepc.scene import Problem, SceneError
+
+    bad = list(bad or [])
+    base = DEFAULTS if settings is None else settings
+    if not isinstance(base, PeriodicSettings):
+        bad.append(Problem("settings", f"must be a PeriodicSettings (got {type(settings).__name__})"))
+        raise SceneError(source, bad)
+    given = {k: v for k, v in overrides.items() if v is not None}
+    for key, value in given.items():
+        try:
+            replace(base, **{key: value})
+        except SettingsError as err:
+            bad.append(Problem(names.get(key, f"settings.{key}"), f"{err.rule} (got {err.value!r})"))
+    if bad:
+        raise SceneError(source, bad)
+    return replace(base, **given)
