@@ -56,7 +56,7 @@ class PeriodicSettings:
     reduce_tol: float = _f(1e-3, "|Δ max|μ|| and relative frequency change that end the basis sequence")
     max_basis: int = _f(0, "largest basis of reduce=auto/links (0: no cap but the model's DOFs)")
     # the verdict and the bands (fkev_slepc/periodic/bands.py, fkev_slepc/sweep/floquet_run.py)
-    verdict_tol: float = _f(1e-6, "unstable where max|μ| - 1 > verdict_tol + SAFETY x multiplier error")
+    verdict_tol: float = _f(1e-6, "unstable where max|μ| - 1 > verdict_tol + 10 (SAFETY) x multiplier error")
     edge_rtol: float = _f(1e-6, "relative accuracy of the band edges (bisection)")
     resonance_order: int = _f(3, "resonance candidates of order n <= this between stable grid speeds (0: none)")
     probe: bool = _f(False, "one more monodromy at each of those candidates")
