@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 
+from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import (
@@ -39,7 +40,7 @@ def add_parser(sub) -> None:
                    "from its root, m (repeatable; default every link's root, midspan and tip)")
     p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
                    "until the estimated error is below --tol)")
-    p.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (default 1e-8)")
+    p.add_argument("--tol", type=float, default=DEFAULTS.harmonic_tol, help="harmonic-balance tolerance (default 1e-8)")
     shooting = p.add_mutually_exclusive_group()
     shooting.add_argument("--shooting", action="store_true", help="also shoot on the monodromy: the Floquet "
                           "multipliers (does the response attract?) and a second method's cross-check")
@@ -178,7 +179,7 @@ def _print(d: dict) -> None:
 
 def _settings(args, scene):
     """The run's PeriodicSettings: the defaults (a speed scan: ``SCAN``) with --tol and --shooting."""
-    from fkev_slepc.periodic.settings import DEFAULTS, SCAN, checked_settings
+    from fkev_slepc.periodic.settings import SCAN, checked_settings
 
     base = SCAN if args.speeds is not None or args.speeds_rpm is not None else DEFAULTS
     return checked_settings(scene.source, base, dict(harmonic_tol=args.tol, shoot=args.shooting),

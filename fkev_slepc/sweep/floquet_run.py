@@ -8,7 +8,9 @@ One archive holds both verdicts of the same speeds (docs/stability.md, "Frozen-t
 2. **Floquet product** (``/floquet``, :data:`fkev_slepc.archive.products.FLOQUET`): one monodromy per
    (speed, case) unit (``floquet_multipliers`` of the solve stage's linkage engine, the exact periodic
    coefficients), units dealt to the MPI ranks by :func:`fkev_slepc.sweep.units.run_units` and
-   resumable like the sweep (``resume``: only pending speeds are solved).
+   resumable like the sweep (``resume``: only pending speeds are solved; the run's
+   :class:`~fkev_slepc.periodic.settings.PeriodicSettings` are archived whole in ``/floquet/settings``
+   and a resume with other settings is refused before any work, :func:`refuse_changed_settings`).
 3. **Gaps and probes**: the resonance candidates of order <= ``resonance_order`` (2ω̄ₖ/n,
    (ω̄ⱼ ± ω̄ₖ)/n) that fall between two stable grid speeds, where a band narrower than the spacing
    would go unseen (:func:`~fkev_slepc.periodic.bands.unsampled`); with ``probe`` one more
