@@ -132,3 +132,25 @@ def test_an_archive_without_settings_is_not_resumed(archive, tmp_path):
     assert r.returncode == 2 and "written before its periodic settings were archived (no /floquet/settings); " \
                                  "rerun with --force" in r.stderr, r.stderr
     assert digest(old) == before
+
+
+def test_response_takes_its_tolerances_from_the_settings():
+    """Study.response(settings=s) is the keyword call with s's harmonics and output angles, bit for bit
+    (slider-crank benchmark, one element per link); a keyword beside the settings overrides them; the
+    harmonic balance's estimated error is below the settings' harmonic_tol when H is doubled to it."""
+    from clitools import ROOT
+
+    from fkev_slepc.api import Study
+
+    study = Study(with_elements(load_scene(ROOT / "runs" / "slider-crank-benchmark-stiff-crank.toml"), (1, 1)))
+    s = replace(DEFAULTS, harmonics=8, response_angles_deg=(0.0, 90.0, 180.0, 270.0))
+    a = study.response(150.0, settings=s)
+    b = study.response(150.0, harmonics=8, angles_deg=[0.0, 90.0, 180.0, 270.0])
+    c = study.response(150.0, settings=replace(s, harmonics=4), harmonics=8)
+    assert a.harmonics == 8 and np.asarray(a.angle_deg).tolist() == [0.0, 90.0, 180.0, 270.0]
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(a.q, c.q)
+    loose = study.response(150.0, settings=replace(DEFAULTS, harmonic_tol=1e-4, response_angles_deg=(0.0,)))
+    assert loose.hb_error <= 1e-4
+    with pytest.raises(SceneError, match="tol: must be in"):
+        study.response(150.0, tol=2.0)
