@@ -30,7 +30,9 @@ from fkev_slepc.periodic.settings import SCAN, PeriodicSettings
 from fkev_slepc.scene import Scene, SceneError
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.parallel import local
-from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, refuse_changed_settings, solve_pending
+from fkev_slepc.sweep.product_run import (
+    ProductRequest, finish, open_product, refuse_changed_settings, settings_attrs, solve_pending,
+)
 from fkev_slepc.sweep.units import pending
 
 OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stations")
@@ -103,7 +105,7 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
                           P.R_MODE: np.arange(1, n_modes + 1, dtype="i4")}, settings, request.resume, comm,
         data={P.STATION_LINK.path: [names[st.link] for st in stations],
               P.STATION_S.path: np.array([st.s for st in stations])},
-        same=lambda p: _settings_of(p) == settings, periodic=ps)
+        same=lambda p: _settings_of(p) == settings, attrs=settings_attrs(P.RESPONSE, ps))
     rows = (P.PEAK_TRANSVERSE, P.PEAK_CHORD, P.PEAK_MOMENT, P.PEAK_STRESS)
 
     def solve(unit, mask):

@@ -44,7 +44,9 @@ from fkev_slepc.periodic.settings import DEFAULTS, SAFETY, PeriodicSettings, res
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples
 from fkev_slepc.sweep.parallel import local
-from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, refuse_changed_settings, solve_pending
+from fkev_slepc.sweep.product_run import (
+    ProductRequest, finish, open_product, refuse_changed_settings, settings_attrs, solve_pending,
+)
 from fkev_slepc.sweep.progress import Progress
 from fkev_slepc.sweep.units import pending
 
@@ -183,7 +185,8 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     model = Model(sc, (request.case,), plane=request.plane)
     n_index = 2 * model.n_free
     part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request, ps),
-                                request.resume, comm, same=lambda p: _index_size(p) == n_index, periodic=ps)
+                                request.resume, comm, same=lambda p: _index_size(p) == n_index,
+                                attrs=settings_attrs(P.FLOQUET, ps))
     speeds = np.asarray(sc.driver.speeds, dtype=float)
     evaluate = evaluator(model, request.case, ps.monodromy_tol) if evaluator else _evaluator(
         model, request.case, ps, progress=notify is not None)
