@@ -122,7 +122,7 @@ def open_product(out: Path, product, values: dict, settings: dict, resume: bool,
             raise
         with h5py.File(part, "r+") as f:
             for path, more in {product.name: settings, **(attrs or {})}.items():
-                f.require_group(path).attrs.update(more)
+                (f[path] if path in f else f.create_group(path)).attrs.update(more)
         return part, status
 
     return _decided_on_rank0(out, comm, reopen)
