@@ -102,7 +102,8 @@ DOFS = "tracking/dofs"
 TRACKING = (
     Var(DOFS, (DOFS,), "i4", "1", "free DOF index of the kept entries", scale=True, needs="signatures",
         source="tracking_dofs"),
-    Var("tracking/signature", GRID3 + (DOFS, MODE), "c16", "1", "eigenvector entries of each sorted mode at `dofs`",
+    Var("tracking/signature", GRID3 + (DOFS, MODE), "c16", "1", "eigenvector entries of each sorted mode at `dofs`"
+        " (out of plane weighted by sqrt(M_ii), docs/tracking.md)",
         CNAN, needs="signatures", source="shapes", rows=DOFS),
 )
 FALLBACK = Var("tracking/fallback", (SPEED, CASE), "u1", "1",
