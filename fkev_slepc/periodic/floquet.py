@@ -66,6 +66,7 @@ from fkev_slepc.periodic.truncation import (
 )
 
 TWO_PI = 2.0 * np.pi
+START_H_RHO = 2.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step count"); the steps then double on the error
 __all__ = ["LinkageFloquet", "TrigInterpolant", "floquet_multipliers", "full_min_steps", "to_dense"]
 
 
@@ -150,7 +151,7 @@ def default_reduction(model, omega: float, case: str = "full", damping: bool = T
 
 def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, damping: bool = True,
                         start: float = 0.0, order: int = 6, steps: int | None = None,
-                        tol: float = 1e-10, samples: int = 16, interp_tol: float = 1e-12,
+                        tol: float = 1e-8, samples: int = 16, interp_tol: float = 1e-12,
                         reduce: int | str | None = None, basis_angles: int = AUTO_ANGLES,
                         threshold: float = 1e-10, reduce_tol: float = REDUCE_TOL,
                         max_basis: int | None = None, check_truncation: bool = True,
@@ -208,11 +209,15 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         mono, lam, X = exponential_monodromy(gen.S[0], TWO_PI, system.start)
         mu = np.exp(TWO_PI * lam)
     else:
-        # the step must resolve the fastest oscillation: h·ρ(A) <= 1 on the coarse half of the
-        # step doubling (Magnus is exact for constant A, but the linkage's A turns with the links)
+        # the first level takes h·ρ(A) ≈ START_H_RHO (Magnus is exact for constant A; only the
+        # turning of A's stiff parts with the links needs resolving), then the steps double on the
+        # multiplier error, pre-asymptotic levels guarded (magnus.step_doubling_error); the stiff
+        # bound h·ρ(A) <= 1/2 of the earlier rule (or 2^16) is the cap: no run takes more steps than it could
         rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
-        mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=tol,
-                         min_steps=int(np.ceil(2.0 * TWO_PI * rho)), comm=comm, progress=progress)
+        mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=np.inf, mu_tol=tol,
+                         min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
+                         max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
+                         comm=comm, progress=progress)
         mu, X = la.eig(mono.phi)
     c = system.coefficients(np.array([system.start]))
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
