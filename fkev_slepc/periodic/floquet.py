@@ -169,7 +169,11 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
     :class:`~fkev_slepc.periodic.components.LinkBasis`. ``comm``: an MPI communicator whose
     ranks share every monodromy's steps (collective; one speed on several ranks).
-    ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`)."""
+    ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`).
+    ``tol``: the multiplier error asked of the integrator, relative to max(1, max|μ|) (the steps
+    double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling estimate, pre-asymptotic levels
+    guarded, is below it: :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); the default
+    1e-8 keeps the verdict's 10 × error a tenth of its 1e-6 (docs/engine.md "Step count")."""
     from fkev_slepc.model.operators import Model
 
     if not np.isfinite(omega) or omega == 0.0:
