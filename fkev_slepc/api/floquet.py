@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.api.point import critical_scan
+from fkev_slepc.api.pool import ModelPool
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.periodic.bands import DEFAULT_TOL, EDGE_RTOL
 
@@ -20,13 +22,13 @@ API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "an
 MAX_MAGNUS_STEPS = 2**24  # full-model Magnus steps of one monodromy (docs/engine.md, "Work limits")
 
 
-def work_problems(scene, case: str, reduce, names: dict) -> list[Problem]:
+def work_problems(scene, case: str, reduce, names: dict, pool=None) -> list[Problem]:
     """Before any work: operators that overflow double precision at the top speed
     (:func:`fkev_slepc.solve.finite.overflow_problems`), and the work of the full-model monodromy at
     the lowest speed, 2·2π·ρ(A) Magnus steps (:func:`~fkev_slepc.periodic.floquet.full_min_steps`,
     growing like 1/Ω) on a state of 2n, beyond :data:`MAX_MAGNUS_STEPS` (not checked for a fixed
-    basis ``reduce`` = r, whose steps are the reduced model's), with the estimate and the ways out."""
-    from fkev_slepc.model.operators import Model
+    basis ``reduce`` = r, whose steps are the reduced model's), with the estimate and the ways out.
+    ``pool``: the :class:`~fkev_slepc.api.pool.ModelPool` of ``scene`` that gives the model (default a new one)."""
     from fkev_slepc.solve.finite import overflow_problems
     from fkev_slepc.periodic.floquet import full_min_steps
 
@@ -34,7 +36,7 @@ def work_problems(scene, case: str, reduce, names: dict) -> list[Problem]:
     if bad or isinstance(reduce, int):
         return bad
     low = float(np.min(scene.driver.speeds))
-    model = Model(scene, (case,))
+    model = (ModelPool(scene) if pool is None else pool).model(case)
     with np.errstate(all="ignore"):
         try:
             steps = float(full_min_steps(model, low, case))
@@ -107,7 +109,8 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     if not np.all(speeds > 0):
         raise SceneError(sc.source, [Problem(names["speeds"], "Floquet speeds must be > 0 rad/s (at rest the frozen "
                                              f"verdict is exact; use fkev point) (got {', '.join(f'{w:g}' for w in speeds)})")])
-    problems = work_problems(scene, case, reduce, names)
+    pool = study.pool.for_scene(scene)  # the study's models, on this grid
+    problems = work_problems(scene, case, reduce, names, pool)
     if problems:
         raise SceneError(sc.source, problems)
     if output is None:
@@ -118,19 +121,19 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     request = FloquetRequest(scene, Path(output), tol=float(tol), rtol=float(rtol),
                              monodromy_tol=float(monodromy_tol or MONODROMY_TOL), resonance_order=int(resonance_order),
                              probe=bool(probe), reduce=reduce, resume=resume, force=force,
-                             solver=solver, command_line=command_line, plane=plane)
+                             solver=solver, command_line=command_line, plane=plane, model=pool.model(case, plane))
     comm = local(comm)
     out = run_floquet(request, comm, notify=notify, progress=progress)
     res = read_floquet(out)
     if critical and comm.rank == 0:
-        res = replace(res, extras={"frozen_time_critical": _frozen_critical(study, scene, case, speeds, solver, plane)})
+        res = replace(res, extras={"frozen_time_critical": _frozen_critical(pool, case, speeds, solver, plane)})
     return res
 
 
-def _frozen_critical(study, scene, case, speeds, solver, plane="in") -> dict:
-    """The lowest frozen-time divergence and flutter speeds over the frozen sweep's crank angles,
-    up to the top Floquet speed (solve/critical.py), with what they are."""
-    scan = type(study)(scene, study.path).critical(case, None, float(speeds.max()), None, solver, plane)
+def _frozen_critical(pool, case, speeds, solver, plane="in") -> dict:
+    """The lowest frozen-time divergence and flutter speeds over the frozen sweep's crank angles
+    (those of ``pool.scene``), up to the top Floquet speed (solve/critical.py), with what they are."""
+    scan = critical_scan(pool, case, None, float(speeds.max()), None, solver, plane)
     d = scan.as_dict()
     return {"divergence_speed_rad_s": d["divergence_speed_rad_s"], "divergence_angle_deg": d["divergence_angle_deg"],
             "flutter_speed_rad_s": d["flutter_speed_rad_s"], "flutter_angle_deg": d["flutter_angle_deg"],
