@@ -19,16 +19,10 @@ method and order. The error is estimated by step doubling: the monodromy at N st
 ``error = max |μ_N - μ_{N/2}| / (2^p - 1)`` over matched multipliers; with ``steps=None`` N
 doubles until ``phi_error`` is below ``tol``.
 
-**Pre-asymptotic levels** (``mu_tol``, the criterion of the linkage Floquet analysis): the
-division by 2^p - 1 assumes the N/2 level is in the asymptotic range. Measured on
-Bahgat–Willmert at 4 elements per link, 500 rad/s (docs/engine.md), the max|μ| errors at 4,096,
-8,192 and 16,384 steps are 8.1e-9, 2.0e-9 and 2.9e-11: from 4,096 to 8,192 they fall by 4, not
-64, so the divided difference (9.6e-11) would state 8,192 steps 20× too accurate. With
-``mu_tol`` the integrator therefore also runs N/4 and divides the difference d = |μ_N - μ_{N/2}|
-by 2^p - 1 only where the level before shows the asymptotic rate, 2^p/4 <= d_{N/2}/d_N <= 4·2^p
-(:func:`step_doubling_error`); otherwise it states d itself (the N/2 level's error, which bounds
-the N level's wherever the error falls at all), and N doubles until that error relative to
-max(1, max|μ|) is <= ``mu_tol``.
+**Pre-asymptotic levels** (``mu_tol``, the linkage Floquet criterion; docs/engine.md "Step
+count"): the division by 2^p - 1 assumes the N/2 level is asymptotic, so the integrator also runs
+N/4 and divides d = max|μ_N - μ_{N/2}| only where d_{N/2}/d_N is within 4× of 2^p, else states d
+(:func:`step_doubling_error`); N doubles until that, over max(1, max|μ|), is <= ``mu_tol``.
 
 Public API (shapes with n the state size, k the number of θ values; θ in the caller's units,
 radians of crank angle for a linkage; exponents in 1/[θ])
@@ -75,10 +69,8 @@ _NODES = {
     4: np.array([0.5 - np.sqrt(3.0) / 6.0, 0.5 + np.sqrt(3.0) / 6.0]),
     6: np.array([0.5 - np.sqrt(15.0) / 10.0, 0.5, 0.5 + np.sqrt(15.0) / 10.0]),
 }
-# step exponentials per block: keeps a block of (steps x nodes) generators to ~ this many doubles,
-# 4 MB, so the node values, the Magnus terms and the exponentials of a block stay in cache
-# (Bahgat–Willmert 4 elements per link, 2,048 steps: 6.4–6.7 s against 12.4–13.1 s at 2**23, 64 MB;
-# 2**15 is slower again, 12.7 s, by the Python loop; docs/engine.md)
+# step exponentials per block: a block of (steps x nodes) generators of ~ this many doubles, 4 MB,
+# stays in cache (2x faster than 64 MB on Bahgat–Willmert at 4 el/link; docs/engine.md "Cheaper steps")
 _BLOCK_DOUBLES = 2**19
 
 
