@@ -46,14 +46,14 @@ def _tm_one_element():
 @pytest.mark.parametrize("scene, omega", [("bahgat-willmert-damped.toml", 1000.0), ("turcic-midha", 200.0)])
 def test_stated_error_bounds_a_tight_reference(scene, omega):
     """Bahgat–Willmert (thesis mesh, its Rayleigh damping) at 1000 rad/s and Turcic–Midha (1 element
-    per link, undamped, unstable: max|μ| ≈ 1.5e3) at 200 rad/s, default tolerance: converged in no
+    per link, undamped, unstable: max|μ| ≈ 1.5e3) at 200 rad/s, tol 1e-8: converged in no
     more steps than the stiff bound 2·2π·ρ(A) of the earlier rule, and the stated multiplier error
     is at least the true error against twice the steps (whose own error is 2^-6 of it)."""
     if scene == "turcic-midha":
         model, damping = Model(_tm_one_element(), ("full",)), False
     else:
         model, damping = Model(load_scene(RUNS / scene), ("full",)), True
-    res = floquet_multipliers(model, omega, "full", damping=damping)
+    res = floquet_multipliers(model, omega, "full", damping=damping, tol=1e-8)
     assert res.monodromy.converged
     assert res.monodromy.steps <= 2 ** np.ceil(np.log2(full_min_steps(model, omega, damping=damping)))
     ref = floquet_multipliers(model, omega, "full", damping=damping, steps=2 * res.monodromy.steps)

@@ -42,7 +42,7 @@ def add_parser(sub) -> None:
     p.add_argument("--tol", type=float, default=None, help="max|μ| - 1 above which (and above 10x the multiplier "
                    "error estimate) a speed is unstable (default 1e-6)")
     p.add_argument("--rtol", type=float, default=None, help="relative accuracy of the band edges (default 1e-6)")
-    p.add_argument("--monodromy-tol", type=float, default=None, help="relative error asked of the monodromy (default 1e-10)")
+    p.add_argument("--monodromy-tol", type=float, default=None, help="multiplier error asked of the monodromy, relative to max(1, max|mu|) (default 1e-10)")
     p.add_argument("--resonance-order", type=int, default=None, metavar="N",
                    help="list the resonance candidates 2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of order n <= N that lie between two stable "
                    "grid speeds, where a band narrower than the spacing would not be seen (default 3; 0: none)")
@@ -69,9 +69,8 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from fkev_slepc.api import Study
-    from fkev_slepc.api.floquet import study_floquet
-    from fkev_slepc.periodic.bands import DEFAULT_TOL, EDGE_RTOL
-    from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, RESONANCE_ORDER
+    from fkev_slepc.api.floquet import SETTING_NAMES, study_floquet
+    from fkev_slepc.periodic.settings import checked_settings
     from fkev_slepc.sweep.interrupt import SweepInterrupted
     from fkev_slepc.sweep.parallel import install_abort_hook, world
     from fkev_slepc.sweep.session import RunRefused
@@ -82,13 +81,12 @@ def run(args) -> int:
     try:
         study = Study(load_checked(args.scene, args.elements, check_angles=False), Path(args.scene))
         preflight(study.scene, args, periodic=True)  # figure path, mesh size, damping; speeds: study_floquet
+        settings = checked_settings(study.scene.source, None, dict(  # the defaults, with the flags given
+            verdict_tol=args.tol, edge_rtol=args.rtol, monodromy_tol=args.monodromy_tol,
+            resonance_order=args.resonance_order, probe=args.probe_resonances or None, reduce=args.reduce),
+            {field: NAMES[key] for field, key in SETTING_NAMES.items()})
         res = study_floquet(study, args.speeds, args.case, args.output, speeds_rpm=args.speeds_rpm,
-                            angles_deg=args.angles, resume=args.resume,
-                            force=args.force, tol=DEFAULT_TOL if args.tol is None else args.tol,
-                            rtol=EDGE_RTOL if args.rtol is None else args.rtol,
-                            monodromy_tol=MONODROMY_TOL if args.monodromy_tol is None else args.monodromy_tol,
-                            resonance_order=RESONANCE_ORDER if args.resonance_order is None else args.resonance_order,
-                            probe=args.probe_resonances, reduce=args.reduce or "default",
+                            angles_deg=args.angles, resume=args.resume, force=args.force, settings=settings,
                             solver=args.solver, comm=comm, critical=not args.no_critical, names=NAMES,
                             command_line="fkev " + " ".join(sys.argv[1:]),
                             notify=None if args.json or args.quiet else _note, plane=args.plane)

@@ -4,7 +4,10 @@ what ``fkev floquet`` (fkev_slepc/sweep/floquet_run.py) and ``fkev response --sp
 
 :meth:`ProductRequest.run_frozen_sweep` runs (or resumes) the root product, the frozen sweep; then
 :func:`open_product`, :func:`solve_pending` and :func:`finish` (fkev_slepc/sweep/run_steps.py, the
-steps every product shares with the frozen sweep and the design study) add the product to it.
+steps every product shares with the frozen sweep and the design study) add the product to it. A
+periodic product archives its :class:`~fkev_slepc.periodic.settings.PeriodicSettings` whole in
+``<product>/settings`` (:func:`settings_attrs`, written by ``open_product``), and a resume compares
+them whole first (:func:`refuse_changed_settings`).
 """
 
 from __future__ import annotations
@@ -12,6 +15,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import h5py
+
+from fkev_slepc.archive import store
 from fkev_slepc.scene import Scene
 from fkev_slepc.sweep.run_steps import finish, open_product, solve_pending  # noqa: F401 (the steps of every product)
 from fkev_slepc.sweep.session import SweepRequest, run_sweep
@@ -42,3 +48,38 @@ class ProductRequest:
                                solver=self.solver, command_line=self.command_line, make_dirs=self.make_dirs,
                                plane=self.plane), comm,
                   notify=notify, progress=progress, model=self.model)
+
+
+def settings_attrs(product, settings) -> dict:
+    """``open_product``'s ``attrs`` for the run's PeriodicSettings: ``{"<product>/settings": attributes}``
+    (``PeriodicSettings.to_attrs`` and the group's description)."""
+    path = f"{product.name}/settings"
+    return {path: {**settings.to_attrs(), "description": product.groups.get(path, "")}}
+
+
+def refuse_changed_settings(out: Path, product, settings, comm) -> None:
+    """Collective, on a resume before the product's work: raise
+    :class:`~fkev_slepc.sweep.session.OutputError` (exit 2, on every rank; nothing written) when the
+    archive's ``<product>/settings`` differ from ``settings`` (one line naming every differing field
+    with both values, :func:`fkev_slepc.periodic.settings.resume_refusal`) or are missing from an
+    archive that holds the product (written before they were archived). No product yet: nothing to compare."""
+    from fkev_slepc.periodic.settings import PeriodicSettings, SettingsError, resume_refusal
+    from fkev_slepc.sweep.session import OutputError
+
+    why = None
+    if comm.rank == 0:
+        part = store.partial_path(out)
+        src = part if part.exists() else out
+        if src.exists():
+            with h5py.File(src, "r") as f:
+                if product.name in f:
+                    g = f[product.name].get("settings")
+                    try:
+                        archived = None if g is None else PeriodicSettings.from_attrs(g.attrs)
+                        why = resume_refusal(archived, settings, product.name)
+                    except SettingsError as err:
+                        why = f"cannot resume: the archived /{product.name}/settings are unreadable ({err})"
+        why = None if why is None else f"--resume: {src}: {why}"
+    why = comm.bcast(why, root=0)
+    if why is not None:
+        raise OutputError(why)

@@ -107,7 +107,8 @@ def open_product(out: Path, product, values: dict, settings: dict, resume: bool,
     ``same(part) -> bool``: whether the archived product was computed with this run's settings
     (default: yes); a resume keeps its statuses only then, and otherwise every unit is pending;
     it may raise :class:`RunRefused` instead (the reopened copy removed, the archive untouched).
-    ``settings``: attributes of the product's group; ``attrs``: ``{path: attributes}`` also written."""
+    ``settings``: attributes of the product's group; ``attrs``: ``{path: attributes}`` also written (a
+    group made where there is none yet)."""
 
     def reopen():
         part = store.reopen_finished(out)
@@ -121,7 +122,7 @@ def open_product(out: Path, product, values: dict, settings: dict, resume: bool,
             raise
         with h5py.File(part, "r+") as f:
             for path, more in {product.name: settings, **(attrs or {})}.items():
-                f[path].attrs.update(more)
+                (f[path] if path in f else f.create_group(path)).attrs.update(more)
         return part, status
 
     return _decided_on_rank0(out, comm, reopen)
