@@ -45,6 +45,7 @@ from dataclasses import dataclass  # noqa: E402
 import numpy as np  # noqa: E402
 
 import benchlib  # noqa: E402
+from fkev_slepc.periodic.truncation import folded  # noqa: E402  (the one folding, also the truncation's)
 
 SCENES = {"bw": "runs/bahgat-willmert-1976.toml", "tm": "runs/turcic-midha-1984.toml",
           "sc": "runs/slider-crank-benchmark.toml"}
@@ -93,13 +94,6 @@ def parse_args(argv=None):
             ap.error(f"--edge: needs 0 < LO < HI (got {args.edge!r})")
         args.bracket = (lo, hi)
     return args
-
-
-def folded(freq, omega: float) -> np.ndarray:
-    """The branch-free Floquet frequency of a pair, |arg μ|·Ω/2π ∈ [0, Ω/2] rad/s, from any
-    unwrapped |Im s| (``freq``) at crank speed ``omega``."""
-    r = np.mod(np.asarray(freq, dtype=float), abs(omega))
-    return np.minimum(r, abs(omega) - r)
 
 
 @dataclass(frozen=True)
@@ -156,7 +150,7 @@ def mesh_point(scene, elements: int, speed: float, modes: int, *, case: str = "f
 
 def convergence(points, speed: float):
     """(folded, changes, rates, predicted), each (n_mesh, r): the convergence table of the module
-    docstring. folded: the folded frequencies of each mesh (:func:`folded`);
+    docstring. folded: the folded frequencies of each mesh (``periodic.truncation.folded``);
     changes (n_mesh, r): |f_i - f_{i+1}| of the folded frequencies (NaN on the finest mesh);
     rates (n_mesh, r): log(Δ_{i-1}/Δ_i)/log(n_i/n_{i-1}) where n_i/n_{i-1} = n_{i+1}/n_i, else NaN;
     predicted (n_mesh, r): the order-4 Richardson prediction of f_i from the two meshes before it

@@ -157,3 +157,33 @@ def test_default_reduces_only_where_the_full_model_is_expensive():
     assert full_min_steps(small, 100.0) < AUTO_MIN_STEPS
     assert floquet_multipliers(small, 100.0, "full", damping=False, reduce="default").basis is None
     assert full_min_steps(_tm(3), 60.0) >= AUTO_MIN_STEPS
+
+
+def test_frequency_measure_compares_folded_phases_not_unwrapped_branches():
+    """The truncation's frequency measure on the branch switch of docs/stability.md (Bahgat–Willmert,
+    500 rad/s, 2 modes per link): the lowest four unwrapped Floquet frequencies at 4 elements per
+    link (2909.96 = 6Ω − 90.04, ...) against 8 (2592.70 = 5Ω + 92.70, ...). One pair on two 2π
+    branches moved its multiplier's phase by 2.66 rad/s, not by the 317 rad/s between its unwrapped
+    values; the folded changes 2.66, 2.58, 1.02 and 60.73 rad/s (the table's Δf) are what is measured."""
+    from types import SimpleNamespace
+
+    from fkev_slepc.periodic.truncation import folded, measures
+
+    w = 500.0
+    coarse = np.array([2909.9607, 3394.5453, 5686.7799, 18384.4265])
+    fine = np.array([2592.6957, 2897.1299, 7687.7963, 14676.3038])
+
+    def level(freq, mu):  # the conjugate pairs ±i·f, one growing pair
+        s = np.concatenate([1j * freq, -1j * freq])
+        return SimpleNamespace(exponents=s, max_abs=mu, omega=w)
+
+    np.testing.assert_allclose(folded(coarse, w), [90.0393, 105.4547, 186.7799, 115.5735], atol=1e-9)
+    dmu, _, freq = measures(level(coarse, 1.0), level(fine, 1.0), 4)
+    assert dmu == 0.0
+    # the largest change is the 4th pair's 60.73 rad/s folded, relative to its finer unwrapped value
+    np.testing.assert_allclose(freq, (176.3038 - 115.5735) / 14676.3038, rtol=1e-9)
+    dmu, _, freq = measures(level(coarse[:2], 1.0), level(fine[:2], 1.0), 2)  # the reproducer's pairs
+    np.testing.assert_allclose(freq, (92.6957 - 90.0393) / 2592.6957, rtol=1e-9)  # not 317/2592.7
+    # the same phase on another branch is no change at all; the measure is symmetric in the branch
+    _, _, same = measures(level(fine + np.array([3, -2, 5, 1]) * w, 1.0), level(fine, 1.0), 4)
+    assert same < 1e-12

@@ -66,6 +66,7 @@ from fkev_slepc.periodic.truncation import (
 )
 
 TWO_PI = 2.0 * np.pi
+START_H_RHO = 2.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step count"); the steps then double on the error
 __all__ = ["LinkageFloquet", "TrigInterpolant", "floquet_multipliers", "full_min_steps", "to_dense"]
 
 
@@ -163,7 +164,12 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
     :class:`~fkev_slepc.periodic.components.LinkBasis`. ``comm``: an MPI communicator whose
     ranks share every monodromy's steps (collective; one speed on several ranks).
-    ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`)."""
+    ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`).
+    ``tol``: the multiplier error asked of the integrator, relative to max(1, max|μ|) (the steps
+    double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling estimate, pre-asymptotic levels
+    guarded, is below it: :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
+    verdict's 10 × error a tenth of its 1e-6 (docs/engine.md "Step count"; the default is
+    ``PeriodicSettings.monodromy_tol``)."""
     from fkev_slepc.model.operators import Model
 
     if not np.isfinite(omega) or omega == 0.0:
@@ -207,11 +213,15 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         mono, lam, X = exponential_monodromy(gen.S[0], TWO_PI, system.start)
         mu = np.exp(TWO_PI * lam)
     else:
-        # the step must resolve the fastest oscillation: h·ρ(A) <= 1 on the coarse half of the
-        # step doubling (Magnus is exact for constant A, but the linkage's A turns with the links)
+        # the first level takes h·ρ(A) ≈ START_H_RHO (Magnus is exact for constant A; only the
+        # turning of A's stiff parts with the links needs resolving), then the steps double on the
+        # multiplier error, pre-asymptotic levels guarded (magnus.step_doubling_error); the stiff
+        # bound h·ρ(A) <= 1/2 of the earlier rule (or 2^16) is the cap: no run takes more steps than it could
         rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
-        mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=tol,
-                         min_steps=int(np.ceil(2.0 * TWO_PI * rho)), comm=comm, progress=progress)
+        mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=np.inf, mu_tol=tol,
+                         min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
+                         max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
+                         comm=comm, progress=progress)
         mu, X = la.eig(mono.phi)
     c = system.coefficients(np.array([system.start]))
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)

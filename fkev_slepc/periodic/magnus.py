@@ -19,10 +19,15 @@ method and order. The error is estimated by step doubling: the monodromy at N st
 ``error = max |μ_N - μ_{N/2}| / (2^p - 1)`` over matched multipliers; with ``steps=None`` N
 doubles until ``phi_error`` is below ``tol``.
 
+**Pre-asymptotic levels** (``mu_tol``, the linkage Floquet criterion; docs/engine.md "Step
+count"): the division by 2^p - 1 assumes the N/2 level is asymptotic, so the integrator also runs
+N/4 and divides d = max|μ_N - μ_{N/2}| only where d_{N/2}/d_N is within 4× of 2^p, else states d
+(:func:`step_doubling_error`); N doubles until that, over max(1, max|μ|), is <= ``mu_tol``.
+
 Public API (shapes with n the state size, k the number of θ values; θ in the caller's units,
 radians of crank angle for a linkage; exponents in 1/[θ])
 
-``monodromy(generator, period=2π, *, forcing=None, order=6, steps=None, tol=1e-10,
+``monodromy(generator, period=2π, *, forcing=None, order=6, steps=None, tol=1e-10, mu_tol=None,
 start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps over MPI ranks)
     ``generator(theta)``: theta (k,) -> A (k, n, n), vectorised over θ.
     ``forcing(theta)``: theta (k,) -> b (k, n) or (k, n, m) for m load cases; optional.
@@ -32,7 +37,8 @@ start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps
     defined modulo 2π/P); ``max_abs`` max |μ| (the growth factor per period, per
     revolution for a linkage); ``growth_rate`` log(max|μ|)/P; ``error`` the estimated absolute
     multiplier error, ``phi_error`` the estimated relative error of Φ (Frobenius); ``steps``,
-    ``order``, ``period``, ``start``, ``converged`` (error <= tol, always True for fixed steps);
+    ``order``, ``period``, ``start``, ``converged`` (``phi_error`` <= tol, or with ``mu_tol``
+    ``error``/max(1, max|μ|) <= mu_tol; always True for fixed steps);
     ``particular`` (n,) or (n, m): x(start + P) from x(start) = 0 under the forcing (None
     without forcing), with ``particular_error`` its relative step-doubling estimate.
 ``exponential_monodromy(A, period=2π, start=0.0) -> (Monodromy, λ, X)``
@@ -61,8 +67,9 @@ _NODES = {
     4: np.array([0.5 - np.sqrt(3.0) / 6.0, 0.5 + np.sqrt(3.0) / 6.0]),
     6: np.array([0.5 - np.sqrt(15.0) / 10.0, 0.5, 0.5 + np.sqrt(15.0) / 10.0]),
 }
-# step exponentials per block: keeps a block of (steps x nodes) generators to ~ this many doubles
-_BLOCK_DOUBLES = 2**23
+# step exponentials per block: a block of (steps x nodes) generators of ~ this many doubles, 4 MB,
+# stays in cache (2x faster than 64 MB on Bahgat–Willmert at 4 el/link; docs/engine.md "Cheaper steps")
+_BLOCK_DOUBLES = 2**19
 
 
 def _comm(a, b):
@@ -164,6 +171,13 @@ def _product(generator, a, b, steps, forcing, order, comm=None, progress=None):
     return total
 
 
+def _multiplier_change(phi, phi_coarse) -> float:
+    """max |μ - μ_coarse| over the multipliers of two monodromies, matched (:func:`match_multipliers`)."""
+    mu, mu_coarse = la.eigvals(phi), la.eigvals(phi_coarse)
+    i, j = match_multipliers(mu, mu_coarse)
+    return float(np.max(np.abs(mu[i] - mu_coarse[j])))
+
+
 def match_multipliers(a, b):
     """Indices (i, j) pairing a[i] with b[j] to minimise Σ|a_i - b_j| (Hungarian assignment)."""
     a, b = np.asarray(a), np.asarray(b)
@@ -208,14 +222,26 @@ def _split(total, n, m):
     return total[:n, :n], (p[:, 0] if m == 1 else p)
 
 
+def step_doubling_error(d: float, d_before: float | None, order: int) -> float:
+    """The error of the N-step level from its difference ``d`` to the N/2 level and the N/2
+    level's difference ``d_before`` to N/4 (None: not computed): d/(2^p - 1) where the ratio
+    d_before/d shows the asymptotic rate 2^p within a factor 4 (or is unknown), else d (the
+    N/2 level is pre-asymptotic; see the module docstring)."""
+    rate = 2.0**order
+    if d_before is None or d == 0.0 or rate / 4.0 <= d_before / d <= 4.0 * rate:
+        return d / (rate - 1.0)
+    return d
+
+
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
-              steps: int | None = None, tol: float = 1e-10, start: float = 0.0,
+              steps: int | None = None, tol: float = 1e-10, mu_tol: float | None = None, start: float = 0.0,
               max_steps: int = 2**16, min_steps: int = 16, comm=None, progress=None) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
     ``steps=None`` starts at ``min_steps`` (rounded up to a power of 2) and doubles until the estimated relative error of Φ <= ``tol``
-    or ``max_steps`` is reached (then ``converged`` is False). The multiplier estimate
+    (with ``mu_tol``: the multiplier error of :func:`step_doubling_error`, relative to
+    max(1, max|μ|), <= ``mu_tol``) or ``max_steps`` is reached (then ``converged`` is False). The multiplier estimate
     ``error`` follows Φ's for simple multipliers (times their condition number) but only as its
     square root at a defective one (a double multiplier ±1 on a transition curve).
 
@@ -241,20 +267,27 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
     scale = 2.0**order - 1.0
     N = int(steps) if steps is not None else int(2 ** np.ceil(np.log2(max(2, min_steps))))
     coarse = run(N // 2)
+    d_before = None
+    if mu_tol is not None and steps is None and N >= 8:  # the level before, for the rate check
+        older = run(N // 4)[0]
+        finite = bool(np.all(np.isfinite(older)) and np.all(np.isfinite(coarse[0])))
+        d_before = _multiplier_change(coarse[0], older) if finite else np.inf
     while True:
         fine = run(N)
         phi_err = float(np.linalg.norm(fine[0] - coarse[0])
                         / (scale * max(np.linalg.norm(fine[0]), 1e-300)))
-        if steps is not None or phi_err <= tol or 2 * N > max_steps:
+        finite = bool(np.all(np.isfinite(fine[0])) and np.all(np.isfinite(coarse[0])))
+        d = _multiplier_change(fine[0], coarse[0]) if finite else np.inf
+        err = step_doubling_error(d, d_before, order)
+        mu = la.eigvals(fine[0]) if finite else np.full(n, np.nan)
+        ok = phi_err <= tol if mu_tol is None else err <= mu_tol * max(1.0, float(np.max(np.abs(mu))))
+        if steps is not None or ok or 2 * N > max_steps:
             break
-        coarse, N = fine, 2 * N
-    phi, part = fine
-    if not (np.all(np.isfinite(phi)) and np.all(np.isfinite(coarse[0]))):
+        coarse, N, d_before = fine, 2 * N, d
+    if not finite:
         raise ValueError(f"steps: {N} steps (and {N // 2} for the error estimate) do not resolve "
                          f"the generator over the period: use more steps (or steps=None)")
-    mu, mu_coarse = la.eigvals(phi), la.eigvals(coarse[0])
-    i, j = match_multipliers(mu, mu_coarse)
-    err = float(np.max(np.abs(mu[i] - mu_coarse[j]))) / scale
+    phi, part = fine
     part_err = None
     if part is not None:
         part_err = float(np.linalg.norm(part - coarse[1])
@@ -262,7 +295,7 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
     order_ = np.argsort(-np.abs(mu), kind="stable")
     return Monodromy(phi=phi, multipliers=mu[order_], period=float(period), start=a, steps=N,
                      order=order, error=err, phi_error=phi_err,
-                     converged=bool(steps is not None or phi_err <= tol), particular=part,
+                     converged=bool(steps is not None or ok), particular=part,
                      particular_error=part_err)
 
 

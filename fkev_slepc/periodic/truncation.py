@@ -23,7 +23,13 @@ separately:
   and |μ| = 1 at every level);
 * ``growth_rate``: |Δ max Re s| (1/s), the same information as a growth rate;
 * ``frequency``: the largest relative change of the retained cycle-mean Floquet frequencies
-  (|Im s| unwrapped, the lowest ``retained`` pairs, ``retained`` = the pool's first r).
+  (the lowest ``retained`` pairs by |Im s| unwrapped, ``retained`` = the pool's first r),
+  compared **folded**, f = |arg μ|·|Ω|/2π ∈ [0, |Ω|/2] (:func:`folded`), the two levels' pairs
+  matched on f (least total change), each change relative to the finer level's unwrapped
+  frequency. Unwrapped Im s is defined modulo |Ω| only, and the Rayleigh-quotient pick of its
+  branch can differ from level to level for one pair (Bahgat–Willmert, 500 rad/s, 2 modes per
+  link: 2909.96 = 6Ω − 90.04 at 4 elements per link, 2592.70 = 5Ω + 92.70 at 8): the unwrapped
+  values differ by 317 rad/s where the multiplier's phase moved by 2.66 rad/s.
 
 Multipliers are not compared directly: their phases are 2πω̄/Ω mod 2π, so a frequency error ε
 moves μ by about 2πεω̄/Ω, meaningless for stability.
@@ -44,6 +50,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fkev_slepc.periodic.magnus import match_multipliers
 from fkev_slepc.periodic.settings import DEFAULTS, resolve_reduce  # noqa: F401 (resolve_reduce: exported here too)
 
 THRESHOLDS = tuple(10.0 ** -k for k in range(1, 11))
@@ -81,11 +88,21 @@ def retained_frequencies(exponents: np.ndarray, retained: int) -> np.ndarray:
     return np.sort(np.abs(np.asarray(exponents).imag))[::2][:retained]
 
 
+def folded(freq, omega: float) -> np.ndarray:
+    """The branch-free Floquet frequency of a pair, |arg μ|·|Ω|/2π ∈ [0, |Ω|/2] rad/s, from any
+    unwrapped |Im s| (``freq``, rad/s) at crank speed ``omega`` (rad/s)."""
+    r = np.mod(np.asarray(freq, dtype=float), abs(omega))
+    return np.minimum(r, abs(omega) - r)
+
+
 def measures(coarse, fine, retained: int) -> tuple[float, float, float]:
-    """(|Δ max|μ||/max|μ|, |Δ max Re s|, largest relative Δ of the retained frequencies) of two levels."""
+    """(|Δ max|μ||/max|μ|, |Δ max Re s|, largest relative Δ of the retained frequencies) of two
+    levels; the frequencies compared folded and matched (see the module docstring)."""
     fa, fb = (retained_frequencies(x.exponents, retained) for x in (coarse, fine))
     n = min(fa.size, fb.size)
-    rel = np.abs(fa[:n] - fb[:n]) / np.maximum(np.abs(fb[:n]), 1e-300)
+    ga, gb = folded(fa[:n], fine.omega), folded(fb[:n], fine.omega)
+    i, j = match_multipliers(ga, gb)
+    rel = np.abs(ga[i] - gb[j]) / np.maximum(fb[:n][j], 1e-300)
     return (float(abs(coarse.max_abs - fine.max_abs) / max(fine.max_abs, 1e-300)),
             float(abs(np.max(coarse.exponents.real) - np.max(fine.exponents.real))),
             float(np.max(rel)) if n else float("inf"))
