@@ -126,7 +126,7 @@ def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: 
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
-    checked_model(scene, case, options.get("harmonics"), names)  # before the first speed
+    checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"))  # before the first speed
     options = {**SCAN_DEFAULTS, **options}
     rows = []
     for w in speeds:

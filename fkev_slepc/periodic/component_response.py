@@ -59,27 +59,28 @@ class ProjectedSystem:
     def mck(self, theta):
         return self.reduced.mck(theta)
 
-    def frames(self, theta, derivative: bool = False):
-        """W (k, n, R) at the crank angles (and W' with ``derivative``)."""
-        kin = solve_kinematics(self.full.model.mechanism, np.atleast_1d(np.asarray(theta, dtype=float)))
-        out = [self.basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i]) for i in range(kin.phi.shape[0])]
-        W = np.stack([o[0] for o in out])
-        return (W, np.stack([o[1] for o in out])) if derivative else W
+    def _each(self, theta):
+        """(W, W') at each crank angle, one angle at a time (a stack would hold k·n·R numbers)."""
+        kin = solve_kinematics(self.full.model.mechanism, theta)
+        for i in range(theta.size):
+            yield self.basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])[:2]
 
     def load(self, theta) -> np.ndarray:
         """Wᵀ f (k, R)."""
-        return np.einsum("kni,kn->ki", self.frames(theta), self.full.load(theta))
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        f = self.full.load(theta)
+        return np.stack([W.T @ f[i] for i, (W, _) in enumerate(self._each(theta))])
 
     def lift(self, theta, z, dz=None):
-        """q = W z + Δq (k, n) at the crank angles, and dq/dθ = W z' + W' z given z' (no Δq')."""
+        """q = W z + Δq (k, n) at the crank angles, and dq/dθ = W z' + W' z given z' (Δq' left out)."""
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
-        W, W1 = self.frames(theta, derivative=True)
-        q = np.einsum("kni,ki->kn", W, z)
+        pairs = list(self._each(theta))
+        q = np.stack([W @ z[i] for i, (W, _) in enumerate(pairs)])
         if self.correction is not None:
             q = q + self.correction(self.full.model, theta, self.full.load(theta))
         if dz is None:
             return q
-        return q, np.einsum("kni,ki->kn", W, dz) + np.einsum("kni,ki->kn", W1, z)
+        return q, np.stack([W @ dz[i] + W1 @ z[i] for i, (W, W1) in enumerate(pairs)])
 
 
 class StaticCorrection:
@@ -166,6 +167,75 @@ class ResponseTruncation:
         return {"stress": self.stress, "deflection": self.deflection, "converged": self.converged,
                 "tol": self.tol, "modes_per_link": self.modes_per_link, "covered_rad_s": self.covered_rad_s,
                 "basis": self.basis, "levels": [list(x) for x in self.levels]}
+
+
+def response_reduction(model, value) -> str | None:
+    """None (the full model), "links" or "links:N" from what a user asked (None, "none",
+    "default", "links", "links:N"): "default" is the full model up to ``FULL_MAX_DOFS`` free DOFs
+    (docs/engine.md measures why), else "links". ValueError naming the accepted values otherwise."""
+    from fkev_slepc.periodic.truncation import resolve_reduce
+
+    try:
+        v = resolve_reduce("default" if value is None else value)
+    except ValueError:
+        v = "bad"
+    if v == "default":
+        return None if model is None else None if int(model.n_free) <= FULL_MAX_DOFS else "links"
+    if v is None or (isinstance(v, str) and v.startswith("links")):
+        return v
+    raise ValueError(f"must be default, none, links or links:N (modes per link >= 0) (got {value!r})")
+
+
+def _interior_sizes(mech) -> tuple[int, list[int]]:
+    """(boundary DOFs, interior DOFs per link) from the mesh alone (no eigenproblem)."""
+    from fkev_slepc.periodic.components import boundary_dofs
+
+    bnd = boundary_dofs(mech)
+    d = mech.elem_dofs
+    sizes = []
+    for j in range(mech.n_link):
+        used = np.unique(d[mech.elem_link == j])
+        sizes.append(int((~bnd[used[used >= 0]]).sum()))
+    return int(bnd.sum()), sizes
+
+
+def first_level_size(model, mode: str) -> int:
+    """R of the first component level of ``mode`` ("links": ``LINK_MODES`` per link, "links:N": N)."""
+    k = LINK_MODES if mode == "links" else int(mode[6:])
+    n_b, sizes = _interior_sizes(model.mechanism)
+    return n_b + sum(min(k, n) for n in sizes)
+
+
+def memory_estimate(mech, mode: str, harmonics=None) -> float:
+    """Bytes a component-basis response of ``mech`` needs at its first level (docs/engine.md):
+    per link ~6 dense n_j² arrays (K_ii, M_ii, K_ib, the static-correction flexibility, the modes,
+    eigh's workspace), ~4 complex copies of the harmonic-balance matrix ((2H + 1)·R)², H = ``harmonics``
+    or 16, at most ``MAX_UNKNOWNS`` unknowns, and the periodic pieces at 4H + 1 angles (~12 element
+    stacks n_el·d²)."""
+    k = LINK_MODES if mode == "links" else int(mode[6:])
+    n_b, sizes = _interior_sizes(mech)
+    H = 16 if harmonics is None else int(harmonics)
+    R = n_b + sum(min(k, n) for n in sizes)
+    size = min((2 * H + 1) * R, MAX_UNKNOWNS)
+    d = mech.elem_dofs.shape[1]
+    return float(8 * 6 * sum(n * n for n in sizes) + 4 * 16 * size**2 + 12 * 8 * (4 * H + 1) * mech.elem_link.size * d * d)
+
+
+MEMORY_LIMIT = 8e9  # bytes: a component-basis response estimated above is refused (memory_problem)
+
+
+def memory_problem(mech, reduce, harmonics=None) -> str | None:
+    """"full" where ``reduce`` resolves to the full model (the periodic DOF limit applies), None
+    where the component basis fits in ``MEMORY_LIMIT`` by :func:`memory_estimate`, else the refusal."""
+    mode = response_reduction(mech, reduce)
+    if mode is None:
+        return "full"
+    need = memory_estimate(mech, mode, harmonics)
+    if need <= MEMORY_LIMIT:
+        return None
+    n_b, sizes = _interior_sizes(mech)
+    return (f"{mech.n_free} free DOFs on link components (largest link interior {max(sizes)} DOFs, held densely) "
+            f"need about {need / 1e9:.3g} GB, past the limit of {MEMORY_LIMIT / 1e9:g} GB: use fewer --elements")
 
 
 def component_response(system, omega: float, modes: int, *, harmonics=None, tol: float = 1e-10,
