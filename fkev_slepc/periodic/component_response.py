@@ -21,7 +21,8 @@ below their frequencies: the correction removes the leading truncation error of 
 inertial loads (measured in docs/engine.md).
 
 **Truncation** (:func:`converged_response`): the modes per link double from ``LINK_MODES`` (the
-rule of fkev_slepc/periodic/truncation.py) until the whole-link elastic stress (σ₊, σ₋ at every
+rule of fkev_slepc/periodic/truncation.py; the harmonics of the first level, doubled to ``tol``,
+are kept for the next ones) until the whole-link elastic stress (σ₊, σ₋ at every
 element end; the bending moment where a section has no fibre distance) and the node deflections
 at ``MEASURE_ANGLES`` angles change by at most ``RESPONSE_REDUCE_TOL`` (relative to their peak)
 for two successive pairs of levels; the result carries the larger of the two pairs' changes and
@@ -271,6 +272,9 @@ def converged_response(system, omega: float, *, modes: int | None = None, harmon
     solve = lambda k: component_response(system, omega, k, harmonics=harmonics, tol=tol, correct=correct)  # noqa: E731
     k = LINK_MODES if modes is None else int(modes)
     prev, levels, pair = solve(k), [], None
+    if harmonics is None:  # the next levels at the H the first one reached: no doubling of H again
+        H1 = prev.harmonics.shape[0] - 1
+        solve = lambda k: component_response(system, omega, k, harmonics=H1, tol=tol, correct=correct)  # noqa: E731
     while True:
         if k >= top:  # every interior mode kept: W square, the full model
             return prev, _truncation(prev, k, 0.0, 0.0, True, reduce_tol, levels)
