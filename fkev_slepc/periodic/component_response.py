@@ -41,7 +41,7 @@ from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS, HarmonicResponse,
 
 RESPONSE_REDUCE_TOL = 1e-3  # relative change of stress and deflection that ends the doubling
 MEASURE_ANGLES = 72  # crank angles (every 5°) at which two levels are compared
-FULL_MAX_DOFS = 150  # reduce="default": the full model up to this many free DOFs (docs/engine.md)
+FULL_MAX_DOFS = 48  # reduce="default": the full model up to this many free DOFs (docs/engine.md)
 
 
 class ProjectedSystem:
