@@ -41,6 +41,7 @@ from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS, HarmonicResponse,
 
 RESPONSE_REDUCE_TOL = 1e-3  # relative change of stress and deflection that ends the doubling
 MEASURE_ANGLES = 72  # crank angles (every 5°) at which two levels are compared
+CHUNK = 64  # crank angles whose full-mesh periodic pieces are held at once
 FULL_MAX_DOFS = 48  # reduce="default": the full model up to this many free DOFs (docs/engine.md)
 
 
@@ -58,7 +59,11 @@ class ProjectedSystem:
         self.correction = StaticCorrection(basis) if correct else None
 
     def mck(self, theta):
-        return self.reduced.mck(theta)
+        """Reduced (M, C, K) at the crank angles, ``CHUNK`` angles at a time (the periodic pieces of
+        the full mesh are held for one chunk only)."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        parts = [self.reduced.mck(theta[i:i + CHUNK]) for i in range(0, theta.size, CHUNK)]
+        return tuple(np.concatenate(x) for x in zip(*parts))
 
     def _each(self, theta):
         """(W, W') at each crank angle, one angle at a time (a stack would hold k·n·R numbers)."""
@@ -208,18 +213,23 @@ def first_level_size(model, mode: str) -> int:
 
 
 def memory_estimate(mech, mode: str, harmonics=None) -> float:
-    """Bytes a component-basis response of ``mech`` needs at its first level (docs/engine.md):
-    per link ~6 dense n_j² arrays (K_ii, M_ii, K_ib, the static-correction flexibility, the modes,
-    eigh's workspace), ~4 complex copies of the harmonic-balance matrix ((2H + 1)·R)², H = ``harmonics``
-    or 16, at most ``MAX_UNKNOWNS`` unknowns, and the periodic pieces at 4H + 1 angles (~12 element
-    stacks n_el·d²)."""
+    """Bytes a component-basis response of ``mech`` needs at its first level (docs/engine.md,
+    "Periodic response on link components"): ~4 complex copies of the harmonic-balance matrix
+    S² (S = (2H + 1)·R; H = ``harmonics``, else the last H the doubling from 8 can reach, to 256
+    with (2H + 1)·R <= ``MAX_UNKNOWNS``), ~3 copies of the six periodic pieces at ``CHUNK`` angles
+    (9 nonzeros per DOF), and 6 dense n_j² arrays per link interior (K_ii, M_ii,
+    K_ib, the static-correction flexibility, the modes, eigh's workspace)."""
     k = LINK_MODES if mode == "links" else int(mode[6:])
     n_b, sizes = _interior_sizes(mech)
-    H = 16 if harmonics is None else int(harmonics)
     R = n_b + sum(min(k, n) for n in sizes)
-    size = min((2 * H + 1) * R, MAX_UNKNOWNS)
-    d = mech.elem_dofs.shape[1]
-    return float(8 * 6 * sum(n * n for n in sizes) + 4 * 16 * size**2 + 12 * 8 * (4 * H + 1) * mech.elem_link.size * d * d)
+    if harmonics is not None:
+        H = int(harmonics)
+    else:
+        H = 16
+        while 2 * H <= 256 and (4 * H + 1) * R <= MAX_UNKNOWNS:
+            H *= 2
+    S = (2 * H + 1) * R
+    return float(4 * 16 * S**2 + 3 * 6 * 8 * 9 * mech.n_free * min(4 * H + 1, CHUNK) + 6 * 8 * sum(n * n for n in sizes))
 
 
 MEMORY_LIMIT = 8e9  # bytes: a component-basis response estimated above is refused (memory_problem)
