@@ -100,7 +100,15 @@ def galerkin_solve(coefficients, load, omega: float, H: int) -> HarmonicResponse
     ls = np.arange(-H, H + 1)
     diff = (ls[:, None] - ls[None, :]) % Nq  # k - l
     w = float(omega)
-    A = Kh[diff] + (1j * w * ls)[None, :, None, None] * Ch[diff] - ((w * ls) ** 2)[None, :, None, None] * Mh[diff]
+    # assembled in place (one block matrix and one temporary, not five: the memory of large models)
+    A = Kh[diff]
+    T = Ch[diff]
+    T *= (1j * w * ls)[None, :, None, None]
+    A += T
+    np.take(Mh, diff, axis=0, out=T)
+    T *= ((w * ls) ** 2)[None, :, None, None]
+    A -= T
+    del T
     A = A.transpose(0, 2, 1, 3).reshape(size, size)
     b = Fh[ls % Nq].reshape(-1)
     Q, rcond = _solve(A, b)
