@@ -26,8 +26,10 @@ class RunningSpeed:
 
     def design_check(self, speed_rad_s: float, criterion: str = "goodman", **options):
         """Per link peak |σ|, static and fatigue safety factors, weak-axis buckling factor and peak
-        pin loads (``fkev design-check``): :func:`fkev_slepc.design.check.design_check` (options
-        ``case``, ``angles_deg``, ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``)."""
+        pin loads, and the lowest out-of-plane frequency over the cycle with its crank-order margin
+        (``out_of_plane``; None where the scene has no out-of-plane section) (``fkev design-check``):
+        :func:`fkev_slepc.design.check.design_check` (options ``case``, ``angles_deg``,
+        ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``)."""
         from fkev_slepc.design.check import design_check
 
         return design_check(self.scene, speed_rad_s, criterion=criterion, **options)

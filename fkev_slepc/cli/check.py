@@ -55,8 +55,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def print_links(scene: Scene) -> list[str]:
-    """The per-link table (mass, slenderness, pinned-pinned f₁ estimate; scene/plausible.py) on
-    stdout; returns the warnings on implausible values."""
+    """The per-link table (mass, slenderness, pinned-pinned f₁ estimate, and with out-of-plane
+    section data the weak-axis f₁ and the first torsion frequency f_t, docs/theory.md §19;
+    scene/plausible.py) on stdout; returns the warnings on implausible values."""
     from fkev_slepc.scene.plausible import damping_warnings, summarize_scene
 
     rows = summarize_scene(scene)
@@ -65,10 +66,18 @@ def print_links(scene: Scene) -> list[str]:
     written = re.match(r"# .* in SI: its \[units\] \((.*?)\) converted on reading", scene.source_text)
     if written:
         print(f"  units: written in {written[1]}, converted to SI on reading (the values below, and archives, are SI)")
-    print(f"  {'link':<12} {'L [m]':>9} {'mass [kg]':>10} {'L/r':>8} {'f1 pinned-pinned [Hz]':>22}")
+    print(f"  {'link':<12} {'L [m]':>9} {'mass [kg]':>10} {'L/r':>8} {'f1 pinned-pinned [Hz]':>22}"
+          f" {'f1 out of plane [Hz]':>21} {'f_t torsion [Hz]':>17}")
     for s in rows:
-        print(f"  {s.name:<12} {s.length_m:>9.4g} {s.mass_kg:>10.4g} {s.slenderness:>8.4g} {s.pinned_frequency_hz:>22.5g}")
+        print(f"  {s.name:<12} {s.length_m:>9.4g} {s.mass_kg:>10.4g} {s.slenderness:>8.4g} {s.pinned_frequency_hz:>22.5g}"
+              f" {_hz(s.pinned_frequency_out_hz, 21)} {_hz(s.torsion_frequency_hz, 17)}")
+    if any(None in (s.pinned_frequency_out_hz, s.torsion_frequency_hz) for s in rows):
+        print("  - : no out-of-plane section data (second moment out of plane, torsion constant, shear modulus)")
     return [w for s in rows for w in s.warnings] + damping_warnings(scene, rows)
+
+
+def _hz(f: float | None, width: int) -> str:
+    return f"{'-':>{width}}" if f is None else f"{f:>{width}.5g}"
 
 
 def print_buckling(scene: Scene) -> list[str]:

@@ -1,6 +1,7 @@
 """``fkev design-check SCENE --speed W``: per link the peak |σ| along the whole link, the static
 and fatigue safety factors, the weak-axis buckling factor and the peak pin loads at one crank
-speed (docs/design.md, "Design check"). Wiring only; the computation is in
+speed, and the lowest out-of-plane frequency over the cycle with its crank-order margin
+(docs/design.md, "Design check"). Wiring only; the computation is in
 fkev_slepc/design/check.py."""
 
 from __future__ import annotations
@@ -29,8 +30,9 @@ def add_parser(sub) -> None:
         description="The design check at one crank speed: for every link the peak |σ| of the steady periodic "
         "response along the whole link (both faces, every element end), the static safety factor against yield, "
         "the fatigue safety factor (Goodman, Soderberg or Gerber) at its critical point, the weak-axis Euler "
-        "buckling factor under the kinetostatic axial force, and the peak pin loads of its joints. Strengths come "
-        "from the links' [materials].")
+        "buckling factor under the kinetostatic axial force, and the peak pin loads of its joints; with out-of-plane "
+        "section data, the lowest out-of-plane frequency over the cycle (frozen-time) and its margin to the crank "
+        "orders. Strengths come from the links' [materials].")
     p.add_argument("scene", help="scene file (TOML)")
     speed = p.add_mutually_exclusive_group()
     speed.add_argument("--speed", type=float, metavar="W", help="crank speed, rad/s (default: the scene's highest)")
@@ -121,3 +123,35 @@ def _table(d: dict, rpm: bool) -> None:
             print(f"  {name}: {note}")
     print("  buckling SF: weak-axis Euler load π²E·I_out/(K·L)² over the most compressive kinetostatic axial "
           f"force (- : never in compression or no out-of-plane section); warning below {d['buckling_threshold']:g}")
+    _out_of_plane(d["out_of_plane"])
+
+
+def _orders(o: dict) -> str:
+    """The crank orders inside the band, or the nearest below and above it with their margins."""
+    inside = o["orders_inside"]
+    if inside:
+        n = f"{inside[0]}Ω" + (f"-{inside[-1]}Ω" if len(inside) > 1 else "")
+        return f"; crank orders {n} inside the band (margin 0: crossed every revolution)"
+    sides = ((o["below"], "below"), (o["above"], "above"))
+    near = [f"{a['order']}Ω {a['margin_percent']:.1f} % {side}" for a, side in sides if a is not None]
+    return f"; nearest crank orders {', '.join(near)}" if near else ""
+
+
+def _out_of_plane(o: dict) -> None:
+    """The out-of-plane lines (fkev_slepc/design/out_of_plane.py)."""
+    if not o["checked"]:
+        print(f"  out of plane: {o['note']}")
+        return
+    if o["f1_min_hz"] is None:
+        print(f"  out of plane: no lowest frequency at any of the {o['n_angles']} crank angles")
+    else:
+        order = _orders(o)
+        print(f"  out of plane: lowest frequency {o['f1_min_hz']:.5g} Hz at θ = {o['angle_min_deg']:g}° "
+              f"(band {o['f1_min_hz']:.5g}-{o['f1_max_hz']:.5g} Hz over {o['n_angles']} crank angles, frozen-time){order}")
+    if o["divergent_angles_deg"]:
+        bad = o["divergent_angles_deg"]
+        where = ", ".join(f"{x:g}" for x in bad[:6]) + ("…" if len(bad) > 6 else "")
+        print(f"  out of plane: divergent (weak-axis buckling, frozen-time) at θ = {where}°")
+    low = "no link in compression" if o["buckling_sf"] is None else \
+        f"smallest weak-axis buckling SF {o['buckling_sf']:.3g} (link {o['buckling_link']})"
+    print(f"  out of plane: {low}")

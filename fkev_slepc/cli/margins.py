@@ -86,7 +86,8 @@ def _approach(a) -> str:
 
 def print_table(title: str, o: dict) -> None:
     print(f"{title}: margins at Ω = {o['speed_rad_s']:g} rad/s (crank order {o['crank_order_hz']:.4g} Hz), "
-          f"case {o['case']}, {o['order']} modes over {o['n_angles']} crank angles, orders 1-{o['orders']}")
+          f"case {o['case']}, {'out of plane, ' if o['plane'] == 'out' else ''}{o['order']} modes over "
+          f"{o['n_angles']} crank angles, orders 1-{o['orders']}")
     print(f"{'mode':>4} {'band [Hz]':>19} {'inside':>14} {'closest':>8} {'margin':>7}  {'where closest (θ deg)':<28}"
           f" {'nearest below':<26} {'nearest above':<26}")
     for m in o["modes"]:

@@ -2,7 +2,9 @@
 the peak |σ| of the steady periodic response along the whole link, the static factor against
 yield, the fatigue factor (fkev_slepc/design/fatigue.py) at its critical point, the weak-axis
 Euler margin (fkev_slepc/model/buckling.py) and the peak pin loads of the link's joints from the
-rigid-body kinetostatics (fkev_slepc/model/joint_loads.py).
+rigid-body kinetostatics (fkev_slepc/model/joint_loads.py); for the whole linkage, where its links
+have out-of-plane section data, the lowest out-of-plane frequency over the cycle and its margin to
+the crank orders (fkev_slepc/design/out_of_plane.py).
 
 The stresses are those of ``fkev response`` at the same point (the harmonic-balance solution;
 the monodromy is not needed for them and is skipped): σ₊, σ₋ at both ends of every axis element
@@ -17,6 +19,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from fkev_slepc.design.fatigue import CRITERIA, fatigue_factor, missing_strengths, static_factor
+from fkev_slepc.design.out_of_plane import NOT_CHECKED, OutOfPlaneCheck, out_of_plane_check
 from fkev_slepc.model.buckling import WARN_BELOW, Buckling, weak_axis_buckling
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.periodic.link_stress import FACES
@@ -59,6 +62,7 @@ class DesignCheck:
     criterion: str
     threshold: float  # weak-axis buckling warning below this factor
     links: tuple[LinkCheck, ...]
+    out_of_plane: OutOfPlaneCheck | None = None  # None: no out-of-plane section (not checked)
 
     @property
     def warnings(self) -> list[str]:
@@ -67,7 +71,9 @@ class DesignCheck:
     def as_dict(self) -> dict:
         return {"scene": self.title, "speed_rad_s": self.speed, "case": self.case, "fatigue_criterion": self.criterion,
                 "buckling_threshold": self.threshold, "warnings": self.warnings,
-                "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links}}
+                "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links},
+                "out_of_plane": ({"checked": False, "note": NOT_CHECKED} if self.out_of_plane is None
+                                 else self.out_of_plane.as_dict())}
 
 
 def point_strengths(scene: Scene, mech, ls) -> SimpleNamespace:
@@ -158,7 +164,8 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
                  threshold: float = WARN_BELOW, names=None) -> DesignCheck:
     """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
     ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
-    weak-axis factor below which a warning is given. The response is that of ``fkev response``
+    weak-axis factor below which a warning is given. The out-of-plane lowest frequency is frozen-time
+    over the same angles (fkev_slepc/design/out_of_plane.py). The response is that of ``fkev response``
     (fkev_slepc/periodic/steady.py, the monodromy skipped), the loads those of ``fkev loads``
     without crank acceleration. Raises SceneError naming a bad argument."""
     from fkev_slepc.model.joint_loads import joint_loads
@@ -175,4 +182,5 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     mech = model.mechanism
     jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
     links = check_links(scene, mech, ls, jl, criterion)
-    return DesignCheck(scene.title, float(speed_rad_s), case, criterion, float(threshold), links)
+    oop = out_of_plane_check(scene, float(speed_rad_s), case, a, [lc.buckling for lc in links])
+    return DesignCheck(scene.title, float(speed_rad_s), case, criterion, float(threshold), links, oop)

@@ -17,7 +17,9 @@ angles). Bands come from a sweep archive at one speed, over the converged points
 Beside each mode's closest order, the table has one row per mode and chosen order (default 1×,
 2×, 3×: ``per_order``) with the band and that order's margin. Modes are labelled ``tracked``
 only where tracking held at that (speed, case) line; where it fell back to sorted order
-(``/tracking/fallback``, fkev_slepc/sweep/tracking.py) the table says ``sorted``.
+(``/tracking/fallback``, fkev_slepc/sweep/tracking.py) the table says ``sorted``. The modes are
+those of the archive's plane (``plane``: ``out`` for the out-of-plane problem of docs/theory.md
+§19, whose tracking weighs the eigenvector entries by the mass, docs/tracking.md).
 """
 
 from __future__ import annotations
@@ -85,12 +87,14 @@ class MarginTable:
     n_angles: int
     per_order: tuple[tuple[ModeMargin, Approach], ...] = ()  # (mode, its approach to one chosen order)
     tracking_fell_back: bool = False  # tracked order asked, but tracking fell back to sorted at this line
+    plane: str = "in"  # the archive's problem: "out" = bending out of the plane and torsion (docs/theory.md §19)
 
     def as_dict(self) -> dict:
         rows = [{"mode": m.mode, "f_min_hz": m.f_min_hz, "f_max_hz": m.f_max_hz, "inside": a.margin_percent == 0.0,
                  **a.as_dict()} for m, a in self.per_order]
         return {"speed_rad_s": self.speed_rad_s, "crank_order_hz": self.speed_rad_s / (2 * math.pi),
-                "case": self.case, "order": self.order, "tracking_fell_back": self.tracking_fell_back,
+                "case": self.case, "plane": self.plane, "order": self.order,
+                "tracking_fell_back": self.tracking_fell_back,
                 "orders": self.n_orders, "near_percent": NEAR_PERCENT,
                 "n_angles": self.n_angles, "modes": [m.as_dict() for m in self.modes], "per_order": rows}
 
@@ -172,14 +176,17 @@ def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_or
     elif n_orders < 1:
         raise ArchiveError(f"--orders: must be >= 1 (got {n_orders})")
     orders = np.arange(1, n_orders + 1)
-    rows = [_mode_margin(int(res.modes[k]), angles, f_all[:, k], orders, base) for k in picked]
+    rows = [mode_margin(int(res.modes[k]), angles, f_all[:, k], orders, base) for k in picked]
     chosen = tuple((m, _approach(n, n * base, angles, f_all[:, k], m.f_min_hz, m.f_max_hz))
                    for m, k in zip(rows, picked) if m.f_min_hz is not None for n in per_order)
     return MarginTable(speed, res.cases[ci], "sorted" if fell_back else order, int(n_orders), tuple(rows),
-                       angles.size, chosen, fell_back)
+                       angles.size, chosen, fell_back, res.plane)
 
 
-def _mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarray, base: float) -> ModeMargin:
+def mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarray, base: float) -> ModeMargin:
+    """The :class:`ModeMargin` of one mode's curve ``f`` (Hz, NaN where not converged) over
+    ``angles`` (deg) against the crank ``orders`` n at ``base`` = Ω/2π (module docstring); its
+    ``closest`` is None for no orders."""
     ok = np.isfinite(f)
     if not ok.any():
         return ModeMargin(mode, None, None, None, None, (), (), None, None, None)
@@ -190,7 +197,7 @@ def _mode_margin(mode: int, angles: np.ndarray, f: np.ndarray, orders: np.ndarra
     near = tuple(a.order for a in approaches if 0.0 < a.margin_percent <= NEAR_PERCENT)
     below = [a for a in approaches if a.frequency_hz < fmin]
     above = [a for a in approaches if a.frequency_hz > fmax]
-    closest = min(approaches, key=lambda a: (a.margin_percent, a.order))
+    closest = min(approaches, key=lambda a: (a.margin_percent, a.order)) if approaches else None
     return ModeMargin(mode, fmin, fmax, float(angles[ok][np.argmin(f[ok])]), float(angles[ok][np.argmax(f[ok])]),
                       inside, near, closest, below[-1] if below else None, above[0] if above else None,
                       {a.order: a.angles_deg for a in approaches if a.margin_percent == 0.0}, int(ok.sum()))

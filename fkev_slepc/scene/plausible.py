@@ -5,6 +5,11 @@ slip: millimetres typed into ``length_m``, MPa into ``youngs_modulus_pa``, t/mm�
 The estimate is the pinned-pinned Euler-Bernoulli beam, f₁ = (π / 2L²) sqrt(EI / ρA), with the
 length-weighted EI and ρA of a stepped link and no lumped masses: a scale to compare the
 computed frequencies with (a link in a linkage is neither pinned-pinned nor alone), not a result.
+A link with out-of-plane section data (docs/theory.md §19.3) gets the same estimates of its other
+half (§19.5): the pinned-pinned bending about the weak axis, f₁,out = (π / 2L²) sqrt(EI_out / ρA),
+and the first St-Venant torsion mode with both ends held against twist, f_t = (1 / 2L)
+sqrt(GJ / ρI_p) (the twist obeys the wave equation GJ ψ'' = ρI_p ψ̈, the axial bar's with GJ for
+EA and ρI_p for ρA), with length-weighted EI_out, GJ and ρI_p.
 """
 
 from __future__ import annotations
@@ -29,6 +34,31 @@ class LinkSummary:
     slenderness: float  # L / r, r = sqrt(I/A) the radius of gyration (the smallest of the segments)
     pinned_frequency_hz: float  # (π / 2L²) sqrt(EI/ρA)
     warnings: tuple[str, ...]
+    pinned_frequency_out_hz: float | None = None  # (π / 2L²) sqrt(EI_out/ρA); None: no I_out
+    torsion_frequency_hz: float | None = None  # (1 / 2L) sqrt(GJ/ρI_p); None: no J, G or I_p
+
+
+def _weighted(pieces, value, length: float) -> float | None:
+    """The length-weighted mean of ``value(segment)`` over ``pieces`` (None if any is None)."""
+    values = [value(s) for s in pieces]
+    if any(v is None for v in values):
+        return None
+    return math.fsum(v * s.length for v, s in zip(values, pieces)) / length
+
+
+def out_of_plane_frequencies(link: Link) -> tuple[float | None, float | None]:
+    """(f₁,out, f_t) of a link, Hz (module docstring; docs/theory.md §19.5), None where its section
+    lacks the data."""
+    L = link.length
+    rho_a = _weighted(link.pieces, lambda s: s.density * s.area, L)
+    ei_out = _weighted(link.pieces, lambda s: None if s.second_moment_out is None else
+                       s.youngs_modulus * s.second_moment_out, L)
+    gj = _weighted(link.pieces, lambda s: None if s.shear_modulus is None or s.torsion_constant is None else
+                   s.shear_modulus * s.torsion_constant, L)
+    rho_ip = _weighted(link.pieces, lambda s: None if s.polar_moment is None else s.density * s.polar_moment, L)
+    f_out = None if ei_out is None else math.pi / (2 * L * L) * math.sqrt(ei_out / rho_a)
+    f_t = None if gj is None or rho_ip is None else math.sqrt(gj / rho_ip) / (2 * L)
+    return f_out, f_t
 
 
 def summarize(link: Link, index: int) -> LinkSummary:
@@ -58,7 +88,7 @@ def summarize(link: Link, index: int) -> LinkSummary:
         kind = "a wire, not a link" if L / r > SLENDERNESS[1] else "too stocky for Euler-Bernoulli beams"
         warn.append(f"{where}: slenderness L/r = {L / r:.3g} (r = sqrt(I/A) = {r:.3g} m) is {kind} "
                     f"({SLENDERNESS[0]:g}-{SLENDERNESS[1]:g}): length, area_m2 and second_moment_m4 in one unit system?")
-    return LinkSummary(link.name, L, mass, L / r, f_pp, tuple(warn))
+    return LinkSummary(link.name, L, mass, L / r, f_pp, tuple(warn), *out_of_plane_frequencies(link))
 
 
 def summarize_scene(scene: Scene) -> list[LinkSummary]:

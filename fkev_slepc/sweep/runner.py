@@ -45,6 +45,7 @@ from fkev_slepc.model.operators import AssemblyError
 from fkev_slepc.solve.modes import CNAN, PointModes, failed, postprocess
 from fkev_slepc.scene import DAMPING_TOL, IMAG_TOL
 from fkev_slepc.status import CONVERGED, RETRYABLE
+from fkev_slepc.sweep.tracking import signature_weight
 from fkev_slepc.sweep.tracking_angles import Samples
 from fkev_slepc.sweep.units import assign, run_units  # noqa: F401 (assign: part of the sweep API)
 
@@ -105,27 +106,30 @@ class Sweep:
     def solve_angle(self, ia: int, todo: np.ndarray) -> Block:
         """Solve the points of crank angle ``ia`` marked in ``todo`` (speed, case)."""
         theta = float(np.radians(self.grid.angles_deg[ia]))
-        results = self._solve_at(theta, todo, self.lam1[ia])
-        return self._block(ia, todo, results, self.model.node_positions(theta) if self.opts.mode_shapes else None)
+        results, weight = self._solve_at(theta, todo, self.lam1[ia])
+        return self._block(ia, todo, results, self.model.node_positions(theta) if self.opts.mode_shapes else None,
+                           weight)
 
     def solve_samples(self, angle_deg: float, todo: np.ndarray) -> Samples:
         """Solve the (speed, case) points of ``todo`` at an angle off the grid, for tracking
         (:func:`tracking.refine_angles`); nothing is written. Hints come from this angle only."""
-        lam1 = np.full(todo.shape, np.nan)
+        lam1, weight = np.full(todo.shape, np.nan), None
         try:
-            results = self._solve_at(float(np.radians(angle_deg)), todo, lam1)
+            results, weight = self._solve_at(float(np.radians(angle_deg)), todo, lam1)
         except AssemblyError as exc:  # cannot happen between two assembled grid angles, but never guess
             results = {tuple(i): failed(self.opts.n_modes, str(exc)) for i in np.argwhere(todo)}
-        b = self._block(-1, todo, results, None)
+        b = self._block(-1, todo, results, None, weight)
         sig = b.data.get(P.SIGNATURE.path)
         return Samples(np.array([float(angle_deg)]), b.data[P.FREQUENCY.path][None], b.status[None],
                        None if sig is None else sig[None], b.data[P.EIGENVALUE.path][None])
 
-    def _solve_at(self, theta: float, todo: np.ndarray, lam1: np.ndarray) -> dict:
+    def _solve_at(self, theta: float, todo: np.ndarray, lam1: np.ndarray) -> tuple[dict, np.ndarray | None]:
         """Results {(speed, case): PointModes} of the points of ``todo`` at crank angle
-        ``theta`` (rad); ``lam1`` (speed, case) holds and receives the |λ1| hints."""
+        ``theta`` (rad), and the weights of their tracked eigenvector entries
+        (:func:`tracking.signature_weight`); ``lam1`` (speed, case) holds and receives the |λ1| hints."""
         grid, model = self.grid, self.model
         pieces = model.pieces(theta)
+        weight = signature_weight(model.plane, pieces.mass_matrix.diagonal(), self.opts.tracking_dofs)
         results: dict[tuple[int, int], PointModes] = {}
         cases = list(grid.cases)
         struct_lam1 = np.nan
@@ -159,7 +163,7 @@ class Sweep:
                 still = solved[0]
             for jc in copies:
                 self._keep(results, lam1, (js, jc), still)
-        return results
+        return results, weight
 
     def _solve_many(self, batch: list, theta: float, js: int) -> list[PointModes]:
         """Results of the (case index, QEP, hint) of one speed: in one call of an engine that
@@ -195,10 +199,11 @@ class Sweep:
         lam = float(modulus(res.eigenvalue[:1])[0]) if res.eigenvalue.size else np.nan
         lam1[index] = lam if res.status in CONVERGED else np.nan
 
-    def _block(self, ia, todo, results, node_xy) -> Block:
+    def _block(self, ia, todo, results, node_xy, weight=None) -> Block:
         """Stack one angle's results into (speed, case, ...) arrays (fill values where not solved),
         one per per-point dataset of the sweep product that this run has (the table's ``source``
-        names the :class:`PointModes` field, ``rows`` the tracked DOFs of an eigenvector)."""
+        names the :class:`PointModes` field, ``rows`` the tracked DOFs of an eigenvector, scaled
+        by ``weight`` when given)."""
         o, (ns, nc) = self.opts, todo.shape
         sizes = {P.MODE: o.n_modes, P.FREE_DOF: self.model.n_free,
                  P.DOFS: 0 if o.tracking_dofs is None else len(o.tracking_dofs)}
@@ -215,6 +220,8 @@ class Sweep:
                     if value is None:
                         continue
                     value = value[o.tracking_dofs]
+                    if weight is not None:
+                        value = value * weight[:, None]
                 elif value is None:
                     continue
                 data[v.path][js, jc] = value
