@@ -214,8 +214,8 @@ def first_level_size(model, mode: str) -> int:
 
 def memory_estimate(mech, mode: str, harmonics=None) -> float:
     """Bytes a component-basis response of ``mech`` needs at its first level (docs/engine.md,
-    "Periodic response on link components"): ~4 complex copies of the harmonic-balance matrix
-    S² (S = (2H + 1)·R; H = ``harmonics``, else the last H the doubling from 8 can reach, to 256
+    "Periodic response on link components"): 24·S² for the harmonic balance's real block matrix,
+    its assembly and LU (S = (2H + 1)·R; H = ``harmonics``, else the last H the doubling from 8 can reach, to 256
     with (2H + 1)·R <= ``MAX_UNKNOWNS``), ~3 copies of the six periodic pieces at ``CHUNK`` angles
     (9 nonzeros per DOF), and 6 dense n_j² arrays per link interior (K_ii, M_ii,
     K_ib, the static-correction flexibility, the modes, eigh's workspace)."""
@@ -229,7 +229,7 @@ def memory_estimate(mech, mode: str, harmonics=None) -> float:
         while 2 * H <= 256 and (4 * H + 1) * R <= MAX_UNKNOWNS:
             H *= 2
     S = (2 * H + 1) * R
-    return float(4 * 16 * S**2 + 3 * 6 * 8 * 9 * mech.n_free * min(4 * H + 1, CHUNK) + 6 * 8 * sum(n * n for n in sizes))
+    return float(24 * S**2 + 3 * 6 * 8 * 9 * mech.n_free * min(4 * H + 1, CHUNK) + 6 * 8 * sum(n * n for n in sizes))
 
 
 MEMORY_LIMIT = 8e9  # bytes: a component-basis response estimated above is refused (memory_problem)
