@@ -123,21 +123,10 @@ class LiftedResponse:
     z: HarmonicResponse
     system: ProjectedSystem
 
-    @property
-    def theta(self):
-        return self.z.theta
-
-    @property
-    def harmonics(self):
-        return self.z.harmonics
-
-    @property
-    def error(self):
-        return self.z.error
-
-    @property
-    def condition(self):
-        return self.z.condition
+    def __getattr__(self, name):  # theta, harmonics (of z), error and condition: those of z
+        if name in ("theta", "harmonics", "error", "condition"):
+            return getattr(self.z, name)
+        raise AttributeError(name)
 
     @property
     def q(self):
