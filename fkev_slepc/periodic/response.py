@@ -8,7 +8,9 @@ K = K₀ + Ω²K₂ for the case's terms) and the rigid-body inertia loads of
 :class:`~fkev_slepc.periodic.system.PeriodicSystem` (the system Floquet takes), solved by harmonic balance
 (:mod:`~fkev_slepc.periodic.harmonic_balance`) and by shooting on the monodromy
 (:mod:`~fkev_slepc.periodic.shooting`): the two are independent (a global collocation
-and a Magnus time-stepper) and the result carries their difference.
+and a Magnus time-stepper) and the result carries their difference. On large meshes both run on the
+link-frame component basis q = W(θ)z (fkev_slepc/periodic/component_response.py, docs/response.md §3.1),
+the truncation measured by doubling the modes per link and carried with the result.
 """
 
 from __future__ import annotations
