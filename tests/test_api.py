@@ -320,6 +320,30 @@ def test_study_reuses_models_by_terms_and_one_engine_per_model():
     study.close()
 
 
+def test_study_sweeps_take_their_model_from_the_pool(tmp_path):
+    """Issue 27 (design review): Study.sweep, the base sweep of Study.design (and the frozen sweep, work
+    check and frozen-time scan of Study.floquet) take their model from the study's pool, whose models
+    serve every grid of the scene (``ModelPool.for_scene``): two sweeps and a design study build one
+    model, and a no_coriolis sweep on the pool's full model gives the frequencies of a model of
+    no_coriolis alone (``run_sweep``, fkev run's) to 1e-12."""
+    from fkev_slepc.scene import with_elements
+    from fkev_slepc.sweep.grid import configure
+    from fkev_slepc.sweep.session import SweepRequest, run_sweep
+
+    study = fk.load(BW, elements=1)
+    study.sweep([0, 90], [0, 300], ["full"], tmp_path / "a.h5", modes=2)
+    res = study.sweep([45, 135], [200, 400], ["no_coriolis"], tmp_path / "b.h5", modes=2)
+    assert len(study.pool) == 1  # the full model served the second sweep too
+    scene = configure(study.scene, angles=[45, 135], speeds=[200, 400], cases=["no_coriolis"], modes=2)
+    own = fk.open(run_sweep(SweepRequest(scene, tmp_path / "c.h5")).output)
+    np.testing.assert_allclose(res.frequency("no_coriolis"), own.frequency("no_coriolis"), rtol=1e-12)
+    assert study.pool.for_scene(scene).model("full") is study.pool.model("full") and len(study.pool) == 1
+    assert len(study.pool.for_scene(with_elements(scene, 2))) == 0  # another mesh: a pool of its own
+    ds = study.design({"links[coupler].length_m": "0.2794,0.28"}, [150], ["full"], [0], tmp_path / "d.h5")
+    assert len(study.pool) == 1 and ds.sizes["links[coupler].length_m"] == 2  # its base sweep: the same model
+    study.close()
+
+
 def test_sweep_results_to_csv_is_the_export_table(tmp_path):
     res = fk.load(BW).sweep([0, 90], [0], ["structure"], tmp_path / "a.h5", modes=2)
     text = res.to_csv()

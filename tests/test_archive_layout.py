@@ -29,7 +29,7 @@ from fkev_slepc.sweep.units import assign, pending, run_units
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "fkev_slepc"
 TABLES = {PKG / "archive" / name for name in ("products.py", "product_types.py", "products_floquet.py",
-                                                  "products_response.py")}
+                                                  "products_response.py", "products_planes.py")}
 # where datasets are read and written (the archive stage, the sweep and plots modules that use
 # the archive, the commands that read archives, any module importing h5py): every root dataset
 # or group name used as a key there must come from the tables. Elsewhere "case" or "modes" are

@@ -127,11 +127,21 @@ def test_fkev_floquet_archives_the_basis_and_truncation(tmp_path):
                             "truncation change of max|μ| ") for t in lines(oa)), lines(oa)
     assert on["basis_size"] == [0] and on["truncation_max_abs"] == [None]
     assert "  model: the full model at every grid speed (no frozen-mode reduction)" in lines(on)
-    # a resume keeps full-model speeds whatever reduction is asked; a reduced archive asked for the full model is redone
-    for archive, flag, todo in (("none", "auto", 0), ("auto", "none", 1)):
+    # a resume with another reduction is refused before any work, the archive left byte-identical (issue 24:
+    # the periodic settings compared whole); the same reduction resumes with nothing to solve
+    from clitools import digest
+
+    for archive, flag in (("none", "auto"), ("auto", "none"), ("auto", "auto")):
+        before = digest(tmp_path / f"{archive}.h5")
         r = fkev("floquet", TM, "--elements", "1", "--speeds", "100", "--angles", "0:360:90", "--no-critical",
                  "--reduce", flag, "--resume", "-o", tmp_path / f"{archive}.h5")
-        assert r.returncode == 0 and f"floquet: {todo} of 1 speed(s) to solve" in r.stderr, r.stderr
+        if archive == flag:
+            assert r.returncode == 0 and "floquet: 0 of 1 speed(s) to solve" in r.stderr, r.stderr
+            continue
+        assert r.returncode == 2 and r.stderr.strip().endswith(
+            f"cannot resume: the periodic settings differ from the archive's: reduce: archive has {archive}, "
+            f"this run {flag}"), r.stderr
+        assert digest(tmp_path / f"{archive}.h5") == before
     r = fkev("floquet", TM, "--speeds", "100", "--reduce", "half", "-o", tmp_path / "bad.h5")
     assert r.returncode != 0 and "--reduce" in r.stderr
 

@@ -74,7 +74,11 @@ def test_two_ranks_equal_the_serial_scan_verify_and_open_in_xarray(tmp_path, ser
 
 def test_resume_solves_only_the_pending_speeds(tmp_path, serial, monkeypatch):
     """A finished archive with one speed set back to pending: the resume solves that speed alone and
-    gives the same numbers; other response settings redo every speed."""
+    gives the same numbers; other periodic settings (here harmonics) are refused before any work, the
+    archive left byte-identical (issue 24: the settings compared whole)."""
+    from clitools import digest
+
+    from fkev_slepc.sweep.session import OutputError
     from fkev_slepc.api import response_speeds as rs
 
     out = tmp_path / "s.h5"
@@ -97,8 +101,11 @@ def test_resume_solves_only_the_pending_speeds(tmp_path, serial, monkeypatch):
         np.testing.assert_array_equal(getattr(again, name), getattr(first, name), err_msg=name)
     assert read_status(out).tolist() == [1, 1, 1] and fkev("verify", out).returncode == 0
     calls.clear()
-    _study().response_vs_speed(SPEEDS, output=out, resume=True, **{**OPTS, "harmonics": 8})
-    assert calls == SPEEDS
+    before = digest(out)
+    with pytest.raises(OutputError, match=r"cannot resume: the periodic settings differ from the archive's: "
+                                          r"harmonics: archive has 12, this run 8$"):
+        _study().response_vs_speed(SPEEDS, output=out, resume=True, **{**OPTS, "harmonics": 8})
+    assert calls == [] and digest(out) == before
 
 
 def test_ctrl_c_stops_at_a_sync_and_resume_finishes(tmp_path):

@@ -69,8 +69,9 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
         np.asarray(model.node_positions(theta)), model.scene, diff, plan, engine.max_pair_error, an.damping_tol, plane)
 
 
-def out_of_plane_arguments(sc: Scene, plane, rel_error) -> None:
-    """SceneError naming every argument the out-of-plane point cannot take (docs/theory.md §19)."""
+def out_of_plane_arguments(sc: Scene, plane, rel_error, asked: str | None = None) -> None:
+    """SceneError naming every argument the out-of-plane point cannot take (docs/theory.md §19);
+    ``asked``: the plane as the user gave it when it differs (``both`` of a sweep), for the messages."""
     from fkev_slepc.model.mechanism import build_mechanism
     from fkev_slepc.model.operators import PLANES
     from fkev_slepc.model.out_of_plane import section_of
@@ -82,9 +83,10 @@ def out_of_plane_arguments(sc: Scene, plane, rel_error) -> None:
         try:
             section_of(build_mechanism(sc))
         except ValueError as err:
-            bad.append(Problem("plane", f"{err} (got {plane!r})"))
+            bad.append(Problem("plane", f"{err} (got {asked or plane!r})"))
     if rel_error is not None or sc.analysis.rel_error is not None:
-        bad.append(Problem("rel_error", "the accuracy plan is in plane only (got a rel_error with plane 'out')"))
+        bad.append(Problem("rel_error", f"the accuracy plan is in plane only (got a rel_error with plane "
+                                        f"{asked or plane!r})"))
     if bad:
         raise SceneError(sc.source, bad)
 

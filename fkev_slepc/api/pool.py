@@ -5,13 +5,27 @@ A :class:`~fkev_slepc.model.operators.Model` assembles the motion terms its case
 point, a ``no_coriolis`` point reuses the ``full`` model; ``structure`` needs none), so models
 are kept by the terms they hold, not by case name. An engine is made once per (method, model)
 and reused by every later call on that model; :meth:`ModelPool.close` (or the Study's) frees
-them.
+them. A call on another grid of the study's scene (other crank angles, speeds, cases or modes:
+``sweep.grid.configure``) takes its pool from :meth:`ModelPool.for_scene`, which shares them.
 """
 
 from __future__ import annotations
 
+import copy
+from dataclasses import replace
+
+from fkev_slepc.model.operators import OUT_OF_PLANE_ABSENT, Model
 from fkev_slepc.scene import Scene
 from fkev_slepc.scene.cases import terms_used
+from fkev_slepc.solve.engines import make_engine
+
+
+def model_facts(scene: Scene) -> Scene:
+    """``scene`` without what a :class:`Model` does not depend on: the grid (crank angles, cases,
+    modes, mode shapes; the driver's speeds and their unit). Scenes with equal facts have equal models."""
+    an, drv = scene.analysis, scene.driver
+    return replace(scene, analysis=replace(an, crank_angles_deg=(), cases=(), modes=0, mode_shapes=False),
+                   driver=replace(drv, speeds=(), speed_unit=""))
 
 
 class ModelPool:
@@ -19,20 +33,35 @@ class ModelPool:
 
     def __init__(self, scene: Scene):
         self.scene = scene
-        self._models: dict[tuple[str, frozenset], object] = {}
+        self._built_from = scene  # every model of the pool (and of the pools that share it) is of this scene
+        self._models: dict[tuple[str, frozenset], Model] = {}
         self._engines: dict[tuple[str, int], object] = {}
 
-    def model(self, case: str, plane: str = "in"):
-        """A model of ``plane`` ("in" or "out", docs/theory.md §19) that can solve ``case``: one
-        already built whose terms include the case's (the fewest such terms), else a new one for
-        this case."""
-        from fkev_slepc.model.operators import OUT_OF_PLANE_ABSENT, Model
+    def __len__(self) -> int:
+        """The number of models built so far."""
+        return len(self._models)
 
-        need = frozenset(t for t in terms_used((case,)) if plane == "in" or t not in OUT_OF_PLANE_ABSENT)
+    def for_scene(self, scene: Scene) -> ModelPool:
+        """A pool of ``scene``: this pool's models and engines shared when ``scene`` differs from this
+        pool's only in its grid (:func:`model_facts`), else a pool of its own."""
+        if scene is self.scene:
+            return self
+        if model_facts(scene) != model_facts(self.scene):
+            return ModelPool(scene)
+        view = copy.copy(self)  # the same dictionaries of models and engines
+        view.scene = scene
+        return view
+
+    def model(self, case, plane: str = "in") -> Model:
+        """A model of ``plane`` ("in" or "out", docs/theory.md §19) that can solve ``case`` (a case
+        name, or a tuple of them): one already built whose terms include the case's (the fewest such
+        terms), else a new one for this case."""
+        cases = (case,) if isinstance(case, str) else tuple(case)
+        need = frozenset(t for t in terms_used(cases) if plane == "in" or t not in OUT_OF_PLANE_ABSENT)
         fits = [key for key in self._models if key[0] == plane and need <= key[1]]
         if fits:
             return self._models[min(fits, key=lambda key: len(key[1]))]
-        model = self._models[(plane, need)] = Model(self.scene, cases=(case,), plane=plane)
+        model = self._models[(plane, need)] = Model(self._built_from, cases=cases, plane=plane)
         return model
 
     def n_free(self) -> int:
@@ -44,8 +73,6 @@ class ModelPool:
         PETSc/SLEPc reject)."""
         key = (method, id(model))
         if key not in self._engines:
-            from fkev_slepc.solve.engines import make_engine
-
             self._engines[key] = make_engine(method, model.n_free, self.scene.solver.petsc, settings=settings)
         return self._engines[key]
 

@@ -169,8 +169,8 @@ def _none(x):
 
 
 def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
-                   harmonics: int | None = None, tol: float = 1e-8, shoot: bool = False, stations=None,
-                   names=None, reduce=None) -> ResponseResult:
+                   harmonics: int | None = None, tol: float | None = None, shoot: bool | None = None, stations=None,
+                   names=None, settings=None, reduce=None) -> ResponseResult:
     """The steady periodic response at ``speed_rad_s`` for ``case``: the code path of
     ``Study.response`` and ``fkev response`` (docs/response.md §3-4).
 
@@ -184,18 +184,24 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     of the dropped modes; the truncation measured and stated) or links:N. ``stations``: {link name: [s_m, ...]}
     (default every link's root, midspan and tip). Raises SceneError for a bad argument, a
     crank acceleration (constant speed only) or an exact resonance ((I − Φ) singular).
+    ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`, default its defaults):
+    harmonics, harmonic_tol (1e-8), shoot (False), shooting_tol and response_angles_deg; ``harmonics``,
+    ``tol``, ``shoot`` and ``angles_deg``, when given, override them.
     """
     from fkev_slepc.model.joint_loads import joint_loads
     from fkev_slepc.model.kinematics import point_local
     from fkev_slepc.periodic.stations import station_response
-    from fkev_slepc.periodic.steady import checked_point, steady_solve, whole_link_stress
+    from fkev_slepc.periodic.steady import checked_point, point_settings, steady_solve, whole_link_stress
 
-    model, case, a, gravity = checked_point(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2,
-                                            harmonics=harmonics, names=names, reduce=reduce)
+    ps = point_settings(scene, settings, names, harmonics=harmonics, tol=tol, shoot=shoot, angles_deg=angles_deg)
+    harmonics = ps.harmonics or None if harmonics is None else harmonics
+    model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
+                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
+                                            reduce=reduce)
     mech = model.mechanism
     chosen = chosen_stations(scene, mech, stations, names)
-    r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=tol, shoot=shoot, names=names,
-                     reduce=reduce)
+    r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=ps.shoot,
+                     names=names, shooting_tol=ps.shooting_tol, reduce=reduce)
     theta = np.radians(a)
     q = r.hb.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef

@@ -6,7 +6,8 @@ sweep of the same speeds and case (the root product), with the ``/response`` pro
 (:data:`fkev_slepc.archive.products.RESPONSE`) beside it: one unit of work per (speed, case), the response at
 that speed by :func:`fkev_slepc.api.response_speeds.speed_peaks` (harmonic balance, and shooting when asked),
 units dealt to the ranks by :func:`fkev_slepc.sweep.units.run_units`. A resume solves only the pending speeds
-(every speed again when the response settings differ); Ctrl-C stops every rank at the same sync with the
+(refused, exit 2, when the archived periodic settings differ: ``/response/settings``, compared whole;
+every speed again when the gravity or the stations differ); Ctrl-C stops every rank at the same sync with the
 ``.part`` resumable. :func:`read_response` reads it back as a
 :class:`~fkev_slepc.api.response_speeds.SpeedResponse`, the forced resonances located from the archived
 cycle-mean frequencies.
@@ -25,10 +26,13 @@ import numpy as np
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
+from fkev_slepc.periodic.settings import SCAN, PeriodicSettings
 from fkev_slepc.scene import Scene, SceneError
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.parallel import local
-from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
+from fkev_slepc.sweep.product_run import (
+    ProductRequest, finish, open_product, refuse_changed_settings, settings_attrs, solve_pending,
+)
 from fkev_slepc.sweep.units import pending
 
 OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stations", "reduce")
@@ -38,25 +42,33 @@ OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stati
 class ResponseRequest(ProductRequest):
     """An archived response scan: ``scene`` with the speeds (``driver.speeds``, increasing, > 0) and the one
     case (``analysis.cases``) set; ``options`` those of :func:`fkev_slepc.api.response.study_response`
-    (:data:`OPTION_KEYS`); ``modes`` the cycle-mean frozen frequencies kept per speed."""
+    (:data:`OPTION_KEYS`); ``modes`` the cycle-mean frozen frequencies kept per speed. ``periodic``:
+    the :class:`~fkev_slepc.periodic.settings.PeriodicSettings` (default ``SCAN``), whose harmonics,
+    harmonic_tol, shoot and response_angles_deg the options ``harmonics``, ``tol``, ``shoot`` and
+    ``angles_deg`` override when given (:meth:`resolved`, archived whole in ``/response/settings``)."""
 
     options: dict = field(default_factory=dict)
     modes: int = 4
+    periodic: PeriodicSettings | None = None
+
+    def resolved(self) -> PeriodicSettings:
+        o = self.options
+        return (self.periodic or SCAN).with_overrides(harmonics=o.get("harmonics"), harmonic_tol=o.get("tol"),
+                                                      shoot=o.get("shoot"), response_angles_deg=o.get("angles_deg"))
 
     def settings(self) -> dict:
-        """The group attributes that a resume must find unchanged (JSON of the options)."""
-        from fkev_slepc.api.response_speeds import SCAN_DEFAULTS
-
-        opts = {k: {**SCAN_DEFAULTS, **self.options}.get(k) for k in OPTION_KEYS}
-        if opts["angles_deg"] is not None:
-            opts["angles_deg"] = [float(a) for a in opts["angles_deg"]]
+        """The group attributes (JSON of the options as run; a resume redoes every speed when they differ,
+        after :func:`refuse_changed_settings` refused any difference of the periodic settings)."""
+        ps = self.resolved()
+        opts = {**{k: self.options.get(k) for k in OPTION_KEYS}, "harmonics": ps.harmonics or None,
+                "tol": ps.harmonic_tol, "shoot": ps.shoot, "angles_deg": list(ps.response_angles_deg)}
         return {"options": json.dumps(opts, sort_keys=True, default=float), "n_modes": int(self.modes),
                 "analysed_case": self.case}
 
 
-def _status(values: dict, options: dict) -> int:
-    tol, fixed = options.get("tol"), options.get("harmonics") is not None
-    if not fixed and tol is not None and not values["harmonic_balance_error"] <= tol:
+def _status(values: dict, ps: PeriodicSettings) -> int:
+    tol, fixed = ps.harmonic_tol, ps.harmonics != 0
+    if not fixed and not values["harmonic_balance_error"] <= tol:
         return Status.NOT_CONVERGED.code
     mu = values["max_abs_multiplier"]
     return (Status.UNSTABLE if np.isfinite(mu) and mu > 1.0 + max(1e-8, 10 * values["multiplier_error"])
@@ -69,16 +81,19 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
     Raises SceneError for bad options (before anything is solved), RunRefused as ``fkev run``,
     SweepInterrupted after Ctrl-C/SIGTERM (the ``.part`` holds the speeds finished so far)."""
     from fkev_slepc.api.response import chosen_stations
-    from fkev_slepc.api.response_speeds import SCAN_DEFAULTS, checked_speeds, speed_peaks
+    from fkev_slepc.api.response_speeds import checked_speeds, speed_peaks
     from fkev_slepc.model.operators import Model
     from fkev_slepc.periodic.stations import default_stations
     from fkev_slepc.sweep.runner import recoverable_errors
 
     comm = local(comm)
     t0 = time.monotonic()
-    sc, out, opts = request.scene, Path(request.output), {**SCAN_DEFAULTS, **request.options}
+    sc, out, ps = request.scene, Path(request.output), request.resolved()
+    opts = {k: v for k, v in request.options.items() if k not in ("harmonics", "tol", "shoot", "angles_deg")}
     speeds = checked_speeds(sc, sc.driver.speeds)
     request.run_frozen_sweep(comm, notify, progress)
+    if request.resume:  # the archived settings compared whole: a difference refused before the product's work
+        refuse_changed_settings(out, P.RESPONSE, ps, comm)
     model = Model(sc, (request.case,))
     stations = chosen_stations(sc, model.mechanism, opts.get("stations"))
     stations = default_stations(model.mechanism) if stations is None else stations
@@ -90,26 +105,26 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
                           P.R_MODE: np.arange(1, n_modes + 1, dtype="i4")}, settings, request.resume, comm,
         data={P.STATION_LINK.path: [names[st.link] for st in stations],
               P.STATION_S.path: np.array([st.s for st in stations])},
-        same=lambda p: _settings_of(p) == settings)
+        same=lambda p: _settings_of(p) == settings, attrs=settings_attrs(P.RESPONSE, ps))
     rows = (P.PEAK_TRANSVERSE, P.PEAK_CHORD, P.PEAK_MOMENT, P.PEAK_STRESS)
 
     def solve(unit, mask):
         js, jc = unit
         try:
-            values, r = speed_peaks(sc, float(speeds[js]), request.case, n_modes, **opts)
+            values, r = speed_peaks(sc, float(speeds[js]), request.case, n_modes, settings=ps, **opts)
         except (SceneError, *recoverable_errors()) as exc:
             msg = "; ".join(p.message for p in exc.problems) if isinstance(exc, SceneError) else str(exc)
             return Block(unit, mask, {}, np.array(Status.FAILED.code, np.uint8),
                          [((js, jc), Status.FAILED.code, f"{type(exc).__name__}: {msg}")])
         values["multiplier_error"] = r.multiplier_error
-        code = _status(values, opts)
+        code = _status(values, ps)
         data = {v.path: np.asarray(values[v.source], float) for v in rows}
         data.update({P.R_MAX_ABS.path: np.array(values["max_abs_multiplier"]),
                      P.R_HARMONICS.path: np.array(values["harmonics"], "i4"),
                      P.R_HB_ERROR.path: np.array(values["harmonic_balance_error"]),
                      P.R_MEAN_FREQUENCY.path: np.asarray(values["mean_frequency_rad_s"], float)})
         errors = [((js, jc), code, f"harmonic balance error {values['harmonic_balance_error']:.2e} > tol "
-                   f"{opts.get('tol')}")] if code == Status.NOT_CONVERGED.code else []
+                   f"{ps.harmonic_tol:g}")] if code == Status.NOT_CONVERGED.code else []
         return Block(unit, mask, data, np.array(code, np.uint8), errors)
 
     todo = pending(status)
@@ -124,7 +139,7 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
 def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *, modes: int = 4, orders: int = 6,
                                resume: bool = False, force: bool = False, comm=None, solver: str | None = None,
                                command_line: str = "", notify=None, progress: bool = False, names=None,
-                               **options):
+                               settings=None, **options):
     """:func:`fkev_slepc.api.response_speeds.response_vs_speed` archived in ``output`` over the ranks of ``comm``
     (:func:`run_response`: one speed per unit of work, resumable);
     the same numbers, read back from the archive."""
@@ -137,7 +152,8 @@ def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *,
     case = checked_model(scene, case, options.get("harmonics"), names,  # before the frozen sweep
                          reduce=options.get("reduce")).cases[0]
     sc = configure(scene, speeds=[float(w) for w in speeds], cases=[case])
-    out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line, options=options, modes=modes), comm,
+    out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line, options=options, modes=modes,
+                                       periodic=settings), comm,
                        notify=notify, progress=progress)
     return read_response(out, orders)
 

@@ -79,7 +79,6 @@ def forced_resonances(speeds, mean_w, orders: int = 6) -> list[dict]:
     return sorted(out, key=lambda r: r["speed_rad_s"])
 
 
-SCAN_DEFAULTS = {"tol": 1e-6, "shoot": False}  # options of study_response the speed scan sets otherwise
 PEAK_FIELDS = ("peak_transverse_m", "peak_transverse_chord_m", "peak_moment_n_m", "peak_stress_pa")
 
 
@@ -118,16 +117,18 @@ def station_labels(link_names, stations) -> tuple[str, ...]:
 
 
 def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: int = 4, orders: int = 6,
-                      names=None, **options) -> SpeedResponse:
-    """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; the
-    default tolerance here 1e-6), the station peaks, and the forced-resonance speeds; in this
-    process (the archived run over MPI ranks: :func:`fkev_slepc.api.response_archive.run_response`)."""
+                      names=None, settings=None, **options) -> SpeedResponse:
+    """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; ``settings``
+    default :data:`fkev_slepc.periodic.settings.SCAN`, harmonic_tol 1e-6), the station peaks, and the
+    forced-resonance speeds; in this process (the archived run over MPI ranks:
+    :func:`fkev_slepc.api.response_archive.run_response`)."""
+    from fkev_slepc.periodic.settings import SCAN
     from fkev_slepc.periodic.steady import checked_model
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
     checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"))  # before the first speed
-    options = {**SCAN_DEFAULTS, **options}
+    options = {**options, "settings": SCAN if settings is None else settings}
     rows = []
     for w in speeds:
         values, r = speed_peaks(scene, float(w), case, modes, names, **options)

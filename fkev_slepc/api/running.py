@@ -19,7 +19,8 @@ class RunningSpeed:
     def response(self, speed_rad_s: float, case="full", angles_deg=None, **options):
         """The steady periodic elastic response (``fkev response``):
         :func:`fkev_slepc.api.response.study_response` (options ``gravity_m_s2``, ``harmonics``,
-        ``tol``, ``shoot``, ``stations``)."""
+        ``tol``, ``shoot``, ``stations``, ``settings``: a
+        :class:`~fkev_slepc.periodic.settings.PeriodicSettings` that the other options override)."""
         from fkev_slepc.api.response import study_response
 
         return study_response(self.scene, speed_rad_s, case, angles_deg, **options)
@@ -29,7 +30,7 @@ class RunningSpeed:
         pin loads, and the lowest out-of-plane frequency over the cycle with its crank-order margin
         (``out_of_plane``; None where the scene has no out-of-plane section) (``fkev design-check``):
         :func:`fkev_slepc.design.check.design_check` (options ``case``, ``angles_deg``,
-        ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``)."""
+        ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``, ``settings``)."""
         from fkev_slepc.design.check import design_check
 
         return design_check(self.scene, speed_rad_s, criterion=criterion, **options)
@@ -38,7 +39,8 @@ class RunningSpeed:
         """Peak response of every station over a speed range (``fkev response --speeds``):
         :func:`fkev_slepc.api.response_speeds.response_vs_speed`; with ``output`` archived there
         over the MPI ranks of ``comm`` and resumable (``resume``, ``force``):
-        :func:`fkev_slepc.api.response_archive.archived_response_vs_speed`."""
+        :func:`fkev_slepc.api.response_archive.archived_response_vs_speed` (``settings``: a
+        PeriodicSettings, default ``periodic.settings.SCAN``, archived whole and compared whole on ``resume``)."""
         from fkev_slepc.api.response_speeds import response_vs_speed
         from fkev_slepc.api.response_archive import archived_response_vs_speed
 
@@ -49,7 +51,8 @@ class RunningSpeed:
     def floquet(self, speeds_rad_s=None, case="full", output=None, **options):
         """Floquet multipliers over a speed range, unstable bands labelled (``fkev floquet``):
         :func:`fkev_slepc.api.floquet.study_floquet` (options: angles_deg, resume, force, tol, rtol,
-        resonance_order, probe, ...)."""
+        resonance_order, probe, reduce, ``settings``: a :class:`~fkev_slepc.periodic.settings.PeriodicSettings`
+        that those override, archived whole in ``/floquet/settings`` and compared whole on ``resume``, ...)."""
         from fkev_slepc.api.floquet import study_floquet
 
         return study_floquet(self, speeds_rad_s, case, output, **options)

@@ -20,16 +20,25 @@ array([ 362.71,  652.08, 1078.94, 2898.89])
 from __future__ import annotations
 
 import builtins
+import io
 import logging
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.api.point import critical_scan, out_of_plane_arguments, solve_point
+from fkev_slepc.api.pool import ModelPool
 from fkev_slepc.api.results import PointResult
 from fkev_slepc.api.running import RunningSpeed
+from fkev_slepc.api.table import table, write_csv
 from fkev_slepc.archive import reader
 from fkev_slepc.scene import Problem, Scene, SceneError, load_scene, parse_scene, with_elements
+from fkev_slepc.scene.edit import replace_values
+from fkev_slepc.sweep.grid import configure
+
+# Imported where used, measured: the sweep and design stages (h5py with them) add about 0.5-0.9 s to
+# ``import fkev_slepc`` and so to every ``fkev`` command, matplotlib (plots.draw) about 2 s.
 
 __all__ = ["load", "open", "Study", "SweepResults"]
 log = logging.getLogger(__name__)
@@ -53,11 +62,13 @@ def load(path, elements=None) -> Study:
     return Study(_remesh(scene, elements), Path(path))
 
 
-def open(archive, verify: bool = True) -> SweepResults:  # noqa: A001 - fkev_slepc.open(archive) reads like io.open
+def open(archive, verify: bool = True, plane: str | None = None) -> SweepResults:  # noqa: A001 - reads like io.open
     """Read a sweep archive (``fkev run`` / :meth:`Study.sweep` output) as :class:`SweepResults`.
 
     ``verify`` (default): check it against its checksums first and warn
     (``reader.DamagedArchiveWarning``) when it changed since its run finished; ``False`` reads it unchecked.
+    ``plane`` ("in", "out"): that plane's sweep of a two-plane archive (``res.planes``; also
+    ``res.on_plane("out")``); default the root sweep (in plane, or the one plane of a ``--plane out`` archive).
 
     Raises
     ------
@@ -65,7 +76,7 @@ def open(archive, verify: bool = True) -> SweepResults:  # noqa: A001 - fkev_sle
         The file is missing, not an fkev archive of a supported version, has damaged metadata,
         or is being written.
     """
-    return reader.load(archive, cls=SweepResults, verify=verify)
+    return reader.load(archive, cls=SweepResults, verify=verify, plane=plane)
 
 
 def _remesh(scene: Scene, elements) -> Scene:
@@ -81,8 +92,6 @@ class Study(RunningSpeed):
     """
 
     def __init__(self, scene: Scene, path: Path | None = None):
-        from fkev_slepc.api.pool import ModelPool
-
         self.scene, self.path = scene, path
         self.pool = ModelPool(scene)  # models by motion terms, engines per (method, model): reused by every call
 
@@ -119,8 +128,6 @@ class Study(RunningSpeed):
     def replace(self, key, value=None) -> Study:
         """A new study with one scene key path set (``None`` removes it), or several (a dict), in SI,
         validated like a file (SceneError naming key and value): :func:`fkev_slepc.scene.edit.replace_values`."""
-        from fkev_slepc.scene.edit import replace_values
-
         return Study(replace_values(self.scene, dict(key) if isinstance(key, dict) else {key: value}), self.path)
 
     def design(self, params: dict, speeds=None, cases=None, angles=None, output=None, **options):
@@ -178,8 +185,6 @@ class Study(RunningSpeed):
         >>> r.status, np.abs(r.damping_ratio).max() < 1e-9  # undamped, no gyroscopic term
         (<Status.OK: 'ok'>, True)
         """
-        from fkev_slepc.api.point import solve_point
-
         return solve_point(self.pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross_check, rel_error,
                            plane)
 
@@ -221,15 +226,13 @@ class Study(RunningSpeed):
         >>> round(speed, 4), angle
         (66.6916, 10.0)
         """
-        from fkev_slepc.api.point import critical_scan
-
         return critical_scan(self.pool, case, angle_deg, max_speed_rad_s, modes, solver, plane)
 
     def sweep(self, angles_deg=None, speeds_rad_s=None, cases=None, output=None, resume: bool = False,
               comm=None, *, modes: int | None = None, mode_shapes: bool = False, solver: str | None = None,
               retry_failed: bool = False, cross_check: bool = False, progress: bool = False,
               force: bool = False, element: str | None = None, rel_error: float | None = None,
-              plane: str = "in") -> SweepResults:
+              plane: str | None = None) -> SweepResults:
         """Sweep crank angle x speed x case into an HDF5 archive: the code path of ``fkev run``.
 
         Parameters
@@ -257,9 +260,13 @@ class Study(RunningSpeed):
             default the scene's ``analysis.rel_error``): before the sweep the element and the
             elements per link are chosen at a few sample points of the grid, and the plan is
             archived as the root attribute ``accuracy`` (docs/accuracy.md §3).
-        plane : {"in", "out"}
-            The in-plane problem (default) or the out-of-plane one (docs/theory.md §19; one plane
-            per archive, root attribute ``plane``; default output ``<scene stem>-out.h5``).
+        plane : {"in", "out", "both"}, optional
+            As ``fkev run --plane``: the in-plane problem, the out-of-plane one (docs/theory.md §19;
+            alone in its archive, root attribute ``plane``; default output ``<scene stem>-out.h5``), or
+            both in one archive (the out-of-plane sweep of the same grid in ``/planes/out``; the
+            returned results are the in-plane sweep, ``.on_plane("out")`` the other). Default
+            ``both`` when every link gives its out-of-plane section data and no ``rel_error`` is
+            asked, else ``in``.
 
         Returns
         -------
@@ -285,24 +292,30 @@ class Study(RunningSpeed):
         >>> plan["element"], plan["elements_per_link"], res.settings()["elements"], plan["predicted_rel_error"] < 1e-3
         ('thesis', 7, (7, 7, 7), True)
         """
-        from fkev_slepc.sweep.grid import configure
         from fkev_slepc.sweep.accuracy_mesh import mesh_for_accuracy
         from fkev_slepc.sweep.session import SweepRequest, default_output, run_sweep
+        from fkev_slepc.sweep.plane_run import PLANE_CHOICES, default_plane, run_out_of_plane
 
         scene = configure(self.scene, angles=angles_deg, speeds=speeds_rad_s, cases=cases, modes=modes,
                           mode_shapes=mode_shapes, element=element, rel_error=rel_error)
+        plane = default_plane(scene, plane, rel_error)
+        if plane not in PLANE_CHOICES:
+            raise SceneError(self.scene.source, [Problem("plane", f"must be one of {', '.join(PLANE_CHOICES)} "
+                                                                  f"(got {plane!r})")])
         if plane != "in":
-            from fkev_slepc.api.point import out_of_plane_arguments
-
-            out_of_plane_arguments(scene, plane, rel_error)
+            out_of_plane_arguments(scene, "out", rel_error, plane)
+        sweep_plane = "out" if plane == "out" else "in"
         if output is None:
             if self.path is None:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
-            output = default_output(self.path, plane)
+            output = default_output(self.path, sweep_plane)
         scene, plan = mesh_for_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
-                               cross_check=cross_check, force=force, accuracy=plan, plane=plane)
-        outcome = run_sweep(request, comm, notify=log.info, progress=progress)
+                               cross_check=cross_check, force=force, accuracy=plan, plane=sweep_plane)
+        model = self.pool.for_scene(scene).model(scene.analysis.cases, sweep_plane)  # re-meshed for rel_error: a new one
+        outcome = run_sweep(request, comm, notify=log.info, progress=progress, model=model)
+        if plane == "both":
+            run_out_of_plane(request, comm, log.info, progress)
         return open(outcome.output)
 
 
@@ -336,10 +349,6 @@ class SweepResults(reader.SweepResults):
         >>> print(res.to_csv().splitlines()[1])
         0.0,0.0,structure,1,228.6885738113997,0.0,ok
         """
-        import io
-
-        from fkev_slepc.api.table import table, write_csv
-
         if path is None:
             buf = io.StringIO()
             write_csv(table(self), buf)

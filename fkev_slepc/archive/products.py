@@ -102,7 +102,8 @@ DOFS = "tracking/dofs"
 TRACKING = (
     Var(DOFS, (DOFS,), "i4", "1", "free DOF index of the kept entries", scale=True, needs="signatures",
         source="tracking_dofs"),
-    Var("tracking/signature", GRID3 + (DOFS, MODE), "c16", "1", "eigenvector entries of each sorted mode at `dofs`",
+    Var("tracking/signature", GRID3 + (DOFS, MODE), "c16", "1", "eigenvector entries of each sorted mode at `dofs`"
+        " (out of plane weighted by sqrt(M_ii), docs/tracking.md)",
         CNAN, needs="signatures", source="shapes", rows=DOFS),
 )
 FALLBACK = Var("tracking/fallback", (SPEED, CASE), "u1", "1",
@@ -228,7 +229,20 @@ from fkev_slepc.archive.products_response import (  # noqa: E402 (the /response 
     R_MEAN_FREQUENCY, R_MODE, R_STATION, R_STATUS, RESPONSE, STATION_LINK, STATION_S,
 )
 
-PRODUCTS = (SWEEP, DESIGN, FLOQUET, RESPONSE)  # every product of the format; docs/archive.md lists their datasets
+from fkev_slepc.archive.products_planes import OUT as PLANE_OUT_GROUP, plane_product  # noqa: E402
+
+# /planes/out: the out-of-plane sweep of a two-plane archive; PLANE_OUT_PATHS: sweep path -> its path there
+PLANE_OUT, PLANE_OUT_PATHS = plane_product(FREQUENCY, TRACKED, EIGENVALUE, RESIDUAL, DAMPING, MAX_REAL,
+                                           STATUS_VAR, SIGNATURE, FALLBACK, SHAPE, NODE_DOFS, DOFS, FREE_DOF, COMPONENT,
+                                           NODE, (SPEED_TRACKED, SPEED_FALLBACK) + REFINED)
+
+
+def on_plane(v: Var, plane: str) -> Var:
+    """The row of ``plane`` ("in": the sweep's own ``v``; "out": its copy in :data:`PLANE_OUT`)."""
+    return v if plane == "in" else PLANE_OUT.var(f"{PLANE_OUT_GROUP}/{v.path}")
+
+
+PRODUCTS = (SWEEP, DESIGN, FLOQUET, RESPONSE, PLANE_OUT)  # every product of the format; docs/archive.md lists their datasets
 
 
 # -------------------------------------------------------------------- root attributes

@@ -57,12 +57,31 @@ def attribute_table() -> list[str]:
     return lines
 
 
+def settings_table() -> list[str]:
+    """The attributes of ``/floquet/settings`` and ``/response/settings``: every field of
+    :class:`~fkev_slepc.periodic.settings.PeriodicSettings` with its default and meaning."""
+    from dataclasses import fields
+
+    from fkev_slepc.periodic.settings import DEFAULTS, SCAN
+
+    def show(v) -> str:
+        return (f"{len(v)} angles {v[0]:g}:{v[-1]:g}:{v[1] - v[0]:g}" if isinstance(v, tuple) else
+                str(int(v)) if isinstance(v, bool) else f"{v:g}" if isinstance(v, float) else str(v))
+
+    lines = ["| settings attribute | default | meaning |", "|---|---|---|"]
+    for f in fields(DEFAULTS):
+        v, scan = getattr(DEFAULTS, f.name), getattr(SCAN, f.name)
+        default = show(v) + (f" (response scan: {show(scan)})" if scan != v else "")
+        lines.append(f"| `{f.name}` | {default} | {f.metadata['doc'].replace('|', chr(92) + '|')} |")
+    return lines
+
+
 def generated() -> str:
     """The generated block of docs/archive.md, markers included."""
     out = [BEGIN, "", f"Format `{P.FORMAT}`, `format_version` {P.FORMAT_VERSION}.", ""]
     for product in P.PRODUCTS:
         out += product_table(product) + [""]
-    out += attribute_table() + ["", END]
+    out += attribute_table() + [""] + settings_table() + ["", END]
     return "\n".join(out)
 
 

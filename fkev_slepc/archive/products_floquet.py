@@ -96,5 +96,7 @@ FLOQUET = Product(
                        "case) of the root grid (whose frozen sweep gives the cycle-mean frequencies of the labels)",
             "floquet/errors": "messages of failed and not-converged speeds (one row per speed)",
             "floquet/bands": "unstable speed bands, edges refined to the floquet group's rtol",
-            "floquet/samples": "monodromies solved beside the grid: band-edge refinements and resonance probes"},
+            "floquet/samples": "monodromies solved beside the grid: band-edge refinements and resonance probes",
+            "floquet/settings": "every periodic tolerance of the run as attributes (PeriodicSettings.to_attrs, "
+                                "docs/archive.md \"Periodic settings\"), compared whole on --resume"},
 )

@@ -47,5 +47,7 @@ RESPONSE = Product(
     errors=R_ERRORS,
     groups={"response": "peak steady periodic response of every station over the crank cycle, per (speed, case) of "
                         "the root grid (whose frozen sweep is the same speeds); run settings as attributes",
-            "response/errors": "messages of failed and not-converged speeds (one row per speed)"},
+            "response/errors": "messages of failed and not-converged speeds (one row per speed)",
+            "response/settings": "every periodic tolerance of the run as attributes (PeriodicSettings.to_attrs, "
+                                 "docs/archive.md \"Periodic settings\"), compared whole on --resume"},
 )

@@ -84,6 +84,23 @@ class SweepResults:
     attrs: dict = field(default_factory=dict)  # every root attribute, decoded
     plane = property(lambda self: str(self.attrs.get("plane", "in")))  # in/out (docs/theory.md §19); absent: in
     status_flags: dict = field(default_factory=dict)  # status value -> name (CF flag_values/flag_meanings)
+    plane_names: tuple[str, ...] = ()  # the planes the file holds (a two-plane archive: in, out); () : plane
+    table_plane: str = "in"  # whose table rows these arrays are: "in" (root group), "out" (/planes/out)
+
+    # ------------------------------------------------------------------------------ planes
+    @property
+    def planes(self) -> tuple[str, ...]:
+        """The planes of the archive: ``("in", "out")`` for a two-plane archive (``fkev run --plane
+        both``), else the one plane of its sweep (``("in",)`` or, ``--plane out`` alone, ``("out",)``)."""
+        return self.plane_names or (self.plane,)
+
+    def on_plane(self, plane: str) -> "SweepResults":
+        """The sweep of ``plane`` ("in" or "out") of this archive, with the same grid; this one when
+        it is already that plane. ArchiveError naming ``plane`` when the archive does not hold it
+        (:func:`fkev_slepc.archive.plane_view.plane_view`)."""
+        from fkev_slepc.archive.plane_view import plane_view
+
+        return plane_view(self, plane, lambda: load(self.path, type(self), verify=False))
 
     # ---------------------------------------------------------------- selection by labels
     @property
@@ -240,13 +257,15 @@ class SweepResults:
         import h5py
 
         with h5py.File(self.path, "r") as h5:
-            return np.asarray(h5[P.SHAPE.path][angle_index, speed_index, case_index])
+            return np.asarray(h5[P.on_plane(P.SHAPE, self.table_plane).path][angle_index, speed_index, case_index])
 
 
 # ------------------------------------------------------------------------------ loading
-def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool = True) -> SweepResults:
+def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool = True,
+         plane: str | None = None) -> SweepResults:
     """Read a sweep archive into :class:`SweepResults` (or the subclass ``cls``; mode shapes
-    stay on disk).
+    stay on disk); ``plane`` ("in", "out"): that plane's sweep (:meth:`SweepResults.on_plane`),
+    default the archive's root sweep (in plane, or the one plane of an ``--plane out`` archive).
 
     ``verify`` (default): check it first (:func:`fkev_slepc.archive.verify.verify`, in a child
     process): an archive whose values or attributes changed since its run finished is read
@@ -285,7 +304,7 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool 
         node_xy = np.asarray(h5[P.NODE_XY.path][()]) if has_shapes and P.NODE_XY.path in h5 else None
         scene_toml = str(attrs.get("scene_toml", ""))
         title = attrs.get("title") or scene_title(scene_toml, attrs.get("scene_source", path.stem))
-        return cls(
+        res = cls(
             path=path,
             crank_angle_deg=np.asarray(h5[P.ANGLE][()], dtype=float),
             speed_rad_s=np.asarray(h5[P.SPEED][()], dtype=float),
@@ -305,7 +324,9 @@ def load(path: str | Path, cls: type[SweepResults] = SweepResults, verify: bool 
             node_xy=node_xy,
             attrs=attrs,
             status_flags=_flags(h5[P.STATUS_VAR.path].attrs),
+            plane_names=("in", "out") if P.PLANE_OUT.status in h5 else (),
         )
+    return res if plane is None else res.on_plane(plane)
 
 
 def _damping_ratio(h5) -> np.ndarray:

@@ -166,11 +166,12 @@ def add_product(path, product: P.Product, values: dict, data: dict | None = None
         describe_groups(f, product)
 
 
-def read_state(path) -> ArchiveState:
-    """Status and |λ1| of every point (|λ1| only where the point converged)."""
+def read_state(path, plane: str = "in") -> ArchiveState:
+    """Status and |λ1| of every point of the sweep of ``plane`` (|λ1| only where the point converged;
+    "out": the ``/planes/out`` product of a two-plane archive)."""
     with h5py.File(path, "r") as f:
-        status = np.asarray(f[P.STATUS_VAR.path][()], dtype=np.uint8)
-        lam1 = modulus(f[P.EIGENVALUE.path][..., 0])
+        status = np.asarray(f[P.on_plane(P.STATUS_VAR, plane).path][()], dtype=np.uint8)
+        lam1 = modulus(f[P.on_plane(P.EIGENVALUE, plane).path][..., 0])
     lam1[~np.isin(status, converged_codes())] = np.nan
     return ArchiveState(status, lam1)
 
@@ -292,11 +293,11 @@ def reopen_finished(path) -> Path:
 
 
 # ------------------------------------------------------------------------------ completion
-def read_tracking_inputs(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """(frequency_hz, status, tracking signature or None) of every point."""
+def read_tracking_inputs(path, plane: str = "in") -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(frequency_hz, status, tracking signature or None) of every point (of the sweep of ``plane``)."""
+    sig, freq, status = (P.on_plane(v, plane).path for v in (P.SIGNATURE, P.FREQUENCY, P.STATUS_VAR))
     with h5py.File(path, "r") as f:
-        sig = f[P.SIGNATURE.path][()] if P.SIGNATURE.path in f else None
-        return f[P.FREQUENCY.path][()], np.asarray(f[P.STATUS_VAR.path][()], dtype=np.uint8), sig
+        return f[freq][()], np.asarray(f[status][()], dtype=np.uint8), f[sig][()] if sig in f else None
 
 
 def finalize(part, path, attrs: dict, add_wall_time: float = 0.0) -> Path:

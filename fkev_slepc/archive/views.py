@@ -29,7 +29,7 @@ def errors(res) -> list[PointError]:
     """The ``/errors`` rows of ``res`` (one per point that is still failed or not converged)."""
     import h5py
 
-    e = P.SWEEP.errors
+    e = (P.PLANE_OUT if res.table_plane == "out" else P.SWEEP).errors
     with h5py.File(res.path, "r") as f:
         if e.index.path not in f:
             return []
@@ -61,12 +61,30 @@ def json_attr(raw) -> dict:
         return {}
 
 
+PLANE_DIM = "plane"
+
+
 def to_xarray(res):
-    """``res`` as an ``xarray.Dataset`` on (crank_angle_deg, speed_rad_s, case, mode).
+    """``res`` as an ``xarray.Dataset`` on (crank_angle_deg, speed_rad_s, case, mode), with a leading
+    ``plane`` dimension ("in", "out") when the archive holds both planes (``fkev run --plane both``;
+    the out-of-plane sweep is on the same grid, so every variable has both) and ``res`` is its root
+    sweep (``res.on_plane("out")`` gives the out-of-plane sweep alone). Mode shapes are not in the
+    Dataset: their length is each plane's number of free DOFs (read them per plane with
+    ``res.on_plane(p).mode_shape``).
 
     Frequencies, eigenvalues and residuals are masked (NaN) where the point did not converge;
     ``status`` holds the status names; ``damping_ratio`` is -Re λ / |λ|.
     """
+    import xarray as xr
+
+    if len(res.planes) > 1 and res.table_plane == "in":
+        parts = [_one_plane(res.on_plane(p)) for p in res.planes]
+        ds = xr.concat(parts, dim=PLANE_DIM, combine_attrs="override")
+        return ds.assign_coords({PLANE_DIM: list(res.planes)})
+    return _one_plane(res)
+
+
+def _one_plane(res):
     import xarray as xr
 
     conv = res.converged

@@ -26,6 +26,13 @@ def add_elements_argument(p: argparse.ArgumentParser) -> None:
                    help="re-mesh: N elements on every link, or one count per link (scene order)")
 
 
+def add_plane_selection(p: argparse.ArgumentParser) -> None:
+    """``--plane in|out``: which sweep of a two-plane archive (``fkev run --plane both``) to read."""
+    p.add_argument("--plane", choices=("in", "out"),
+                   help="the plane of a two-plane archive (fkev run --plane both): in (default) or out (bending out "
+                        "of the plane and torsion, /planes/out); a one-plane archive: its plane")
+
+
 def add_accuracy_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--element", choices=ELEMENT_NAMES, help="element type (default: the scene's analysis.element)")
     p.add_argument("--rel-error", type=_positive_fraction, metavar="TOL",
@@ -74,7 +81,8 @@ def as_flags(err: SceneError, flags: dict | None = None) -> SceneError:
 
 
 ARCHIVE_FLAGS = {"angle": "--angle", "angles": "--angle", "speed": "--speed", "speeds": "--speed", "case": "--case",
-                 "cases": "--case", "mode": "--modes", "modes": "--modes", "order": "--order", "kind": "--kind"}
+                 "cases": "--case", "mode": "--modes", "modes": "--modes", "order": "--order", "kind": "--kind",
+                 "plane": "--plane"}
 """Names in the errors of archive readers and plots -> the flags of ``fkev plot/info/margins``."""
 SWEEP_FLAGS = {"angles_deg": "--angles", "speeds_rad_s": "--speeds", "modes": "--modes", "cases": "--cases"}
 """Names in a refused ``resume`` (the sweep's arguments) -> the flags of ``fkev run``."""

@@ -12,6 +12,8 @@ from pathlib import Path
 from fkev_slepc.api.table import table, write_csv
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
 
+from .common import ARCHIVE_FLAGS, add_plane_selection, flag_words
+
 FORMATS = ("csv",)
 
 
@@ -22,6 +24,7 @@ def add_parser(sub) -> None:
     p.add_argument("archive", type=Path, help="archive (.h5) written by `fkev run`")
     p.add_argument("--format", choices=FORMATS, default="csv", help="table format (default csv)")
     p.add_argument("-o", "--output", type=Path, help="output file (.csv); default stdout")
+    add_plane_selection(p)
     p.add_argument("--no-verify", action="store_true",
                    help="export even if `fkev verify` finds the archive changed since its run (not advised)")
     p.set_defaults(func=run)
@@ -40,9 +43,9 @@ def run(args) -> int:
             check = verify(args.archive)
             if check.writer is not None or not check.ok:
                 raise ArchiveError(check.summary() + ("" if check.writer else "; export anyway with --no-verify"))
-        res = load(args.archive, verify=False)
+        res = load(args.archive, verify=False, plane=args.plane)
     except (ArchiveError, PathProblem) as err:
-        print(f"fkev export: {err}", file=sys.stderr)
+        print(f"fkev export: {flag_words(err, ARCHIVE_FLAGS)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     rows = table(res)
     if args.output is None:

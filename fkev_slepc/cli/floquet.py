@@ -69,9 +69,8 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from fkev_slepc.api import Study
-    from fkev_slepc.api.floquet import study_floquet
-    from fkev_slepc.periodic.bands import DEFAULT_TOL, EDGE_RTOL
-    from fkev_slepc.sweep.floquet_run import MONODROMY_TOL, RESONANCE_ORDER
+    from fkev_slepc.api.floquet import SETTING_NAMES, study_floquet
+    from fkev_slepc.periodic.settings import checked_settings
     from fkev_slepc.sweep.interrupt import SweepInterrupted
     from fkev_slepc.sweep.parallel import install_abort_hook, world
     from fkev_slepc.sweep.session import RunRefused
@@ -82,13 +81,12 @@ def run(args) -> int:
     try:
         study = Study(load_checked(args.scene, args.elements, check_angles=False), Path(args.scene))
         preflight(study.scene, args, periodic=True)  # figure path, mesh size, damping; speeds: study_floquet
+        settings = checked_settings(study.scene.source, None, dict(  # the defaults, with the flags given
+            verdict_tol=args.tol, edge_rtol=args.rtol, monodromy_tol=args.monodromy_tol,
+            resonance_order=args.resonance_order, probe=args.probe_resonances or None, reduce=args.reduce),
+            {field: NAMES[key] for field, key in SETTING_NAMES.items()})
         res = study_floquet(study, args.speeds, args.case, args.output, speeds_rpm=args.speeds_rpm,
-                            angles_deg=args.angles, resume=args.resume,
-                            force=args.force, tol=DEFAULT_TOL if args.tol is None else args.tol,
-                            rtol=EDGE_RTOL if args.rtol is None else args.rtol,
-                            monodromy_tol=MONODROMY_TOL if args.monodromy_tol is None else args.monodromy_tol,
-                            resonance_order=RESONANCE_ORDER if args.resonance_order is None else args.resonance_order,
-                            probe=args.probe_resonances, reduce=args.reduce or "default",
+                            angles_deg=args.angles, resume=args.resume, force=args.force, settings=settings,
                             solver=args.solver, comm=comm, critical=not args.no_critical, names=NAMES,
                             command_line="fkev " + " ".join(sys.argv[1:]),
                             notify=None if args.json or args.quiet else _note, plane=args.plane)

@@ -18,6 +18,8 @@ import numpy as np
 
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 
+from .common import ARCHIVE_FLAGS, add_plane_selection, flag_words
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser("info", help="summarise a sweep archive",
@@ -31,6 +33,7 @@ def add_parser(sub) -> None:
                    help="--crossings: crank angle (default 10 if on the grid, else the first)")
     p.add_argument("--orders", type=int, metavar="K", help="--crossings: crank orders 1..K (default: enough to "
                    "reach the highest frequency, at most 8)")
+    add_plane_selection(p)
     p.set_defaults(func=run)
 
 
@@ -49,17 +52,15 @@ def run(args) -> int:
         print(f"fkev info: {check.summary()}", file=sys.stderr)
         return 2
     try:
-        res = load(args.archive, verify=False)  # verified above
+        res = load(args.archive, verify=False, plane=args.plane)  # verified above
     except ArchiveError as err:
-        print(f"fkev info: {err}", file=sys.stderr)
+        print(f"fkev info: {flag_words(err, ARCHIVE_FLAGS)}", file=sys.stderr)
         return 2
     lines = report(res, args.errors)
     if args.crossings:
         try:
             lines += crossing_lines(res, args.angle, args.orders)
         except ArchiveError as err:
-            from fkev_slepc.cli.common import ARCHIVE_FLAGS, flag_words
-
             print(f"fkev info: {flag_words(err, ARCHIVE_FLAGS)}", file=sys.stderr)
             return 2
     print("\n".join(lines))
@@ -114,7 +115,7 @@ def report(res, n_errors: int = 5) -> list[str]:
         f"  points      {total} = {na} x {ns} x {nc}"
         + (" (all accounted for)" if total == na * ns * nc and counts["pending"] == 0 else ""),
         "  status      " + ", ".join(f"{k} {v}" for k, v in counts.items()),
-    ]
+    ] + _planes(res)
     lines.append("  frequency range per mode (Hz, converged points):")
     conv = res.converged
     for jc, case in enumerate(res.cases):
@@ -254,7 +255,7 @@ def resumed_by(product: str) -> str:
     from fkev_slepc.archive import products as P
 
     return {P.SWEEP.name: "run", P.DESIGN.name: "design", P.FLOQUET.name: "floquet",
-            P.RESPONSE.name: "response"}[product]
+            P.RESPONSE.name: "response", P.PLANE_OUT.name: "run"}[product]
 
 
 def pending_products(path) -> list[tuple[str, int, int]]:
@@ -312,11 +313,30 @@ def _floquet_lines(path) -> list[str]:
                                                                               lines(read_floquet(path).as_dict())[1:]]
 
 
+def _planes(res) -> list[str]:
+    """The planes of a two-plane archive: the out-of-plane sweep's size, its points by status and,
+    while some are pending, the command that continues it (one-plane archives: nothing)."""
+    from fkev_slepc.archive import products as P
+    from fkev_slepc.archive.store import status_counts
+
+    if len(res.planes) < 2:
+        return []
+    out = res.on_plane("out")
+    counts = status_counts(out.status)
+    lines = [f"  planes      in (root group) and out (/planes/out: bending out of the plane and torsion, "
+             f"{out.attrs.get('n_free', '?')} free DOFs; fkev plot/margins/export --plane out)",
+             "    out       " + ", ".join(f"{k} {v}" for k, v in counts.items())]
+    if counts["pending"]:
+        lines.append(f"    out       {counts['pending']} of {out.status.size} points pending: "
+                     f"{resume_command(res.attrs, P.PLANE_OUT.name)}")
+    return lines
+
+
 def _tracking(res) -> list[str]:
     """What mode tracking found (``/tracking`` attributes, docs/tracking.md)."""
     from fkev_slepc.archive.tracks import read_tracking
 
-    tracking = read_tracking(res.path)
+    tracking = read_tracking(res.path, res.table_plane)
     t, fb = tracking["attrs"], tracking["fallback"]
     if "mac_min" not in t:
         if "tracking_open_loops" in res.attrs:  # archives written before refinement existed

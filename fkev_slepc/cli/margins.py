@@ -10,7 +10,7 @@ from pathlib import Path
 
 from fkev_slepc.scene.units import RAD_S_PER_RPM
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
-from .common import ARCHIVE_FLAGS, flag_words
+from .common import ARCHIVE_FLAGS, add_plane_selection, flag_words
 
 
 def add_parser(sub) -> None:
@@ -31,6 +31,7 @@ def add_parser(sub) -> None:
                    help="1-based modes (default all archived)")
     p.add_argument("--per-order", type=lambda t: [int(v) for v in t.split(",") if v.strip()], default=[1, 2, 3],
                    metavar="N[,M]", help="orders of the per-order table, one row per mode and order (default 1,2,3)")
+    add_plane_selection(p)
     p.add_argument("--plot", type=Path, metavar="FILE", help="also draw the band Campbell diagram (.png/.pdf/.svg)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
@@ -54,7 +55,7 @@ def run(args) -> int:
     try:
         if args.plot is not None:
             check_output(args.plot, PLOT_FORMATS, "--plot")
-        res = load(args.archive)
+        res = load(args.archive, plane=args.plane)
         speed = args.speed if args.speed is not None else args.speed_rpm * RAD_S_PER_RPM
         table = margins(res, speed, args.case, args.orders, args.order, args.modes, args.per_order)
         fig = None

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from fkev_slepc.status import EXIT_BAD_INPUT
 
-from .common import PLOT_FORMATS
+from .common import PLOT_FORMATS, add_plane_selection
 
 FORMATS = PLOT_FORMATS  # the figure formats of every --plot (cli/common.py)
 
@@ -74,6 +74,7 @@ def add_parser(subparsers) -> None:
                         "error-angle: matched to full's modes by MAC; sorted otherwise)")
     p.add_argument("--orders", type=int, metavar="K", help="campbell: crank orders drawn (default: enough to "
                    "reach the highest frequency, at most 8)")
+    add_plane_selection(p)
     p.add_argument("--dpi", type=int, default=110, help="resolution of raster output (default 110)")
     p.add_argument("-o", "--output", type=Path, help="output file (.png, .pdf or .svg)")
     p.set_defaults(func=run)
@@ -100,7 +101,7 @@ def run(args) -> int:
         print(f"fkev plot: --orders: must be >= 1 (got {args.orders})", file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        runs = [load(a) for a in args.archive]
+        runs = [load(a, plane=args.plane) for a in args.archive]
         with warnings.catch_warnings(record=True) as caught:  # said in one line each, not as Python warnings
             warnings.simplefilter("always")
             fig = draw(

@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 
+from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import (
@@ -39,7 +40,7 @@ def add_parser(sub) -> None:
                    "from its root, m (repeatable; default every link's root, midspan and tip)")
     p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
                    "until the estimated error is below --tol)")
-    p.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (default 1e-8)")
+    p.add_argument("--tol", type=float, default=DEFAULTS.harmonic_tol, help="harmonic-balance tolerance (default 1e-8)")
     p.add_argument("--reduce", default=None, metavar="default|none|links|links:N", help="links: solve on each "
                    "link's Craig-Bampton component modes in its own frame (q = W(θ)z plus the static correction of "
                    "the dropped modes; modes per link doubled until stress and deflection change by < 1e-3, the "
@@ -109,11 +110,12 @@ def run(args) -> int:
                   speed_flag=args.speeds_flag if scan else flags["speed_rad_s"], plots=("plot", "plot_stations"),
                   output=None if scan else args.output, periodic=True, harmonics=args.harmonics,
                   reduce=args.reduce or "default")
+        settings = _settings(args, scene)
         if scan:
-            return _vs_speed(args, scene, angles, gravity, stations)
+            return _vs_speed(args, scene, angles, gravity, stations, settings)
         res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
-                             harmonics=args.harmonics, tol=args.tol, shoot=args.shooting, stations=stations,
-                             names=flags, reduce=args.reduce)
+                             harmonics=args.harmonics, stations=stations, names=flags, settings=settings,
+                             reduce=args.reduce)
     except SceneError as err:
         return report_scene_error(err)
     missed = not res.hb_error <= args.tol  # NaN (not estimated) misses too
@@ -188,16 +190,24 @@ def _print(d: dict) -> None:
     print(f"  largest node deflection {d['max_deflection_m'] * 1e3:.4g} mm (envelopes are min and max over the cycle)")
 
 
-def _vs_speed(args, scene, angles, gravity, stations) -> int:
+def _settings(args, scene):
+    """The run's PeriodicSettings: the defaults (a speed scan: ``SCAN``) with --tol and --shooting."""
+    from fkev_slepc.periodic.settings import SCAN, checked_settings
+
+    base = SCAN if args.speeds is not None or args.speeds_rpm is not None else DEFAULTS
+    return checked_settings(scene.source, base, dict(harmonic_tol=args.tol, shoot=args.shooting),
+                            {"harmonic_tol": "--tol", "shoot": "--shooting"})
+
+
+def _vs_speed(args, scene, angles, gravity, stations, settings) -> int:
     from fkev_slepc.api.response_speeds import response_vs_speed
     from fkev_slepc.api.response_archive import archived_response_vs_speed
     from fkev_slepc.sweep.interrupt import SweepInterrupted
     from fkev_slepc.sweep.parallel import install_abort_hook, world
     from fkev_slepc.sweep.session import RunRefused
 
-    options = dict(angles_deg=angles, gravity_m_s2=gravity, harmonics=args.harmonics, tol=args.tol,
-                   shoot=args.shooting, stations=stations, names={**FLAGS, "speeds_rad_s": args.speeds_flag},
-                   reduce=args.reduce)
+    options = dict(angles_deg=angles, gravity_m_s2=gravity, harmonics=args.harmonics, settings=settings,
+                   stations=stations, names={**FLAGS, "speeds_rad_s": args.speeds_flag}, reduce=args.reduce)
     comm = world() if args.output else None
     rank0 = comm is None or comm.rank == 0
     try:

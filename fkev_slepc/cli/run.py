@@ -44,9 +44,11 @@ def add_parser(sub) -> None:
     add_accuracy_arguments(p)
     p.add_argument("--solver", choices=("auto", "slepc", "dense"), help="eigen-solver (default the scene's)")
     p.add_argument("--mode-shapes", action="store_true", help="also archive mode shapes (/modes)")
-    p.add_argument("--plane", choices=("in", "out"), default="in",
+    p.add_argument("--plane", choices=("in", "out", "both"),
                    help="in: the in-plane problem; out: bending out of the plane and torsion (docs/theory.md §19; "
-                   "one plane per archive, default output <scene dir>/out/<stem>-out.h5)")
+                   "alone in its archive, default output <scene dir>/out/<stem>-out.h5); both: the in-plane sweep "
+                   "and the out-of-plane one of the same grid in one archive (/planes/out). Default both when "
+                   "every link gives its out-of-plane section data (and no --rel-error), else in")
     p.add_argument("--cross-check", action="store_true",
                    help="also solve every point with the other engine (dense <-> SLEPc) and report the "
                         "largest relative frequency difference (archived in the solver settings)")
@@ -66,6 +68,7 @@ def run(args) -> int:
     from fkev_slepc.sweep.grid import CLI_NAMES, configure
     from fkev_slepc.sweep.parallel import install_abort_hook, world
     from fkev_slepc.sweep.accuracy_mesh import mesh_for_accuracy
+    from fkev_slepc.sweep.plane_run import default_plane, run_out_of_plane
     from fkev_slepc.sweep.session import RunRefused, SweepInterrupted, SweepRequest, run_sweep
 
     comm = world()
@@ -76,20 +79,23 @@ def run(args) -> int:
         scene = configure(scene, angles=args.angles, speeds=args.speeds, speeds_rpm=args.speeds_rpm,
                           cases=args.cases, modes=args.modes, mode_shapes=args.mode_shapes, element=args.element,
                           rel_error=args.rel_error, names=CLI_NAMES)
-        if args.plane != "in":
+        plane = default_plane(scene, args.plane, args.rel_error)
+        if plane != "in":
             from fkev_slepc.api.point import out_of_plane_arguments
 
             try:
-                out_of_plane_arguments(scene, args.plane, None)
+                out_of_plane_arguments(scene, "out", args.rel_error, plane)
             except SceneError as err:
                 raise as_flags(err, {"plane": "--plane", "rel_error": "--rel-error"}) from None
         scene, plan = mesh_for_accuracy(scene, args.solver, comm, None if args.quiet else _note, CLI_NAMES["rel_error"])
-        request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene, args.plane),
+        sweep_plane = "out" if plane == "out" else "in"
+        request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene, sweep_plane),
                                resume=args.resume, retry_failed=args.retry_failed, solver=args.solver,
                                cross_check=args.cross_check, accuracy=plan, force=args.force,
                                make_dirs=args.output is None, resume_command=resume_command(sys.argv[1:]),
-                               plane=args.plane)
+                               plane=sweep_plane)
         outcome = run_sweep(request, comm, notify=_note, progress=not args.quiet)
+        other = run_out_of_plane(request, comm, _note, not args.quiet) if plane == "both" else None
     except SweepInterrupted as err:  # the notice with the resume command is already printed
         return err.exit_code
     except SceneError as err:
@@ -104,7 +110,11 @@ def run(args) -> int:
         summary = ", ".join(f"{k} {v}" for k, v in outcome.counts.items() if v)
         print(f"fkev run: wrote {outcome.output}: {outcome.n_points} points ({summary}) in "
               f"{outcome.wall_time_s:.1f} s on {outcome.n_ranks} rank(s)", flush=True)
-    return outcome.exit_code
+    if rank0 and not args.quiet and other is not None and not other.already_complete:
+        summary = ", ".join(f"{k} {v}" for k, v in other.counts.items() if v)
+        print(f"fkev run: out of plane (/planes/out): {other.n_points} points ({summary}), "
+              f"{other.n_solved} solved by this run", flush=True)
+    return max(outcome.exit_code, other.exit_code if other is not None else 0)
 
 
 def resume_command(argv: list[str]) -> str:

@@ -160,23 +160,27 @@ def check_problems(criterion, threshold, names=None) -> list[Problem]:
 
 
 def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
-                 angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float = 1e-8,
-                 threshold: float = WARN_BELOW, names=None) -> DesignCheck:
+                 angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float | None = None,
+                 threshold: float = WARN_BELOW, names=None, settings=None) -> DesignCheck:
     """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
     ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
     weak-axis factor below which a warning is given. The out-of-plane lowest frequency is frozen-time
     over the same angles (fkev_slepc/design/out_of_plane.py). The response is that of ``fkev response``
     (fkev_slepc/periodic/steady.py, the monodromy skipped), the loads those of ``fkev loads``
-    without crank acceleration. Raises SceneError naming a bad argument."""
+    without crank acceleration. Raises SceneError naming a bad argument. ``settings``
+    (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`): harmonics, harmonic_tol and
+    response_angles_deg, overridden by ``harmonics``, ``tol`` and ``angles_deg`` when given."""
     from fkev_slepc.model.joint_loads import joint_loads
-    from fkev_slepc.periodic.steady import checked_point, steady_solve, whole_link_stress
+    from fkev_slepc.periodic.steady import checked_point, point_settings, steady_solve, whole_link_stress
 
     bad = check_problems(criterion, threshold, names)
     if bad:
         raise SceneError(scene.source, bad)
-    model, case, a, gravity = checked_point(scene, speed_rad_s, case, angles_deg, gravity_m_s2=gravity_m_s2,
-                                            harmonics=harmonics, names=names)
-    r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=tol, shoot=False,
+    ps = point_settings(scene, settings, names, harmonics=harmonics, tol=tol, angles_deg=angles_deg)
+    harmonics = ps.harmonics or None if harmonics is None else harmonics
+    model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
+                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names)
+    r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=False,
                      names=names)
     ls = whole_link_stress(model, a, r.hb.at(np.radians(a)))
     mech = model.mechanism

@@ -164,7 +164,7 @@ def margins(res: SweepResults, speed_rad_s: float, case: str | None = None, n_or
         raise ArchiveError(f"--per-order: must be orders >= 1 (got {','.join(map(str, per_order)) or 'none'})")
     if order is None:
         order = "tracked" if np.isfinite(res.tracked_frequency_hz).any() else "sorted"
-    fallback = read_tracking(res.path)["fallback"] if order == "tracked" else None
+    fallback = read_tracking(res.path, res.table_plane)["fallback"] if order == "tracked" else None
     fell_back = bool(fallback is not None and fallback[si, ci])
     f_all = res.frequency(order=order)[:, si, ci, :]  # (angle, mode), NaN where not converged
     picked = [res.mode_index(m) for m in modes] if modes is not None else list(range(res.modes.size))

@@ -24,13 +24,33 @@ the design keys as dimensions.
 from __future__ import annotations
 
 import itertools
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 
+import h5py
 import numpy as np
 
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive import store
+from fkev_slepc.archive.writer import Block
+from fkev_slepc.design import point_checks as pc
 from fkev_slepc.design.point_checks import CheckOptions, stress_problems
+from fkev_slepc.design.results import open_design
+from fkev_slepc.model.mechanism import build_mechanism
+from fkev_slepc.model.operators import AssemblyError, Model
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.scene.edit import replace_values
+from fkev_slepc.solve.critical import divergence_speed
+from fkev_slepc.solve.engines import make_engine
+from fkev_slepc.solve.modes import failed
+from fkev_slepc.solve.thresholds import SolveSettings
+from fkev_slepc.sweep.grid import configure, parse_range, scene_problems
+from fkev_slepc.sweep.parallel import local
+from fkev_slepc.sweep.run_steps import RunRefused, finish, open_product, solve_pending
+from fkev_slepc.sweep.runner import Sweep, SweepOptions
+from fkev_slepc.sweep.session import SweepRequest, run_sweep
+from fkev_slepc.sweep.units import pending
 
 
 MAX_DESIGN_POINTS = 10_000  # each design point is a whole sweep (and is checked as a scene before any solve)
@@ -68,8 +88,6 @@ def design_grid(params: dict, name: str = "params") -> DesignGrid:
     >>> g.axes
     ((0.25, 0.3, 0.35, 0.4),)
     """
-    from fkev_slepc.sweep.grid import parse_range
-
     if not params:
         raise SceneError(name, [Problem(name, "give at least one scene key and its values")])
     keys, axes, bad = [], [], []
@@ -101,9 +119,6 @@ def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
     one: assembly at every crank angle, modes, operator overflow;
     :func:`fkev_slepc.sweep.grid.scene_problems`), or one SceneError listing every design point that
     is not a valid scene (nothing computed)."""
-    from fkev_slepc.scene.edit import replace_values
-    from fkev_slepc.sweep.grid import scene_problems
-
     out, bad = [], []
     for i, values in enumerate(grid.points):
         said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
@@ -124,24 +139,14 @@ class DesignSolver:
 
     def __init__(self, scenes: list[Scene], base: Scene, engine, n_modes: int, grid: DesignGrid | None = None,
                  checks: CheckOptions | None = None):
-        from fkev_slepc.archive.products import Grid
-        from fkev_slepc.sweep.runner import SweepOptions
-
         an = base.analysis
         self.scenes, self.engine = scenes, engine
         self.design, self.checks = grid, checks or CheckOptions()
-        self.grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(base.driver.speeds, float),
-                         tuple(an.cases), int(n_modes))
+        self.grid = P.Grid(np.asarray(an.crank_angles_deg, float), np.asarray(base.driver.speeds, float),
+                           tuple(an.cases), int(n_modes))
         self.opts = SweepOptions(int(n_modes), an.imag_tol, an.damping_tol)
 
     def solve(self, unit: tuple, mask: np.ndarray):
-        from fkev_slepc.archive import products as P
-        from fkev_slepc.archive.writer import Block
-        from fkev_slepc.model.operators import AssemblyError, Model
-        from fkev_slepc.solve.critical import divergence_speed
-        from fkev_slepc.solve.modes import failed
-        from fkev_slepc.sweep.runner import Sweep
-
         (ip,) = unit
         grid, nm = self.grid, self.opts.n_modes
         na, ns, nc = grid.shape
@@ -181,8 +186,6 @@ class DesignSolver:
 
     def check_columns(self, ip: int) -> dict:
         """The design-check columns of design point ``ip`` (fkev_slepc/design/point_checks.py)."""
-        from fkev_slepc.design import point_checks as pc
-
         scene, grid = self.scenes[ip], self.grid
         out = pc.kinetostatic_columns(scene, grid.angles_deg, grid.speeds)
         if self.checks.stress:
@@ -195,11 +198,12 @@ class DesignSolver:
 
 def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: bool = False, force: bool = False,
                solver: str | None = None, notify=None, progress: bool = False, command_line: str = "",
-               checks: CheckOptions | None = None, names=None) -> Path:
+               checks: CheckOptions | None = None, names=None, model=None) -> Path:
     """Collective over ``comm`` (default this process alone): the base sweep of ``scene`` (its grid
     already configured) into ``output``, then every pending design point into its ``/design``,
     with the design check's columns of ``checks`` (fkev_slepc/design/point_checks.py; default
-    the kinetostatic ones only). ``names`` maps argument names to the caller's in messages.
+    the kinetostatic ones only). ``names`` maps argument names to the caller's in messages;
+    ``model``: the base sweep's model (``Study.design``: its pool's; default a new one).
 
     Raises
     ------
@@ -210,17 +214,6 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     SweepInterrupted
         Ctrl-C or SIGTERM (every rank): the ``.part`` holds the design points finished so far.
     """
-    from fkev_slepc.archive import products as P
-    from fkev_slepc.archive import store
-    from fkev_slepc.archive.lock import hold, release
-    from fkev_slepc.archive.writer import Writer
-    from fkev_slepc.solve.engines import make_engine
-    from fkev_slepc.solve.thresholds import SolveSettings
-    from fkev_slepc.sweep.parallel import local
-    from fkev_slepc.sweep.session import RunRefused, SweepRequest, run_sweep
-    from fkev_slepc.sweep.interrupt import StopRequest, SweepInterrupted
-    from fkev_slepc.sweep.units import run_units
-
     comm = local(comm)
     output = Path(output)
     note = notify if (notify is not None and comm.rank == 0) else (lambda _m: None)
@@ -230,46 +223,28 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     if bad:
         raise SceneError(scene.source, bad)
     base_resume = resume and (output.exists() or store.partial_path(output).exists())
+    command_line = command_line or "fkev design"
     run_sweep(SweepRequest(scene, output, resume=base_resume, force=force and not resume, solver=solver,
-                           command_line=command_line or "fkev design"), comm, notify=notify, progress=progress)
-    plan = None
-    if comm.rank == 0:
-        hold(output)
-        try:
-            plan = _open_design(output, grid, resume, scene, checks)
-        except RunRefused as err:
-            release(output)
-            plan = err
-    plan = comm.bcast(plan, root=0)
-    if isinstance(plan, RunRefused):
-        raise plan
-    part, todo = plan
+                           command_line=command_line), comm, notify=notify, progress=progress, model=model)
+    points = grid.points
+    scales = {P.D_POINT: np.arange(len(points), dtype="i4"), P.D_KEY: list(grid.keys),
+              P.D_LINK: [lk.name for lk in scene.links], P.D_JOINT: [j.name for j in scene.joints]}
+    criterion = {P.D_FATIGUE_SF.path: {"fatigue_criterion": checks.criterion}} if checks.stress else None
+    part, status = open_product(output, P.DESIGN, scales, {}, resume, comm, data={P.D_VALUE.path: points},
+                                same=lambda part: _same_design(part, output, grid, checks), needs=checks.needs,
+                                attrs=criterion)
+    todo = pending(status)
     note(f"{len(grid.points)} design point(s) of {', '.join(grid.keys)}; "
          f"{int(todo.any(axis=(1, 2, 3)).sum())} to solve")
     engine = make_engine(solver or scene.solver.method, _n_free(scenes), scene.solver.petsc,
                          settings=SolveSettings.from_scene(scene))
-    stop = StopRequest(notify=lambda what: note(f"interrupted by {what}: stopping at the next sync; the design points "
-                                                f"finished so far stay in {part}; continue with --resume"))
     try:
-        writer = Writer(part, comm, product=P.DESIGN)
         ds = DesignSolver(scenes, scene, engine, scene.analysis.modes, grid, checks)
         report = (lambda done, total: note(f"{done}/{total} design-study points")) if progress else None
-        with stop:  # Ctrl-C/SIGTERM: every rank leaves after the same sync, the .part resumable (sweep.interrupt)
-            done = run_units(todo, ds.solve, writer, comm, n_unit_axes=1, progress=report, stop=stop)
-        writer.close()
+        solve_pending(part, output, P.DESIGN, todo, ds.solve, comm, 1, notify, "design points", report)
     finally:
         engine.close()
-    if stop.stopped:
-        if comm.rank == 0:
-            release(output)
-        raise SweepInterrupted(part, done)
-    if comm.rank == 0:
-        try:
-            store.finalize(part, output, {"last_command_line": command_line or "fkev design"})
-        finally:
-            release(output)
-    comm.Barrier()
-    return output
+    return finish(part, output, command_line, None, comm)
 
 
 def study_design(study, params: dict, speeds=None, cases=None, angles=None, output=None, *, modes: int | None = None,
@@ -311,11 +286,6 @@ def study_design(study, params: dict, speeds=None, cases=None, angles=None, outp
     SceneError
         A bad key or value (any design point that is not a valid scene), before anything is solved.
     """
-    import logging
-
-    from fkev_slepc.design.results import open_design
-    from fkev_slepc.sweep.grid import configure
-
     grid = design_grid(params)
     scene = configure(study.scene, angles=angles, speeds=speeds, cases=cases, modes=modes)
     if output is None:
@@ -324,52 +294,29 @@ def study_design(study, params: dict, speeds=None, cases=None, angles=None, outp
         output = Path(study.path).parent / "out" / f"{Path(study.path).stem}-design.h5"
     run_design(scene, grid, output, comm, resume=resume, force=force, solver=solver,
                notify=logging.getLogger(__name__).info, progress=progress, command_line="Study.design",
-               checks=CheckOptions(stress, sensitivity, criterion, harmonics))
+               checks=CheckOptions(stress, sensitivity, criterion, harmonics),
+               model=study.pool.for_scene(scene).model(scene.analysis.cases))
     return open_design(output)
 
 
 def _n_free(scenes: list[Scene]) -> int:
-    from fkev_slepc.model.mechanism import build_mechanism
-
     return max(build_mechanism(s).n_free for s in scenes)
 
 
-def _open_design(output: Path, grid: DesignGrid, resume: bool, scene: Scene, checks: CheckOptions):
-    """Rank 0: (part, todo) of the design product -- created in a reopened copy of the finished
-    base archive, or continued; a resume of another design grid or other columns is refused."""
-    import h5py
-
-    from fkev_slepc.archive import products as P
-    from fkev_slepc.archive import store
-    from fkev_slepc.sweep.session import RunRefused
-    from fkev_slepc.sweep.units import pending
-
-    part = store.reopen_finished(output)
+def _same_design(part: Path, output: Path, grid: DesignGrid, checks: CheckOptions) -> bool:
+    """Rank 0, on a resume of an archive that has a design product: True when it is of the design
+    grid ``grid`` with the columns of ``checks``; a resume of another grid or other columns is refused."""
     with h5py.File(part, "r") as f:
-        have = P.D_KEY in f and P.D_VALUE.path in f
-        if have:
-            keys = tuple(k.decode() if isinstance(k, bytes) else str(k) for k in f[P.D_KEY][()])
-            values = f[P.D_VALUE.path][()]
-            had = (P.D_TORQUE_MIN.path in f, P.D_PEAK_STRESS.path in f, P.D_SENSITIVITY[0].path in f,
-                   f[P.D_FATIGUE_SF.path].attrs.get("fatigue_criterion") if P.D_FATIGUE_SF.path in f else None)
+        keys = tuple(k.decode() if isinstance(k, bytes) else str(k) for k in f[P.D_KEY][()])
+        values = f[P.D_VALUE.path][()]
+        had = (P.D_TORQUE_MIN.path in f, P.D_PEAK_STRESS.path in f, P.D_SENSITIVITY[0].path in f,
+               f[P.D_FATIGUE_SF.path].attrs.get("fatigue_criterion") if P.D_FATIGUE_SF.path in f else None)
     points = grid.points
-    same = have and keys == grid.keys and values.shape == points.shape and np.array_equal(values, points)
-    wanted = (True, checks.stress, checks.sensitivity, checks.criterion if checks.stress else None)
-    if have and resume and same and had != wanted:
-        part.unlink()
-        raise RunRefused(f"{output}: --resume with other design-check columns (--stress, --criterion, "
-                         "--sensitivity) than the archive's (use another -o, or --force to start over)")
-    if have and resume and not same:
-        part.unlink()
+    if not (keys == grid.keys and values.shape == points.shape and np.array_equal(values, points)):
         raise RunRefused(f"{output}: --resume of a design study over other values: the archive has "
                          f"{', '.join(keys)} at {len(values)} point(s), this run {', '.join(grid.keys)} at "
                          f"{len(points)} (use another -o, or --force to start over)")
-    if not (have and same and resume):
-        store.add_product(part, P.DESIGN, {P.D_POINT: np.arange(len(points), dtype="i4"), P.D_KEY: list(grid.keys),
-                                           P.D_LINK: [lk.name for lk in scene.links],
-                                           P.D_JOINT: [j.name for j in scene.joints]},
-                          {P.D_VALUE.path: points}, needs=checks.needs)
-        if checks.stress:
-            with h5py.File(part, "r+") as f:
-                f[P.D_FATIGUE_SF.path].attrs["fatigue_criterion"] = checks.criterion
-    return part, pending(store.read_status(part, P.DESIGN))
+    if had != (True, checks.stress, checks.sensitivity, checks.criterion if checks.stress else None):
+        raise RunRefused(f"{output}: --resume with other design-check columns (--stress, --criterion, "
+                         "--sensitivity) than the archive's (use another -o, or --force to start over)")
+    return True

@@ -41,9 +41,10 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-SAFETY = 10.0  # the error estimate counts this many times against an apparent growth
-DEFAULT_TOL = 1e-6  # max|μ| - 1 above which (and above SAFETY·error) a speed is unstable
-EDGE_RTOL = 1e-6  # band edges to this relative accuracy
+from fkev_slepc.periodic.settings import DEFAULTS, SAFETY
+
+DEFAULT_TOL = DEFAULTS.verdict_tol  # max|μ| - 1 above which (and above SAFETY·error) a speed is unstable
+EDGE_RTOL = DEFAULTS.edge_rtol  # band edges to this relative accuracy
 MAX_ORDER = 8  # resonance orders n = 1..MAX_ORDER are candidate labels
 
 

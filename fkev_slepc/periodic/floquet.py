@@ -58,11 +58,11 @@ import scipy.linalg as la
 from fkev_slepc.periodic.magnus import Monodromy, exponential_monodromy, monodromy
 from fkev_slepc.periodic.components import LINK_MODES, link_components
 from fkev_slepc.periodic.reduce import compress, frozen_pool
+from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings
 from fkev_slepc.periodic.system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.periodic.truncation import (
-    AUTO_ANGLES, AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, REDUCE_TOL, Truncation, between, converge, link_modes,
-    resolve_reduce,
+    AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, Truncation, between, converge, link_modes, resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -149,14 +149,19 @@ def default_reduction(model, omega: float, case: str = "full", damping: bool = T
 
 
 def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, damping: bool = True,
-                        start: float = 0.0, order: int = 6, steps: int | None = None,
-                        tol: float = 1e-10, samples: int = 16, interp_tol: float = 1e-12,
-                        reduce: int | str | None = None, basis_angles: int = AUTO_ANGLES,
-                        threshold: float = 1e-10, reduce_tol: float = REDUCE_TOL,
+                        start: float = 0.0, order: int | None = None, steps: int | None = None,
+                        tol: float | None = None, samples: int | None = None, interp_tol: float | None = None,
+                        reduce: int | str | None = None, basis_angles: int | None = None,
+                        threshold: float | None = None, reduce_tol: float | None = None,
                         max_basis: int | None = None, check_truncation: bool = True,
-                        basis: np.ndarray | None = None, comm=None, progress=None) -> LinkageFloquet:
+                        basis: np.ndarray | None = None, comm=None, progress=None,
+                        settings: PeriodicSettings | None = None) -> LinkageFloquet:
     """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
 
+    ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`, default its defaults with
+    ``reduce`` none): every tolerance below; a keyword given (not None) overrides its field
+    (``order`` magnus_order, ``tol`` monodromy_tol, ``steps``, ``samples``, ``interp_tol``, ``reduce``,
+    ``basis_angles``, ``threshold``, ``reduce_tol``, ``max_basis``).
     ``reduce``: None (the full model), ``"default"`` (:func:`default_reduction`: None below
     ``AUTO_MIN_STEPS`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
     :mod:`fkev_slepc.periodic.truncation`, to ``reduce_tol``, at most ``max_basis``
@@ -174,15 +179,19 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     if not np.isfinite(omega) or omega == 0.0:
         raise ValueError(f"omega: the Floquet analysis needs a non-zero crank speed, got {omega!r}")
     model = model_or_scene if isinstance(model_or_scene, Model) else Model(model_or_scene, (case,))
+    st = (settings or replace(DEFAULTS, reduce="none")).with_overrides(  # a bad override: SettingsError naming it
+        magnus_order=order, monodromy_tol=tol, steps=steps, samples=samples, interp_tol=interp_tol,
+        basis_angles=basis_angles, threshold=threshold, reduce_tol=reduce_tol, max_basis=max_basis)
+    order, steps, tol, samples, interp_tol = st.magnus_order, st.steps or None, st.monodromy_tol, st.samples, st.interp_tol
+    basis_angles, threshold, reduce_tol, max_basis = st.basis_angles, st.threshold, st.reduce_tol, st.max_basis or None
     try:
-        reduce = resolve_reduce(reduce)
+        reduce = resolve_reduce(st.reduce if reduce is None else reduce)
     except ValueError as err:
         raise ValueError(f"reduce: {err}") from None
     if reduce == "default":
         reduce = default_reduction(model, omega, case, damping, start)
     if basis is None and reduce is not None:
-        opts = dict(damping=damping, start=start, order=order, steps=steps, tol=tol, samples=samples,
-                    interp_tol=interp_tol, comm=comm, progress=progress)
+        opts = dict(damping=damping, start=start, comm=comm, progress=progress, settings=replace(st, reduce="none"))
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
         n, squeeze, first = int(model.n_free), compress, AUTO_MODES
@@ -202,7 +211,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
             (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
     system = PeriodicSystem(model, omega, case, damping=damping, basis=basis, start=start)
     system = system.link_frame() or system  # a lone rotating link: constant in its own frame
-    interp = system.interpolant(samples, interp_tol)
+    interp = system.interpolant(samples, interp_tol, st.max_samples)
     gen = interp.generator
     if spread(gen.S) <= CONSTANT_TOL:  # constant A: Φ = exp(2π A), by its eigenvalues
         mono, lam, X = exponential_monodromy(gen.S[0], TWO_PI, system.start)

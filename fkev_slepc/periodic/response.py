@@ -21,6 +21,7 @@ import numpy as np
 
 from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
+from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.periodic.shooting import ShootingResponse, shooting
 from fkev_slepc.periodic.component_response import (
     RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
@@ -63,7 +64,7 @@ class PeriodicResponse:
 
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,
-                      shoot: bool = False, shooting_tol: float = 1e-11, reduce=None,
+                      shoot: bool = False, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None,
                       reduce_tol: float = RESPONSE_REDUCE_TOL) -> PeriodicResponse:
     """Harmonic balance (and, with ``shoot``, shooting at the same angles) of ``system``
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a

@@ -20,6 +20,7 @@ import numpy as np
 import scipy.linalg as la
 
 from fkev_slepc.periodic import magnus
+from fkev_slepc.periodic.settings import DEFAULTS
 
 # (I − Φ) is singular to working precision when its smallest singular value is below this
 # fraction of 1 + ‖Φ‖₂ (the size of the two terms it is the difference of)
@@ -62,7 +63,7 @@ class _Cached:
         return self.value
 
 
-def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = None, tol: float = 1e-11,
+def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = None, tol: float = DEFAULTS.shooting_tol,
              order: int = 6, max_steps: int = 2**14) -> ShootingResponse:
     """The periodic response at ``thetas`` (increasing, in [0, 2π]) by shooting on the monodromy.
 

@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings, checked_settings
 from fkev_slepc.scene import Problem, Scene, SceneError
 
-DEFAULT_ANGLES_DEG = tuple(float(a) for a in np.arange(0.0, 360.0, 5.0))  # output angles of a response
+DEFAULT_ANGLES_DEG = DEFAULTS.response_angles_deg  # output angles of a response
 
 
 def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
@@ -90,8 +91,8 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     return model
 
 
-def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=None, tol: float = 1e-8,
-                 shoot: bool = True, names=None, reduce=None):
+def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=None, tol: float = DEFAULTS.harmonic_tol,
+                 shoot: bool = True, names=None, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None):
     """:func:`fkev_slepc.periodic.response.periodic_response` of the model's
     :class:`~fkev_slepc.periodic.system.PeriodicSystem` (``reduce`` as there); an exact resonance is a
     SceneError naming the speed."""
@@ -102,10 +103,28 @@ def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=Non
     system = PeriodicSystem(model, float(speed_rad_s), case, gravity=gravity)
     try:
         return periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot,
-                                 reduce=reduce)
+                                 shooting_tol=shooting_tol, reduce=reduce)
     except ResonanceError as err:
         name = (names or {}).get("speed_rad_s", "speed_rad_s")
         raise SceneError(model.mechanism.scene.source, [Problem(name, str(err))]) from None
+
+
+def point_settings(scene: Scene, settings, names=None, **overrides) -> PeriodicSettings:
+    """The settings of one response: ``settings`` (None: the defaults) with the options given
+    (``harmonics``, ``tol``, ``shoot``, ``angles_deg``; None: not given) in place of harmonics,
+    harmonic_tol, shoot and response_angles_deg, or SceneError naming a bad one as the caller
+    calls it. A bad ``harmonics`` is left to :func:`checked_model` (it names the rule of the error
+    estimate) and bad angles to :func:`checked_point`."""
+    names = names or {}
+    fields = {"harmonics": "harmonics", "tol": "harmonic_tol", "shoot": "shoot", "angles_deg": "response_angles_deg"}
+    st = checked_settings(scene.source, settings, {fields[k]: v for k, v in overrides.items()
+                                                   if k not in ("harmonics", "angles_deg")},
+                          {f: names.get(k, k) for k, f in fields.items()})
+    h, a = overrides.get("harmonics"), overrides.get("angles_deg")
+    try:
+        return st.with_overrides(harmonics=h, response_angles_deg=a)
+    except ValueError:
+        return st  # checked_model / checked_point name it
 
 
 def whole_link_stress(model, angles_deg, q):

@@ -54,6 +54,7 @@ from fkev_slepc.periodic.magnus import state_matrix
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.model.kinematics import solve_kinematics
 from fkev_slepc.periodic.reduce import corotated_pairs, reduced_coefficients, rotate_rows
+from fkev_slepc.periodic.settings import DEFAULTS
 
 TWO_PI = 2.0 * np.pi
 SCALING_ANGLES = 16  # angles whose mean diagonals fix the DOF scaling of the generator
@@ -175,7 +176,8 @@ class PeriodicSystem:
         """A (len(τ), 2n, 2n) in 1/rad at the generator angles ``tau`` (crank angle start ± τ)."""
         return self.generator_of(self.coefficients(self.angle(tau)))
 
-    def interpolant(self, samples: int = 16, tol: float = 1e-12, max_samples: int = 1024) -> Interpolated:
+    def interpolant(self, samples: int = DEFAULTS.samples, tol: float = DEFAULTS.interp_tol,
+                    max_samples: int = DEFAULTS.max_samples) -> Interpolated:
         """The generator's trigonometric interpolant, samples doubled until its relative error at
         the midpoints is <= ``tol`` or ``max_samples`` are held (see the module docstring); the
         midpoints then join the samples, and the error returned is that of the interpolant used,

@@ -44,10 +44,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fkev_slepc.periodic.settings import DEFAULTS, resolve_reduce  # noqa: F401 (resolve_reduce: exported here too)
+
 THRESHOLDS = tuple(10.0 ** -k for k in range(1, 11))
-REDUCE_TOL = 1e-3  # |Δ max|μ|| and the relative frequency change that end the sequence
+REDUCE_TOL = DEFAULTS.reduce_tol  # |Δ max|μ|| and the relative frequency change that end the sequence
 AUTO_MODES = 4  # modes per angle of the first pool
-AUTO_ANGLES = 8  # pool angles over a revolution
+AUTO_ANGLES = DEFAULTS.basis_angles  # pool angles over a revolution
 AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: reduced where the full model needs this many Magnus steps
 LINKS_STEP_RATIO = 4  # ... on link components where their level of 8 modes per link needs 1/4 of those steps or fewer
 
@@ -67,29 +69,6 @@ class Truncation:
     def value(self) -> float:
         """The larger of the two convergence measures (|Δ max|μ||, relative Δ frequency)."""
         return float(max(self.max_abs, self.frequency))
-
-
-def resolve_reduce(value):
-    """None (the full model), "default", "auto", a number of modes per angle, "links" or
-    "links:N" from what a user asked: "default" (decided per speed by
-    ``periodic.floquet.default_reduction``: the full model below ``AUTO_MIN_STEPS`` full-model steps
-    2·2π·ρ(A), above "links" where the link-component level of 8 modes per link needs at most
-    1/``LINKS_STEP_RATIO`` of them, else "auto"; docs/engine.md measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
-    link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled until
-    converged) or "links:N" (N >= 0 fixed-interface modes per link). ValueError otherwise."""
-    if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
-        return None
-    if isinstance(value, str):
-        v = value.strip().lower()
-        if v in ("default", "auto", "links"):
-            return v
-        if v.startswith("links:") and v[6:].isdigit():
-            return f"links:{int(v[6:])}"
-        value = int(v) if v.isdigit() else value
-    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
-        return int(value)
-    raise ValueError("must be auto, none, default, links, links:N (modes per link >= 0) or a number of "
-                     f"modes per angle >= 1 (got {value!r})")
 
 
 def link_modes(reduce) -> int | None:

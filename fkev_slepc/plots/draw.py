@@ -82,8 +82,8 @@ def freq_angle(
         c_idx = pick_cases(res, cases, [default_case(res)])
         s_idx = [res.speed_index(s) for s in speeds] if speeds else list(range(res.speed_rad_s.size))
         f = res.frequency(order=order)
-        fallback = read_tracking(res.path)["fallback"] if order == "tracked" else None
-        refined = read_refined(res.path) if order == "tracked" else None
+        fallback = read_tracking(res.path, res.table_plane)["fallback"] if order == "tracked" else None
+        refined = read_refined(res.path, res.table_plane) if order == "tracked" else None
         for ax, m in zip(axes, mode_idx):
             for c_n, c in enumerate(c_idx):
                 for s_n, s in enumerate(s_idx):
@@ -199,7 +199,7 @@ def error_angle(
     fig, axes = mode_grid(len(mode_idx))
     sorted_err = {c: res.percent_error(res.cases[c], "sorted" if order == "matched" else order)[:, s, :]
                   for c in c_idx}
-    sig = read_signature(res.path, s) if order == "matched" else None
+    sig = read_signature(res.path, s, res.table_plane) if order == "matched" else None
     if order == "matched" and sig is None:
         order = "sorted (no eigenvectors archived for MAC matching)"
     err, unmatched = dict(sorted_err), {}

@@ -142,7 +142,7 @@ def campbell(
     om = res.speed_rad_s
     note = ""
     if order == "tracked":
-        trk = read_tracking(res.path)
+        trk = read_tracking(res.path, res.table_plane)
         if trk["speed_tracked"] is None:
             order, note = "sorted", "; sorted modes (the archive has no tracking along speed)"
         else:

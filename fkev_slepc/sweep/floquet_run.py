@@ -8,7 +8,9 @@ One archive holds both verdicts of the same speeds (docs/stability.md, "Frozen-t
 2. **Floquet product** (``/floquet``, :data:`fkev_slepc.archive.products.FLOQUET`): one monodromy per
    (speed, case) unit (``floquet_multipliers`` of the solve stage's linkage engine, the exact periodic
    coefficients), units dealt to the MPI ranks by :func:`fkev_slepc.sweep.units.run_units` and
-   resumable like the sweep (``resume``: only pending speeds are solved).
+   resumable like the sweep (``resume``: only pending speeds are solved; the run's
+   :class:`~fkev_slepc.periodic.settings.PeriodicSettings` are archived whole in ``/floquet/settings``
+   and a resume with other settings is refused before any work, :func:`refuse_changed_settings`).
 3. **Gaps and probes**: the resonance candidates of order <= ``resonance_order`` (2ω̄ₖ/n,
    (ω̄ⱼ ± ω̄ₖ)/n) that fall between two stable grid speeds, where a band narrower than the spacing
    would go unseen (:func:`~fkev_slepc.periodic.bands.unsampled`); with ``probe`` one more
@@ -35,19 +37,22 @@ from fkev_slepc.archive.products_floquet import REDUCTION_ROWS
 from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.periodic.bands import (
-    DEFAULT_TOL, EDGE_RTOL, Band, Gap, SpeedPoint, brackets, bands_from, label, margin, refine_edges, unsampled,
+    Band, Gap, SpeedPoint, brackets, bands_from, label, margin, refine_edges, unsampled,
 )
 from fkev_slepc.periodic.results import FloquetResults
+from fkev_slepc.periodic.settings import DEFAULTS, SAFETY, PeriodicSettings, resolve_reduce
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples
 from fkev_slepc.sweep.parallel import local
-from fkev_slepc.sweep.product_run import ProductRequest, finish, open_product, solve_pending
+from fkev_slepc.sweep.product_run import (
+    ProductRequest, finish, open_product, refuse_changed_settings, settings_attrs, solve_pending,
+)
 from fkev_slepc.sweep.progress import Progress
 from fkev_slepc.sweep.units import pending
 
 log = logging.getLogger(__name__)
-MONODROMY_TOL = 1e-10  # relative error of Φ asked of the integrator
-RESONANCE_ORDER = 3  # candidates n <= this between stable grid speeds are reported (and probed if asked)
+MONODROMY_TOL = DEFAULTS.monodromy_tol  # relative error of Φ asked of the integrator
+RESONANCE_ORDER = DEFAULTS.resonance_order  # candidates n <= this between stable grid speeds are reported
 BAND_ATTRS = ("lower", "upper", "lower_open", "upper_open", "resonance", "predicted_speed", "peak_speed",
               "peak_max_abs", "suppressing_damping")
 
@@ -55,17 +60,29 @@ BAND_ATTRS = ("lower", "upper", "lower_open", "upper_open", "resonance", "predic
 @dataclass(frozen=True)
 class FloquetRequest(ProductRequest):
     """A Floquet run: ``scene`` with the speeds (``driver.speeds``, all > 0), the crank angles of the
-    frozen sweep (``analysis.crank_angles_deg``) and the one case (``analysis.cases``) set."""
+    frozen sweep (``analysis.crank_angles_deg``) and the one case (``analysis.cases``) set.
 
-    tol: float = DEFAULT_TOL
-    rtol: float = EDGE_RTOL
-    monodromy_tol: float = MONODROMY_TOL
-    resonance_order: int = RESONANCE_ORDER
-    probe: bool = False  # one more monodromy at each resonance candidate between stable grid speeds
-    reduce: int | str | None = None  # None (full model), "auto"/r (frozen modes), "links"/"links:N" (link components)
+    ``settings``: every tolerance (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`; None: its
+    defaults with ``reduce`` none, the full model); a field below that is given (not None) overrides
+    its setting: ``tol`` verdict_tol, ``rtol`` edge_rtol, ``monodromy_tol``, ``resonance_order``,
+    ``probe``, ``reduce``. :attr:`periodic` is the result, archived whole in ``/floquet/settings``."""
+
+    tol: float | None = None
+    rtol: float | None = None
+    monodromy_tol: float | None = None
+    resonance_order: int | None = None
+    probe: bool | None = None  # one more monodromy at each resonance candidate between stable grid speeds
+    reduce: int | str | None = None  # "none" (full model), "auto"/r (frozen modes), "links"/"links:N" (link components)
+    settings: PeriodicSettings | None = None
+
+    @property
+    def periodic(self) -> PeriodicSettings:
+        base = self.settings or replace(DEFAULTS, reduce="none")
+        return base.with_overrides(verdict_tol=self.tol, edge_rtol=self.rtol, monodromy_tol=self.monodromy_tol,
+                                   resonance_order=self.resonance_order, probe=self.probe, reduce=self.reduce)
 
 
-def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False, comm=None):
+def _evaluator(model, case: str, settings: PeriodicSettings, progress: bool = False, comm=None):
     """speed -> :class:`SpeedPoint` (not converged, with the message, if the solver raised). Reduced
     (``reduce``), the point's error adds the truncation change of max|μ| (so that it enters the verdict's
     margin), a truncation that did not converge makes the point not converged (its verdict is
@@ -78,7 +95,7 @@ def _evaluator(model, case: str, tol: float, reduce=None, progress: bool = False
     def evaluate(speed: float) -> tuple[SpeedPoint, str]:
         report = _SpeedProgress(float(speed)) if progress else None
         try:
-            res = floquet_multipliers(model, float(speed), case, tol=tol, reduce=reduce, comm=comm, progress=report)
+            res = floquet_multipliers(model, float(speed), case, settings=settings, comm=comm, progress=report)
         except recoverable_errors() as exc:
             return SpeedPoint(float(speed), np.zeros(0, complex), float("nan"), False), f"{type(exc).__name__}: {exc}"
         finally:
@@ -161,24 +178,28 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     sc, out = request.scene, Path(request.output)
     if evaluator is None:
         _engine_available()
+    ps = request.periodic  # a bad setting: SettingsError naming it, before any work
     request.run_frozen_sweep(comm, notify, progress)
+    if request.resume:  # the archived settings compared whole: a difference refused before the product's work
+        refuse_changed_settings(out, P.FLOQUET, ps, comm)
     model = Model(sc, (request.case,), plane=request.plane)
     n_index = 2 * model.n_free
-    part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request),
-                                request.resume, comm, same=lambda p: not _settings_differ(p, request, n_index))
+    part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request, ps),
+                                request.resume, comm, same=lambda p: _index_size(p) == n_index,
+                                attrs=settings_attrs(P.FLOQUET, ps))
     speeds = np.asarray(sc.driver.speeds, dtype=float)
-    evaluate = evaluator(model, request.case, request.monodromy_tol) if evaluator else _evaluator(
-        model, request.case, request.monodromy_tol, request.reduce, progress=notify is not None)
+    evaluate = evaluator(model, request.case, ps.monodromy_tol) if evaluator else _evaluator(
+        model, request.case, ps, progress=notify is not None)
     todo = pending(status)
     # fewer speeds than ranks: every rank works on each speed, its monodromy's steps split over them
     split = evaluator is None and comm.size > 1 and 0 < int(todo.sum()) < comm.size
-    grid_evaluate = _evaluator(model, request.case, request.monodromy_tol, request.reduce,
+    grid_evaluate = _evaluator(model, request.case, ps,
                                progress=notify is not None and comm.rank == 0, comm=comm) if split else evaluate
 
     def solve(unit, mask):
         js, jc = unit
         point, message = grid_evaluate(speeds[js])
-        code = _status(point, message, request.tol)
+        code = _status(point, message, ps.verdict_tol)
         mu = np.full(n_index, P.CNAN)
         mu[: point.multipliers.size] = point.multipliers
         data = {P.MULTIPLIER.path: mu, P.MAX_ABS_MULTIPLIER.path: np.array(point.max_abs),
@@ -198,43 +219,40 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     grid = _read_grid(part, speeds) if comm.rank == 0 else None
     grid = comm.bcast(grid, root=0)
     mean = _mean_frequencies(part) if comm.rank == 0 else None
-    gaps = comm.bcast(unsampled(grid, mean, request.resonance_order, request.tol) if comm.rank == 0 else None)
+    gaps = comm.bcast(unsampled(grid, mean, ps.resonance_order, ps.verdict_tol) if comm.rank == 0 else None)
     if comm.rank == 0:
         add_sample_rows(part)
     cmd = request.command_line
-    sampler = Sampler(part, out, evaluate, lambda p, msg: _status(p, msg, request.tol), comm, n_index, notify,
+    sampler = Sampler(part, out, evaluate, lambda p, msg: _status(p, msg, ps.verdict_tol), comm, n_index, notify,
                       cmd + ("" if " --resume" in cmd else " --resume") if cmd else "")
     with sampler.stop:
-        probes = sampler([g.resonance.speed for g in gaps], "probe") if request.probe else []
+        probes = sampler([g.resonance.speed for g in gaps], "probe") if ps.probe else []
         points = sorted(grid + probes, key=lambda p: p.speed)
-        pairs = brackets(points, request.tol)
+        pairs = brackets(points, ps.verdict_tol)
         if notify is not None and comm.rank == 0 and (probes or pairs):
             notify(f"floquet: {len(probes)} resonance probe(s), {len(pairs)} band edge(s) to refine "
                    f"({sampler.resumed} speed(s) beside the grid already archived)")
-        edges = refine_edges(points, pairs, lambda ws: sampler(ws, "edge"), sampler.known, request.tol, request.rtol)
-    bands = bands_from(points, edges, request.tol)
+        edges = refine_edges(points, pairs, lambda ws: sampler(ws, "edge"), sampler.known, ps.verdict_tol,
+                             ps.edge_rtol)
+    bands = bands_from(points, edges, ps.verdict_tol)
     if comm.rank == 0:
         bands = label(bands, mean)
         _write_bands(part, bands)
     return finish(part, out, request.command_line, t0, comm)
 
 
-def _settings(request: FloquetRequest) -> dict:
-    return {"tol": request.tol, "rtol": request.rtol, "monodromy_tol": request.monodromy_tol,
-            "safety": 10.0, "analysed_case": request.case, "resonance_order": request.resonance_order,
-            "probe_resonances": int(request.probe), "reduce": str(request.reduce)}
+def _settings(request: FloquetRequest, ps: PeriodicSettings) -> dict:
+    """The ``/floquet`` group's attributes read back by :func:`read_floquet` (the whole settings: its
+    ``settings`` group)."""
+    return {"tol": ps.verdict_tol, "rtol": ps.edge_rtol, "monodromy_tol": ps.monodromy_tol,
+            "safety": SAFETY, "analysed_case": request.case, "resonance_order": ps.resonance_order,
+            "probe_resonances": int(ps.probe), "reduce": str(resolve_reduce(ps.reduce))}
 
 
-def _settings_differ(part, request: FloquetRequest, n_index: int) -> bool:
-    """A resume redoes every speed when the archived Floquet settings or size differ. Speeds solved on
-    the full model (``reduce`` None, as in archives written before the reduction existed) are kept
-    whatever reduction is asked now: no reduction is more accurate than the full model."""
+def _index_size(part) -> int:
+    """The multipliers per speed of the archived product (a resume keeps its speeds only at the same size)."""
     with h5py.File(part, "r") as f:
-        g = f[P.FLOQUET.name]
-        old = {k: g.attrs.get(k) for k in ("tol", "monodromy_tol")}
-        archived = _text(g.attrs.get("reduce", "None"))
-        return f[P.F_INDEX].shape[0] != n_index or archived not in ("None", str(request.reduce)) or any(
-            old[k] is None or float(old[k]) != float(v) for k, v in _settings(request).items() if k in old)
+        return int(f[P.F_INDEX].shape[0])
 
 
 def _read_grid(part, speeds) -> list[SpeedPoint]:

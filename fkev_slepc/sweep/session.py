@@ -7,10 +7,13 @@ its methods in the same order) and runs in three steps:
 1. :meth:`~SweepSession.open_output` -- before any solve: rank 0 checks the output (a resume
    against the archive's scene and grid, or a new ``<name>.h5.part``) and tells the other ranks
    what to solve, or raises :class:`RunRefused` on every rank;
-2. :meth:`~SweepSession.solve` -- every rank solves its share of the points and writes them
-   (:class:`~fkev_slepc.sweep.runner.Sweep`);
-3. :meth:`~SweepSession.finalise` -- rank 0 tracks modes, writes the run attributes and renames
-   the archive into place; every rank gets the :class:`SweepOutcome`.
+2. :meth:`~SweepSession.solve` -- every rank solves its share of the crank angles and writes them
+   (:meth:`~fkev_slepc.sweep.runner.Sweep.solve_angle`), then modes are tracked;
+3. :meth:`~SweepSession.finalise` -- rank 0 writes the run attributes and renames the archive
+   into place; every rank gets the :class:`SweepOutcome`.
+
+The three are the root product's use of the steps every product shares
+(fkev_slepc/sweep/run_steps.py: ``open_root``, ``solve_pending``, ``finish``).
 
 :meth:`~SweepSession.run` does all three. Human-readable notes (resume decisions, the number of
 points with ``progress``, the cross-check result) go to ``notify`` on rank 0; the library
@@ -27,27 +30,24 @@ from typing import Callable
 
 import numpy as np
 
+from fkev_slepc.archive import products as P
+from fkev_slepc.archive import store
+from fkev_slepc.archive.paths import PathProblem, check_archive_output
+from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, solve_kinematics
+from fkev_slepc.model.operators import Model
 from fkev_slepc.scene import Scene
-from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK, RETRYABLE, Status, codes
-from fkev_slepc.sweep.interrupt import StopRequest, SweepInterrupted  # noqa: F401 (raised by solve)
-
-
-class RunRefused(Exception):
-    """The sweep did not start: ``exit_code`` is what ``fkev run`` exits with (2: bad input).
-
-    Raised on every rank alike (rank 0 decides and broadcasts it), so no rank is left waiting.
-    """
-
-    def __init__(self, message: str, exit_code: int = EXIT_BAD_INPUT):
-        super().__init__(message, exit_code)
-        self.message, self.exit_code = message, exit_code
-
-    def __str__(self) -> str:
-        return self.message
-
-
-class OutputError(RunRefused):
-    """The output archive cannot be used (e.g. ``resume`` of a different scene or grid)."""
+from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
+from fkev_slepc.solve.petsc_init import init_petsc
+from fkev_slepc.solve.thresholds import SolveSettings
+from fkev_slepc.status import EXIT_NOT_CONVERGED, EXIT_OK, RETRYABLE, Status, codes
+from fkev_slepc.sweep.interrupt import SweepInterrupted  # raised by solve (also importable from here)
+from fkev_slepc.sweep.parallel import local, software_versions
+from fkev_slepc.sweep.progress import Progress
+from fkev_slepc.sweep.run_steps import OutputError, RunRefused  # noqa: F401 (importable from here)
+from fkev_slepc.sweep.run_steps import cannot_write, finish, open_root, solve_pending
+from fkev_slepc.sweep.runner import Sweep, SweepOptions
+from fkev_slepc.sweep.tracking import tracking_dofs
+from fkev_slepc.sweep.tracking_angles import track_archive
 
 
 def default_output(scene_path, plane: str = "in") -> Path:
@@ -65,10 +65,8 @@ def default_output(scene_path, plane: str = "in") -> Path:
 def mesh_arrays(mech) -> dict:
     """The arrays of ``/mesh`` of a :class:`~fkev_slepc.model.mechanism.Mechanism`, by their table
     ``source`` (:data:`fkev_slepc.archive.products.MESH`): what ``store.create`` takes as ``mesh``."""
-    from fkev_slepc.archive.products import LINKS, MESH_ARRAYS
-
-    out = {v.source: np.asarray(getattr(mech, v.source)) for v in MESH_ARRAYS}
-    out[LINKS.source] = list(getattr(mech, LINKS.source))
+    out = {v.source: np.asarray(getattr(mech, v.source)) for v in P.MESH_ARRAYS}
+    out[P.LINKS.source] = list(getattr(mech, P.LINKS.source))
     return out
 
 
@@ -142,6 +140,9 @@ class SweepSession:
     comm : mpi4py communicator
     notify : callable(str), optional
         Called on rank 0 with one-line notes for the user.
+    model : Model, optional
+        The scene's model (of ``request.plane``, with at least the motion terms of the grid's cases),
+        when the caller keeps one (``Study.sweep``: its model pool); default a new one.
 
     Raises
     ------
@@ -149,13 +150,7 @@ class SweepSession:
         On every rank, when the engine rejects the solver options.
     """
 
-    def __init__(self, request: SweepRequest, comm, notify: Callable[[str], None] | None = None):
-        from fkev_slepc.archive.products import Grid
-        from fkev_slepc.model.operators import Model
-        from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
-        from fkev_slepc.solve.petsc_init import init_petsc
-        from fkev_slepc.sweep.tracking import tracking_dofs
-
+    def __init__(self, request: SweepRequest, comm, notify: Callable[[str], None] | None = None, model=None):
         # PETSc's initialisation is collective over MPI_COMM_WORLD: do it here, on every rank,
         # before rank 0 alone imports PETSc (software versions); a no-op after the CLI's init.
         init_petsc()
@@ -165,11 +160,9 @@ class SweepSession:
         self._notify = notify if (notify is not None and self.rank0) else (lambda _msg: None)
         scene = request.scene
         an = scene.analysis
-        self.grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(scene.driver.speeds, float),
-                         tuple(an.cases), int(an.modes))
-        self.model = Model(scene, cases=self.grid.cases, plane=request.plane)
-        from fkev_slepc.solve.thresholds import SolveSettings
-
+        self.grid = P.Grid(np.asarray(an.crank_angles_deg, float), np.asarray(scene.driver.speeds, float),
+                           tuple(an.cases), int(an.modes))
+        self.model = Model(scene, cases=self.grid.cases, plane=request.plane) if model is None else model
         factory = make_cross_check_engine if request.cross_check else make_engine
         self.engine = factory(request.solver or scene.solver.method, self.model.n_free, scene.solver.petsc,
                               settings=SolveSettings.from_scene(scene))
@@ -180,23 +173,16 @@ class SweepSession:
 
     # ------------------------------------------------------------------------- 1. output
     def open_output(self) -> OutputState:
-        """Collective. Check (resume) or create the output before anything is solved.
+        """Collective. Check (resume) or create the output before anything is solved; rank 0 holds
+        the output's lock (archive/lock.py) until :meth:`finalise`, so a second writer is refused.
 
         Raises :class:`RunRefused` on every rank when the run cannot go on."""
-        plan: OutputState | RunRefused | None = None
-        if self.rank0:
-            try:
-                plan = self._open_locked()
-            except RunRefused as exc:
-                plan = exc
-            except OSError as exc:  # refused on every rank, not raised on rank 0 alone (others would wait)
-                where = f": {exc.filename}" if exc.filename else ""
-                plan = OutputError(f"{self.output}: cannot write the archive ({exc.strerror or exc}{where})")
-        plan = self.comm.bcast(plan, root=0)
-        if isinstance(plan, RunRefused):
+        req = self.request
+        try:
+            return open_root(self.output, self.comm, self._open_on_rank0, req.make_dirs, lambda plan: plan.complete)
+        except RunRefused:
             self.engine.close()
-            raise plan
-        return plan
+            raise
 
     def _expect(self) -> dict:
         """Root attributes a resumed archive must match (and a new one records)."""
@@ -206,32 +192,13 @@ class SweepSession:
                 "mode_shapes": int(scene.analysis.mode_shapes), "element": scene.analysis.element,
                 "plane": self.request.plane}
 
-    def _open_locked(self) -> OutputState:
-        """Rank 0: take the output's lock (archive/lock.py; held until :meth:`finalise`, so a
-        second writer is refused), then open the output."""
-        from fkev_slepc.archive.lock import ArchiveLocked, hold, release
-        from fkev_slepc.archive.paths import PathProblem, check_output
-
-        req = self.request
-        try:  # a path that cannot be written is one line naming it, before the lock file is made
-            check_output(self.output, (".h5",), "output" if req.make_dirs else "-o", make_parent=req.make_dirs)
-            hold(self.output)
-        except (ArchiveLocked, PathProblem) as exc:
-            raise OutputError(str(exc)) from None
-        try:
-            plan = self._open_on_rank0()
-        except BaseException:
-            release(self.output)
-            raise
-        if plan.complete:  # nothing to write
-            release(self.output)
-        return plan
-
     def _open_on_rank0(self) -> OutputState:
-        from fkev_slepc.archive import store
+        try:
+            return self._open_or_create()
+        except OSError as exc:  # refused on every rank, not raised on rank 0 alone (others would wait)
+            raise cannot_write(self.output, exc) from None
 
-        from fkev_slepc.archive.paths import PathProblem, check_archive_output
-
+    def _open_or_create(self) -> OutputState:
         out, req, grid = self.output, self.request, self.grid
         resume = req.resume or req.retry_failed  # retrying failed points means continuing an archive
         try:  # before anything is created or solved: one line naming the path
@@ -259,16 +226,12 @@ class SweepSession:
         part = store.partial_path(out)
         mech, scene = self.model.mechanism, req.scene
         mesh = mesh_arrays(mech)
-        from fkev_slepc.sweep.parallel import software_versions
-
         attrs = dict(self._expect(), scene_source=str(scene.source), command_line=req.command_line,
                      n_ranks=self.comm.size, solver_settings=self._settings(),
                      imag_tol=scene.analysis.imag_tol, damping_tol=scene.analysis.damping_tol,
                      title=scene.title, **display_facts(scene), **software_versions())
         if req.accuracy is not None:
             attrs["accuracy"] = req.accuracy
-        from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, solve_kinematics
-
         mu = np.degrees(solve_kinematics(mech, np.radians(grid.angles_deg)).transmission)
         if np.nanmin(mu, initial=90.0) < TRANSMISSION_WARN_DEG:  # NaN-free: every angle assembles
             self._notify(f"warning: transmission angle down to {np.nanmin(mu):.3g}° (< {TRANSMISSION_WARN_DEG:g}°): "
@@ -286,10 +249,6 @@ class SweepSession:
         """Collective. Solve the points of ``plan.todo`` into ``plan.part``; the number solved.
 
         ``progress``: show points done, rate and ETA on rank 0 (:class:`progress.Progress`)."""
-        from fkev_slepc.archive import writer as archive_writer
-        from fkev_slepc.sweep.progress import Progress
-        from fkev_slepc.sweep.runner import Sweep, SweepOptions
-
         an = self.request.scene.analysis
         bar = None
         if progress and self.rank0:
@@ -297,21 +256,17 @@ class SweepSession:
                          f"{self.comm.size} rank(s) -> {plan.part}")
             bar = Progress(int(plan.todo.sum()))
         opts = SweepOptions(self.grid.n_modes, an.imag_tol, an.damping_tol, an.mode_shapes, self.track_dofs)
-        writer = archive_writer.Writer(plan.part, self.comm, parallel=archive_writer.use_mpio(self.comm))
-        stop = StopRequest(notify=lambda what: self._notify(self._interrupt_note(what, plan.part)))
+        sweep = Sweep(self.model, self.grid, self.engine, None, opts, plan.lam1)
         try:
-            with stop:  # Ctrl-C/SIGTERM: every rank leaves after the same sync (sweep.interrupt)
-                sweep = Sweep(self.model, self.grid, self.engine, writer, opts, plan.lam1)
-                done = sweep.run(plan.todo, self.comm, bar, stop=stop)
+            done = solve_pending(plan.part, self.output, P.SWEEP, plan.todo,
+                                 lambda unit, mask: sweep.solve_angle(unit[0], mask), self.comm, 1, self._notify,
+                                 "points", bar, how=self.request.resume_command or "the same sweep with resume=True")
+        except SweepInterrupted:
+            self.engine.close()
+            raise
         finally:
-            writer.close()
             if bar is not None:
                 bar.close()
-        if stop.stopped:
-            self.engine.close()
-            raise SweepInterrupted(plan.part, done)
-        from fkev_slepc.sweep.tracking_angles import track_archive
-
         self._open_loops = track_archive(plan.part, sweep, self.comm)  # may solve extra angles (collective)
         self._final_settings = self._settings() if self.rank0 else None  # before close: reads solver objects
         self._cross = self._reduce_cross_check()
@@ -320,11 +275,6 @@ class SweepSession:
                 {k: self._cross[k] for k in ("max_rel_diff", "points", "skipped")})
         self.engine.close()
         return done
-
-    def _interrupt_note(self, what: str, part: Path) -> str:
-        how = self.request.resume_command or "the same sweep with resume=True"
-        return (f"interrupted by {what}: stopping at the next sync; the points finished so far stay in {part}; "
-                f"continue with: {how}")
 
     def _reduce_cross_check(self) -> dict | None:
         if not self.request.cross_check:
@@ -344,22 +294,14 @@ class SweepSession:
         """Collective. Rank 0 writes the run attributes and renames ``plan.part`` to the output
         (modes were tracked at the end of :meth:`solve`); every rank returns the outcome."""
         self.comm.Barrier()
-        result = self._finalise_on_rank0(plan, n_solved) if self.rank0 else None
+        status = store.read_state(plan.part).status if self.rank0 else None
+        finish(plan.part, self.output, self.request.command_line, self.t0, self.comm,
+               {"n_ranks": self.comm.size, "tracking_open_loops": self._open_loops,
+                "last_solver_settings": self._final_settings})
+        result = None if status is None else SweepOutcome(
+            self.output, self.grid.n_points, n_solved, store.status_counts(status), exit_code(status),
+            time.monotonic() - self.t0, self.comm.size, self._cross)
         return self.comm.bcast(result, root=0)
-
-    def _finalise_on_rank0(self, plan: OutputState, n_solved: int) -> SweepOutcome:
-        from fkev_slepc.archive import store
-
-        status = store.read_state(plan.part).status
-        attrs = {"n_ranks": self.comm.size, "last_command_line": self.request.command_line,
-                 "tracking_open_loops": self._open_loops, "last_solver_settings": self._final_settings}
-        wall = time.monotonic() - self.t0
-        store.finalize(plan.part, self.output, attrs, add_wall_time=wall)
-        from fkev_slepc.archive.lock import release
-
-        release(self.output)  # taken by open_output
-        return SweepOutcome(self.output, self.grid.n_points, n_solved, store.status_counts(status),
-                            exit_code(status), wall, self.comm.size, self._cross)
 
     # ---------------------------------------------------------------------------- all
     def run(self, progress: bool = False) -> SweepOutcome:
@@ -367,19 +309,15 @@ class SweepSession:
         plan = self.open_output()
         if plan.complete:
             self.engine.close()
-            from fkev_slepc.archive.store import status_counts
-
-            return SweepOutcome(self.output, self.grid.n_points, 0, status_counts(plan.status),
+            return SweepOutcome(self.output, self.grid.n_points, 0, store.status_counts(plan.status),
                                 exit_code(plan.status), time.monotonic() - self.t0, self.comm.size,
                                 already_complete=True)
         return self.finalise(plan, self.solve(plan, progress))
 
 
-def run_sweep(request: SweepRequest, comm=None, notify=None, progress: bool = False) -> SweepOutcome:
+def run_sweep(request: SweepRequest, comm=None, notify=None, progress: bool = False, model=None) -> SweepOutcome:
     """Run ``request`` over ``comm`` (None: this process alone, ``MPI.COMM_SELF``).
 
-    Collective; see :class:`SweepSession`. Raises ``SceneError`` (solver options) or
+    Collective; see :class:`SweepSession` (``model``: the scene's model, default a new one). Raises ``SceneError`` (solver options) or
     :class:`RunRefused` (output) on every rank before anything is solved."""
-    from fkev_slepc.sweep.parallel import local
-
-    return SweepSession(request, local(comm), notify).run(progress)
+    return SweepSession(request, local(comm), notify, model).run(progress)

@@ -200,26 +200,27 @@ def _fill(have: Samples, new: Samples) -> bool:
     return True
 
 
-def track_archive(part, sweep, comm, crit: Criteria = Criteria()) -> int | None:
+def track_archive(part, sweep, comm, crit: Criteria = Criteria(), plane: str = "in") -> int | None:
     """Collective, after the sweep (its writer closed, the engine still open): track modes along
     crank angle (solving extra angles with ``sweep.solve_samples`` where links are ambiguous)
-    and along speed, and write the results into the archive ``part`` on rank 0.
+    and along speed, and write the results into the archive ``part`` on rank 0 (``plane`` "out":
+    the ``/planes/out`` sweep of a two-plane archive, fkev_slepc/sweep/plane_run.py).
 
     Returns the number of open loops on rank 0 (None on the other ranks)."""
     from fkev_slepc.archive import store, tracks
 
     main = extra = None
     if comm.rank == 0:
-        freq, status, sig = store.read_tracking_inputs(part)
+        freq, status, sig = store.read_tracking_inputs(part, plane)
         if sig is not None:
             main = Samples(np.asarray(sweep.grid.angles_deg, float), freq, status, sig)
-            old = tracks.read_refined(part)
+            old = tracks.read_refined(part, plane)
             if old is not None:
                 extra = Samples(old.angles_deg, old.freq, old.status, old.sig, old.eigenvalue)
     if not comm.bcast(main is not None, root=0):
         if comm.rank == 0:  # nothing to track (one angle and one speed): the sorted order
             sorted_f = track_speeds(freq, status, None)[0]
-            tracks.write_tracking(part, sorted_f, np.zeros(status.shape[1:], bool), crit.attrs(), sorted_f)
+            tracks.write_tracking(part, sorted_f, np.zeros(status.shape[1:], bool), crit.attrs(), sorted_f, plane=plane)
             return 0
         return None
     res = refine_angles(main, sweep.solve_samples, comm, crit, extra)
@@ -234,5 +235,5 @@ def track_archive(part, sweep, comm, crit: Criteria = Criteria()) -> int | None:
                                   tracked=res.refined_tracked[order], status=r.status[order], sig=r.sig[order],
                                   eigenvalue=r.eigenvalue[order])
     attrs = dict(res.attrs(), speed_fallback_lines=int(np.count_nonzero(speed_fallback)))
-    tracks.write_tracking(part, res.tracked, res.fallback, attrs, speed_tracked, refined, speed_fallback)
+    tracks.write_tracking(part, res.tracked, res.fallback, attrs, speed_tracked, refined, speed_fallback, plane)
     return res.open_loops
