@@ -202,23 +202,23 @@ def first_level_size(model, mode: str) -> int:
 
 
 def memory_estimate(mech, mode: str, harmonics=None) -> float:
-    """Bytes a component-basis response of ``mech`` needs at its first level (docs/engine.md,
-    "Periodic response on link components"): 24·S² for the harmonic balance's real block matrix,
-    its assembly and LU (S = (2H + 1)·R; H = ``harmonics``, else the last H the doubling from 8 can reach, to 256
-    with (2H + 1)·R <= ``MAX_UNKNOWNS``), ~3 copies of the six periodic pieces at ``CHUNK`` angles
-    (9 nonzeros per DOF), and 6 dense n_j² arrays per link interior (K_ii, M_ii,
-    K_ib, the static-correction flexibility, the modes, eigh's workspace)."""
-    k = LINK_MODES if mode == "links" else int(mode[6:])
+    """Bytes a component-basis response of ``mech`` needs at most (docs/engine.md, "Periodic response
+    on link components"): 24·S² for the harmonic balance's real block matrix, its assembly and LU
+    (S = (2H + 1)·R: for "links" the bound ``MAX_UNKNOWNS`` the levels double up to; for "links:N" R
+    of the 2N level it is measured against and H = ``harmonics``, else the last H the doubling from 8
+    can reach, to 256), ~3 copies of the six periodic pieces at ``CHUNK`` angles (9 nonzeros per DOF),
+    and 6 dense n_j² arrays per link interior (K_ii, M_ii, K_ib, the static-correction flexibility,
+    the modes, eigh's workspace)."""
     n_b, sizes = _interior_sizes(mech)
-    R = n_b + sum(min(k, n) for n in sizes)
-    if harmonics is not None:
-        H = int(harmonics)
+    if mode == "links":
+        S = MAX_UNKNOWNS
     else:
-        H = 16
-        while 2 * H <= 256 and (4 * H + 1) * R <= MAX_UNKNOWNS:
+        R = n_b + sum(min(2 * int(mode[6:]), n) for n in sizes)
+        H = 16 if harmonics is None else int(harmonics)
+        while harmonics is None and 2 * H <= 256 and (4 * H + 1) * R <= MAX_UNKNOWNS:
             H *= 2
-    S = (2 * H + 1) * R
-    return float(24 * S**2 + 3 * 6 * 8 * 9 * mech.n_free * min(4 * H + 1, CHUNK) + 6 * 8 * sum(n * n for n in sizes))
+        S = min((2 * H + 1) * R, MAX_UNKNOWNS)
+    return float(24 * S**2 + 3 * 6 * 8 * 9 * mech.n_free * CHUNK + 6 * 8 * sum(n * n for n in sizes))
 
 
 MEMORY_LIMIT = 8e9  # bytes: a component-basis response estimated above is refused (memory_problem)
