@@ -37,6 +37,7 @@ class ResponseResult:
     closure: float  # ‖x(2π) − x(0)‖ / ‖x(0)‖ of the shooting trajectory
     elem_nodes: np.ndarray  # (n_el, 2) for drawing
     link_stress: object = None  # periodic.link_stress.LinkStress: σ₊, σ₋ at every element end
+    truncation: object = None  # periodic.component_response.ResponseTruncation (None: the full model)
 
     def plot(self, kind: str = "deflected", **options):
         """``deflected`` (the linkage at several angles, magnified, scale stated), ``stations``
@@ -112,6 +113,8 @@ class ResponseResult:
             "multiplier_error": _none(self.multiplier_error), "harmonics": self.harmonics,
             "harmonic_balance_error": _none(self.hb_error), "methods_difference": _none(self.methods_difference),
             "periodicity_closure": _none(self.closure),
+            "reduction": "none" if self.truncation is None else "links",
+            "truncation": None if self.truncation is None else self.truncation.as_dict(),
             "max_deflection_m": float(np.nanmax(np.hypot(*np.moveaxis(self.node_displacement, -1, 0)))),
         }
 
@@ -156,7 +159,8 @@ class ResponseResult:
                 "gravity_m_s2": self.gravity.tolist(), "link_names": list(self.link_names),
                 "harmonics": self.harmonics, "harmonic_balance_error": self.hb_error,
                 "max_abs_multiplier": self.max_abs_multiplier, "methods_difference": self.methods_difference,
-                **(attrs or {})}
+                "reduction": "none" if self.truncation is None else "links",
+                **({} if self.truncation is None else {"truncation": self.truncation.as_dict()}), **(attrs or {})}
         return write_labelled(path, RESPONSE_FORMAT, coords, variables, meta)
 
 
@@ -166,7 +170,7 @@ def _none(x):
 
 def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
                    harmonics: int | None = None, tol: float | None = None, shoot: bool | None = None, stations=None,
-                   names=None, settings=None) -> ResponseResult:
+                   names=None, settings=None, reduce=None) -> ResponseResult:
     """The steady periodic response at ``speed_rad_s`` for ``case``: the code path of
     ``Study.response`` and ``fkev response`` (docs/response.md §3-4).
 
@@ -174,7 +178,10 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     gives the response (one static solve where the system is constant in the link frame: a lone
     rotating link); with ``shoot`` (opt-in) the monodromy gives the Floquet multipliers (some
     |μ| > 1: the response exists but does not attract) and the shooting solution, whose
-    difference from harmonic balance is reported. ``stations``: {link name: [s_m, ...]}
+    difference from harmonic balance is reported. ``reduce``: default (the full model up to
+    ``periodic.component_response.FULL_MAX_DOFS`` free DOFs, else links), none, links (the link-frame
+    component basis, modes per link doubled until stress and deflection converge, static correction
+    of the dropped modes; the truncation measured and stated) or links:N. ``stations``: {link name: [s_m, ...]}
     (default every link's root, midspan and tip). Raises SceneError for a bad argument, a
     crank acceleration (constant speed only) or an exact resonance ((I − Φ) singular).
     ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`, default its defaults):
@@ -189,11 +196,12 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     ps = point_settings(scene, settings, names, harmonics=harmonics, tol=tol, shoot=shoot, angles_deg=angles_deg)
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
-                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names)
+                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
+                                            reduce=reduce)
     mech = model.mechanism
     chosen = chosen_stations(scene, mech, stations, names)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=ps.shoot,
-                     names=names, shooting_tol=ps.shooting_tol)
+                     names=names, shooting_tol=ps.shooting_tol, reduce=reduce)
     theta = np.radians(a)
     q = r.hb.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
@@ -207,7 +215,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
-        float("nan") if sh is None else sh.closure, mech.elem_nodes, whole)
+        float("nan") if sh is None else sh.closure, mech.elem_nodes, whole, r.truncation)
 
 
 def chosen_stations(scene: Scene, mech, stations, names=None):

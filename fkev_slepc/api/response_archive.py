@@ -35,7 +35,7 @@ from fkev_slepc.sweep.product_run import (
 )
 from fkev_slepc.sweep.units import pending
 
-OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stations")
+OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stations", "reduce")
 
 
 @dataclass(frozen=True)
@@ -149,7 +149,8 @@ def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *,
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
-    case = checked_model(scene, case, options.get("harmonics"), names).cases[0]  # before the frozen sweep
+    case = checked_model(scene, case, options.get("harmonics"), names,  # before the frozen sweep
+                         reduce=options.get("reduce")).cases[0]
     sc = configure(scene, speeds=[float(w) for w in speeds], cases=[case])
     out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line, options=options, modes=modes,
                                        periodic=settings), comm,

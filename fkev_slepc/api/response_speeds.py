@@ -127,7 +127,7 @@ def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: 
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
-    checked_model(scene, case, options.get("harmonics"), names)  # before the first speed
+    checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"))  # before the first speed
     options = {**options, "settings": SCAN if settings is None else settings}
     rows = []
     for w in speeds:

@@ -130,13 +130,16 @@ MAX_PERIODIC_DOFS = 1_000  # floquet and response integrate dense 2n x 2n states
 
 
 def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", plots: tuple[str, ...] = ("plot",),
-              output: str | None = None, periodic: bool = False, harmonics: int | None = None) -> None:
+              output: str | None = None, periodic: bool = False, harmonics: int | None = None,
+              reduce: str | None = None) -> None:
     """Every check of a command's input that needs no solve, before any work (one place for all
     commands): the figure paths (``plots``: attribute names of ``args``, e.g. ``plot_stations`` for
     ``--plot-stations``; a format matplotlib writes, an existing folder), the ``output`` file of a
     labelled result (``-o``: not a directory), the mesh size (``--elements``: at most
     :data:`MAX_FREE_DOFS` free DOFs, :data:`MAX_PERIODIC_DOFS` for the ``periodic`` commands floquet
-    and response), the harmonic-balance size (``harmonics``), the damping (ζ over-critical,
+    and response; a response on link components, ``reduce``, up to the memory its estimate allows:
+    :func:`fkev_slepc.periodic.component_response.memory_problem`), the harmonic-balance size
+    (``harmonics``), the damping (ζ over-critical,
     :func:`fkev_slepc.scene.plausible.damping_warnings`) and ``speeds`` whose operators overflow
     double precision (named by ``speed_flag``).
 
@@ -163,7 +166,7 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
             check_output(output, (".h5",), "-o", make_parent=True)
         except PathProblem as exc:
             bad.append(Problem("-o", str(exc).removeprefix("-o ")))
-    bad += _size_problems(scene, periodic, harmonics)
+    bad += _size_problems(scene, periodic, harmonics, reduce)
     if bad:  # nothing below is worth computing
         raise SceneError(scene.source, bad)
     if periodic:
@@ -180,13 +183,23 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
         raise SceneError(scene.source, bad)
 
 
-def _size_problems(scene: Scene, periodic: bool, harmonics: int | None) -> list[Problem]:
+def _size_problems(scene: Scene, periodic: bool, harmonics: int | None, reduce=None) -> list[Problem]:
     """The mesh (and harmonic balance) too large to be worth starting, with the numbers and the way out."""
     from fkev_slepc.model.mechanism import build_mechanism
 
-    n = build_mechanism(scene).n_free
+    mech = build_mechanism(scene)
+    n = mech.n_free
     limit, what = (MAX_PERIODIC_DOFS, "the periodic solvers integrate dense states of 2n") if periodic else (
         MAX_FREE_DOFS, "the limit of one command")
+    if periodic and reduce is not None and n <= MAX_FREE_DOFS:
+        from fkev_slepc.periodic.component_response import memory_problem
+
+        try:
+            text = memory_problem(mech, reduce, harmonics)
+        except ValueError:
+            text = None  # a bad --reduce: named by the response's own check
+        if text != "full":
+            return [] if text is None else [Problem("--elements", text)]
     if n > limit:
         return [Problem("--elements", f"{n} free DOFs exceed {limit} ({what}; docs/cli.md, Limits): use fewer "
                                       "--elements")]

@@ -18,7 +18,7 @@ from .common import (
 )
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
-         "harmonics": "--harmonics", "stations": "--station", "elements": "--elements"}
+         "harmonics": "--harmonics", "stations": "--station", "elements": "--elements", "reduce": "--reduce"}
 
 
 def add_parser(sub) -> None:
@@ -41,6 +41,11 @@ def add_parser(sub) -> None:
     p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
                    "until the estimated error is below --tol)")
     p.add_argument("--tol", type=float, default=DEFAULTS.harmonic_tol, help="harmonic-balance tolerance (default 1e-8)")
+    p.add_argument("--reduce", default=None, metavar="default|none|links|links:N", help="links: solve on each "
+                   "link's Craig-Bampton component modes in its own frame (q = W(θ)z plus the static correction of "
+                   "the dropped modes; modes per link doubled until stress and deflection change by < 1e-3, the "
+                   "truncation stated); links:N: N modes per link, measured against 2N; none: the full model; "
+                   "default: the full model up to 48 free DOFs, links above")
     shooting = p.add_mutually_exclusive_group()
     shooting.add_argument("--shooting", action="store_true", help="also shoot on the monodromy: the Floquet "
                           "multipliers (does the response attract?) and a second method's cross-check")
@@ -103,12 +108,14 @@ def run(args) -> int:
         speed = None if scan else chosen_speed(args, scene, flags)
         preflight(scene, args, speeds=args.speed_list if scan else [speed],
                   speed_flag=args.speeds_flag if scan else flags["speed_rad_s"], plots=("plot", "plot_stations"),
-                  output=None if scan else args.output, periodic=True, harmonics=args.harmonics)
+                  output=None if scan else args.output, periodic=True, harmonics=args.harmonics,
+                  reduce=args.reduce or "default")
         settings = _settings(args, scene)
         if scan:
             return _vs_speed(args, scene, angles, gravity, stations, settings)
         res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
-                             harmonics=args.harmonics, stations=stations, names=flags, settings=settings)
+                             harmonics=args.harmonics, stations=stations, names=flags, settings=settings,
+                             reduce=args.reduce)
     except SceneError as err:
         return report_scene_error(err)
     missed = not res.hb_error <= args.tol  # NaN (not estimated) misses too
@@ -145,6 +152,12 @@ def _print(d: dict) -> None:
     err = d["harmonic_balance_error"]
     print(f"  harmonic balance: {d['harmonics']} harmonics, estimated error {err:.1e}" if err is not None else
           f"  harmonic balance: {d['harmonics']} harmonics")
+    t = d["truncation"]
+    if t is not None:
+        state = "converged" if t["converged"] else f"NOT converged to {t['tol']:g}"
+        print(f"  link components: {t['modes_per_link']} modes per link ({t['basis']} unknowns per harmonic, modes "
+              f"to {t['covered_rad_s']:.4g} rad/s); doubling them changes stress {t['stress']:.1e}, deflection "
+              f"{t['deflection']:.1e} ({state})")
     if d["max_abs_multiplier"] is not None:
         verdict = {"attracts": "attracts (every |μ| < 1)",
                    "neutral": "is neutrally stable (max |μ| = 1 within its error: undamped)",
@@ -194,7 +207,7 @@ def _vs_speed(args, scene, angles, gravity, stations, settings) -> int:
     from fkev_slepc.sweep.session import RunRefused
 
     options = dict(angles_deg=angles, gravity_m_s2=gravity, harmonics=args.harmonics, settings=settings,
-                   stations=stations, names={**FLAGS, "speeds_rad_s": args.speeds_flag})
+                   stations=stations, names={**FLAGS, "speeds_rad_s": args.speeds_flag}, reduce=args.reduce)
     comm = world() if args.output else None
     rank0 = comm is None or comm.rank == 0
     try:

@@ -85,14 +85,35 @@ def galerkin_solve(coefficients, load, omega: float, H: int) -> HarmonicResponse
                          f"limit {MAX_UNKNOWNS}; use fewer harmonics")
     hat = lambda x: np.fft.fft(x, axis=0) / Nq  # noqa: E731  index m mod Nq: harmonic m
     Mh, Ch, Kh, Fh = hat(M), hat(C), hat(K), hat(f)
-    ls = np.arange(-H, H + 1)
-    diff = (ls[:, None] - ls[None, :]) % Nq  # k - l
+    ls, ks = np.arange(-H, H + 1), np.arange(H + 1)
+    diff = (ks[:, None] - ls[None, :]) % Nq  # k - l for the residual's harmonics k >= 0 (k < 0: conjugates)
     w = float(omega)
-    A = Kh[diff] + (1j * w * ls)[None, :, None, None] * Ch[diff] - ((w * ls) ** 2)[None, :, None, None] * Mh[diff]
-    A = A.transpose(0, 2, 1, 3).reshape(size, size)
-    b = Fh[ls % Nq].reshape(-1)
-    Q, rcond = _solve(A, b)
-    Q = Q.reshape(2 * H + 1, n)
+    # assembled in place (one block matrix and one temporary: the memory of large models)
+    A = Kh[diff]
+    T = Ch[diff]
+    T *= (1j * w * ls)[None, :, None, None]
+    A += T
+    np.take(Mh, diff, axis=0, out=T)
+    T *= ((w * ls) ** 2)[None, :, None, None]
+    A -= T
+    del T
+    # q real: Q_-l = conj(Q_l) = a_l - i b_l, so the real unknowns (a_0, a_1..a_H, b_1..b_H) and the
+    # real equations (Re of harmonics 0..H, Im of 1..H): a real LU of the same size, 1/4 of the
+    # complex one's work
+    P = A[:, H + 1:] + A[:, H - 1::-1]  # multiplies a_l
+    D = 1j * (A[:, H + 1:] - A[:, H - 1::-1])  # multiplies b_l
+    blocks = np.concatenate([A[:, H:H + 1], P, D], axis=1)  # (H + 1, 2H + 1, n, n) complex
+    del A, P, D
+    G = np.concatenate([blocks.real, blocks[1:].imag], axis=0)
+    del blocks
+    G = G.transpose(0, 2, 1, 3).reshape(size, size)
+    F = Fh[ks]
+    x, rcond = _solve(G, np.concatenate([F.real, F[1:].imag]).reshape(-1))
+    x = x.reshape(2 * H + 1, n)
+    Q = np.empty((2 * H + 1, n), dtype=complex)
+    Q[H] = x[0]
+    Q[H + 1:] = x[1:H + 1] + 1j * x[H + 1:]
+    Q[:H] = np.conj(Q[H + 1:][::-1])
     harmonics = np.concatenate([Q[H : H + 1].real, 2.0 * Q[H + 1 :]])
     theta = 2.0 * np.pi * np.arange(2 * H + 1) / (2 * H + 1)
     E = np.exp(1j * np.outer(theta, ls))

@@ -8,7 +8,9 @@ K = K₀ + Ω²K₂ for the case's terms) and the rigid-body inertia loads of
 :class:`~fkev_slepc.periodic.system.PeriodicSystem` (the system Floquet takes), solved by harmonic balance
 (:mod:`~fkev_slepc.periodic.harmonic_balance`) and by shooting on the monodromy
 (:mod:`~fkev_slepc.periodic.shooting`): the two are independent (a global collocation
-and a Magnus time-stepper) and the result carries their difference.
+and a Magnus time-stepper) and the result carries their difference. On large meshes both run on the
+link-frame component basis q = W(θ)z (fkev_slepc/periodic/component_response.py, docs/response.md §3.1),
+the truncation measured by doubling the modes per link and carried with the result.
 """
 
 from __future__ import annotations
@@ -21,6 +23,9 @@ from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.periodic.shooting import ShootingResponse, shooting
+from fkev_slepc.periodic.component_response import (
+    RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
+)
 
 
 @dataclass(frozen=True)
@@ -30,8 +35,9 @@ class PeriodicResponse:
 
     omega: float
     case: str
-    hb: HarmonicResponse
+    hb: HarmonicResponse  # or component_response.LiftedResponse (the same interface, q in the global DOFs)
     shoot: ShootingResponse | None
+    truncation: ResponseTruncation | None = None  # on the link-component basis: measured by doubling
 
     @property
     def theta(self) -> np.ndarray:
@@ -58,23 +64,33 @@ class PeriodicResponse:
 
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,
-                      shoot: bool = False, shooting_tol: float = DEFAULTS.shooting_tol) -> PeriodicResponse:
+                      shoot: bool = False, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None,
+                      reduce_tol: float = RESPONSE_REDUCE_TOL) -> PeriodicResponse:
     """Harmonic balance (and, with ``shoot``, shooting at the same angles) of ``system``
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
     :class:`~fkev_slepc.periodic.system.PeriodicSystem`). Where the system and its load are
     constant in the link frame (:func:`static_response`) the harmonic balance is that one static
-    solve, whatever ``harmonics``.
+    solve, whatever ``harmonics``. ``reduce`` (a PeriodicSystem only): None/"none" the full
+    model, "links"/"links:N" the link-frame component basis (modes per link doubled to
+    ``reduce_tol``, or N measured against 2N: fkev_slepc/periodic/component_response.py),
+    "default" the full model up to ``component_response.FULL_MAX_DOFS`` free DOFs, else "links".
 
     Raises ``periodic.shooting.ResonanceError`` where (I − Φ) is singular to working precision."""
-    sh = None
-    if shoot:  # first: it refuses an exact resonance before the collocation solves a singular system
-        sh = shooting(system.mck, system.load, omega, np.zeros(1), tol=shooting_tol)
     hb = static_response(system)
+    mode = None if hb is not None or not hasattr(system, "model") else response_reduction(system.model, reduce)
+    trunc, target = None, system
+    if mode is not None:
+        modes = None if mode == "links" else int(mode[6:])
+        hb, trunc = converged_response(system, omega, modes=modes, harmonics=harmonics, tol=tol, reduce_tol=reduce_tol)
+        target = hb.system
+    sh = None
+    if shoot:  # before the full collocation: it refuses an exact resonance before a singular solve
+        sh = shooting(target.mck, target.load, omega, np.zeros(1), tol=shooting_tol)
     if hb is None:
         hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol)
     if sh is not None:
-        sh = _resample(sh, hb.theta, system, omega)
-    return PeriodicResponse(float(omega), case, hb, sh)
+        sh = _resample(sh, hb.theta, target, omega)
+    return PeriodicResponse(float(omega), case, hb, sh, trunc)
 
 
 def static_response(system) -> HarmonicResponse | None:
@@ -111,5 +127,7 @@ def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:
     x0 = np.concatenate([sh.q[0], sh.dq[0]])
     x = magnus.trajectory(gen, x0, theta, forcing=forcing, steps=sh.steps, period=2.0 * np.pi)
     n = sh.q.shape[1]
-    return ShootingResponse(np.asarray(theta), x[:, :n], x[:, n:], sh.multipliers, sh.error, sh.rcond, sh.steps,
-                            sh.closure)
+    q, dq = x[:, :n], x[:, n:]
+    if isinstance(system, ProjectedSystem):  # z -> q = W z + Δq
+        q, dq = system.lift(theta, q, dq)
+    return ShootingResponse(np.asarray(theta), q, dq, sh.multipliers, sh.error, sh.rcond, sh.steps, sh.closure)
