@@ -38,7 +38,7 @@ def test_round_trip_through_hdf5_attributes_is_exact(tmp_path):
     assert back.reduce == "12" and back.response_angles_deg == (0.0, 90.5, 181.0)
     assert set(DEFAULTS.diff(s)) == {"magnus_order", "monodromy_tol", "steps", "samples", "reduce", "max_basis",
                                      "verdict_tol", "probe", "harmonics", "shoot", "response_angles_deg"}
-    assert DEFAULTS.diff(s)["monodromy_tol"] == (1e-10, 3e-11) and s.diff(s) == {}
+    assert DEFAULTS.diff(s)["monodromy_tol"] == (1e-8, 3e-11) and s.diff(s) == {}
     assert PeriodicSettings.from_attrs(DEFAULTS.to_attrs()) == DEFAULTS
     partial = {k: v for k, v in s.to_attrs().items() if k != "edge_rtol"}
     with pytest.raises(SettingsError, match="edge_rtol: missing from the archived settings"):
@@ -64,7 +64,7 @@ def test_resume_refusal_names_each_field_with_both_values():
     new = replace(DEFAULTS, monodromy_tol=1e-9, samples=32, edge_rtol=1e-9)
     why = resume_refusal(DEFAULTS, new, "floquet")
     assert why == ("cannot resume: the periodic settings differ from the archive's: monodromy_tol: archive has "
-                   "1e-10, this run 1e-09; samples: archive has 16, this run 32") and "\n" not in why
+                   "1e-08, this run 1e-09; samples: archive has 16, this run 32") and "\n" not in why
     assert resume_refusal(DEFAULTS, replace(DEFAULTS, edge_rtol=1e-9), "floquet") is None
     assert "written before its periodic settings were archived" in resume_refusal(None, DEFAULTS, "floquet")
 
