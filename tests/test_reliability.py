@@ -425,3 +425,23 @@ def test_xarray_reads_of_every_product_are_verified(floquet_archive, product_arc
             fk.open_dataset(bad, group=group)
     with pytest.raises(ArchiveError, match="no group 'respons'"):
         fk.open_dataset(response, group="respons")
+
+
+def test_verify_calls_a_single_point_file_not_verifiable_never_damaged(tmp_path):
+    """An intact ``fkev loads -o`` file (format ``fkev-loads``, no checksums) was called DAMAGED
+    by ``fkev verify`` and warned about by ``fk.open``: it is a file of another format, intact."""
+    import warnings
+
+    import fkev_slepc as fk
+    from fkev_slepc.archive.reader import ArchiveError, DamagedArchiveWarning
+
+    out = tmp_path / "loads.h5"
+    r = fkev("loads", *B_W_111, "--speed", "100", "--angles", "0:360:90", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    v = fkev("verify", out)
+    assert v.returncode == 2 and "DAMAGED" not in v.stdout + v.stderr
+    assert "not verifiable: a single-point file of format 'fkev-loads'" in v.stdout + v.stderr
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DamagedArchiveWarning)
+        with pytest.raises(ArchiveError, match="not an fkev archive"):
+            fk.open(out)

@@ -30,7 +30,7 @@ def checked(path, stacklevel: int = 2) -> Path:
         raise ArchiveError(check.summary() + "; read it when the run finishes")
     if check.crashed or any("cannot open" in p or "cannot read its structure" in p for p in check.problems):
         raise ArchiveError(check.summary())
-    if not check.ok:
+    if not check.ok and check.other_format is None:  # a single-point file has no checksums: nothing damaged
         import warnings
 
         warnings.warn(check.summary(), DamagedArchiveWarning, stacklevel=stacklevel + 1)

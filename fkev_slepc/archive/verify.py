@@ -2,18 +2,16 @@
 
 Each dataset carries an attribute ``sha256``: the SHA-256 of its values (raw bytes in C order,
 variable-length strings joined by NUL) followed by its own attributes; the root group carries
-``attrs_sha256`` over the root attributes. They are written by :func:`stamp` when a run
-finishes (serial, rank 0), after the last value has been written, and re-stamped by every
-resumed run that finishes.
+``attrs_sha256`` over the root attributes. They are written by :func:`stamp` when a run finishes (serial,
+rank 0), after the last value has been written, and re-stamped by every resumed run that finishes.
 
-Why not HDF5's Fletcher32 filter: a filter needs chunked storage, and parallel HDF5 1.10
-refuses filtered datasets to the independent hyperslab writes every rank makes (docs/archive.md).
-A digest per dataset also covers what Fletcher32 cannot: string datasets and attributes.
+Why not HDF5's Fletcher32 filter: a filter needs chunked storage, and parallel HDF5 1.10 refuses filtered
+datasets to the independent hyperslab writes every rank makes (docs/archive.md). A digest per dataset also
+covers what Fletcher32 cannot: string datasets and attributes.
 
-An archive still being written (``complete = 0``, ``<name>.h5.part``) has no checksums yet;
-:func:`verify` then only checks that every dataset reads back. A ``.part`` that a live run
-holds (its lock, ``archive/lock.py``, names the pid) is reported as being written, with the
-points done so far, not as damaged.
+An archive still being written (``complete = 0``, ``<name>.h5.part``) has no checksums yet; :func:`verify`
+then only checks that every dataset reads back. A ``.part`` that a live run holds (its lock,
+``archive/lock.py``, names the pid) is reported as being written, with the points done so far, not as damaged.
 
 **Damaged metadata.** HDF5 decodes object headers, heaps and dimension-scale references with
 few checks: one flipped byte in a header can crash the process (SIGSEGV) before any checksum
@@ -46,10 +44,8 @@ _SKIP_ATTRS = {"DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "_Netcdf4Dim
 
 
 def _value_bytes(value) -> bytes:
-    if isinstance(value, bytes):
-        return value
-    if isinstance(value, str):
-        return value.encode("utf-8")
+    if isinstance(value, (bytes, str)):
+        return value if isinstance(value, bytes) else value.encode("utf-8")
     a = np.asarray(value)
     if a.dtype.kind == "O":  # variable-length strings
         return b"\0".join(_value_bytes(v) for v in a.ravel())
@@ -167,10 +163,11 @@ class Verification:
     counts: dict = field(default_factory=dict)
     crashed: bool = False
     notes: list[str] = field(default_factory=list)
+    other_format: str | None = None  # the ``format`` of a file fkev wrote that is not a checksummed archive
 
     @property
     def ok(self) -> bool:
-        return not self.problems
+        return not self.problems and self.other_format is None
 
     def points(self) -> str:
         """``12 of 30 points done (ok 10, failed 2)`` from ``counts``."""
@@ -185,6 +182,8 @@ class Verification:
         if self.writer is not None:
             return (f"{self.path}: being written by {self.writer}; {self.points()} so far "
                     "(checked when the run finishes)")
+        if self.other_format is not None:  # fkev response/loads -o: a file without checksums
+            return f"{self.path}: not verifiable: a single-point file of format {self.other_format!r}, without checksums"
         if not self.ok:
             what = "DAMAGED: " if self.path.is_file() else ""
             more = f"; and {len(self.problems) - 3} more" if len(self.problems) > 3 else ""
@@ -236,7 +235,7 @@ def _fill(out: Verification, result: dict, live: bool) -> Verification:
     out.complete = bool(result.get("complete", False))
     out.n_datasets = int(result.get("n_datasets", 0))
     out.counts = dict(result.get("counts", {}))
-    out.notes = list(result.get("notes", []))
+    out.notes, out.other_format = list(result.get("notes", [])), result.get("other_format")
     found = list(result.get("problems", []))
     out.crashed = out.crashed or bool(result.get("crashed", False))
     if live:  # a file being written is not damaged: what could not be read is a note
@@ -351,6 +350,9 @@ def check(path: Path, locking: bool = True) -> dict:
         problems.append(f"HDF5 cannot open it ({exc})")
         return out
     with f, open(path, "rb") as fh:
+        kind = _text(f.attrs.get("format", ""))
+        if kind.startswith("fkev-") and kind != _products().FORMAT:  # a labelled single-point file
+            return {**out, "other_format": kind}
         try:
             out["complete"] = bool(int(f.attrs.get("complete", 0)))
             stamped = ROOT_DIGEST_ATTR in f.attrs

@@ -127,6 +127,7 @@ def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
 PLOT_FORMATS = (".png", ".pdf", ".svg")  # every --plot of every command
 MAX_FREE_DOFS = 100_000  # a mesh beyond: refused before meshing (docs/cli.md, "Limits"; 50,400 DOFs measured in docs/engine.md)
 MAX_PERIODIC_DOFS = 1_000  # floquet and response integrate dense 2n x 2n states: beyond, refused
+MAX_COMPONENT_DOFS = 2_000  # the response on link components (54 s, 1.7 GB at 999 DOFs, docs/engine.md): beyond, refused
 
 
 def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", plots: tuple[str, ...] = ("plot",),
@@ -191,7 +192,9 @@ def _size_problems(scene: Scene, periodic: bool, harmonics: int | None, reduce=N
     n = mech.n_free
     limit, what = (MAX_PERIODIC_DOFS, "the periodic solvers integrate dense states of 2n") if periodic else (
         MAX_FREE_DOFS, "the limit of one command")
-    if periodic and reduce is not None and n <= MAX_FREE_DOFS:
+    if periodic and reduce is not None and n > MAX_COMPONENT_DOFS:
+        limit, what = MAX_COMPONENT_DOFS, "the response on link components: 54 s and 1.7 GB at 999 DOFs"
+    elif periodic and reduce is not None:
         from fkev_slepc.periodic.component_response import memory_problem
 
         try:

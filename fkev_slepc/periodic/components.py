@@ -158,6 +158,11 @@ class Components:
         if rows.size != self.n or np.unique(rows).size != self.n:
             raise ValueError("the boundary and link interiors do not partition the free DOFs")
 
+    @property
+    def interior(self) -> np.ndarray:
+        """(n_link,) interior DOFs per link."""
+        return np.array([c.size for c in self.links])
+
     def _ensure(self, k: int) -> None:
         """Find at least min(k, n_i) fixed-interface modes of every link."""
         for j, c in enumerate(self.links):

@@ -44,12 +44,14 @@ class LinkStress:
 
     def peak(self, link: int) -> dict | None:
         """The peak |σ| of ``link`` over its points, faces and the cycle: value, s, face and
-        crank angle (None without fibre distances)."""
+        crank angle (None without fibre distances). Peaks equal to round-off (1e-12 relative) go to the
+        first in (angle, point, face) order, so a symmetric section's two faces give the + face."""
         sel = np.flatnonzero(self.point_link == link)
         mag = np.abs(self.sigma[:, sel])
         if not np.isfinite(mag).any():
             return None
-        a, k, f = np.unravel_index(np.nanargmax(mag), mag.shape)
+        first = np.flatnonzero(np.nan_to_num(mag, nan=-1.0).ravel() >= np.nanmax(mag) * (1.0 - 1e-12))[0]
+        a, k, f = np.unravel_index(first, mag.shape)
         return {"stress_pa": float(mag[a, k, f]), "sigma_pa": float(self.sigma[a, sel[k], f]),
                 "s_m": float(self.point_s[sel[k]]), "face": FACES[f], "crank_angle_deg": float(self.angle_deg[a]),
                 "point": int(sel[k])}
