@@ -49,29 +49,19 @@ class OutOfPlaneCheck:
                 "f1_hz": [float(f) if np.isfinite(f) else None for f in self.f1_hz]}
 
 
-def has_out_of_plane_section(mech) -> bool:
-    """Every element has the out-of-plane section data (EI_out, GJ, ρI_p) the problem needs."""
-    from fkev_slepc.model.out_of_plane import section_of
-
-    try:
-        section_of(mech)
-    except ValueError:
-        return False
-    return True
-
-
 def out_of_plane_check(scene, speed_rad_s: float, case: str, angles_deg, buckling) -> OutOfPlaneCheck | None:
     """The :class:`OutOfPlaneCheck` of ``scene`` at ``speed_rad_s`` over ``angles_deg`` (deg, angles
     that assemble), ``buckling`` the links' :class:`~fkev_slepc.model.buckling.Buckling`; None
     when the scene has no out-of-plane section (:data:`NOT_CHECKED`)."""
     from fkev_slepc.model.mechanism import build_mechanism
+    from fkev_slepc.model.out_of_plane import has_section
     from fkev_slepc.model.operators import Model
     from fkev_slepc.solve.engines import make_engine
     from fkev_slepc.solve.modes import postprocess
     from fkev_slepc.solve.thresholds import SolveSettings
     from fkev_slepc.status import CONVERGED, Status
 
-    if not has_out_of_plane_section(build_mechanism(scene)):
+    if not has_section(build_mechanism(scene)):
         return None
     a = np.asarray(angles_deg, dtype=float)
     model = Model(scene, (case,), plane="out")

@@ -83,6 +83,15 @@ def section_of(mech: Mechanism, section: Section | None = None) -> Section:
 
 
 # -- element matrices, element frame (ψ₁, β₁, w₁, ψ₂, β₂, w₂) ----------------------------------
+def has_section(mech: Mechanism) -> bool:
+    """Every element has the out-of-plane section data (EI_out, GJ, ρI_p) the problem needs."""
+    try:
+        section_of(mech)
+    except ValueError:
+        return False
+    return True
+
+
 def mass(rho_a: np.ndarray, rho_ip: np.ndarray, l: np.ndarray) -> np.ndarray:
     """Consistent mass: §5.1's bending block with ρA on w, its axial block with ρI_p on the twist
     (§19.4; the rotary inertia of the bending slope is neglected)."""
