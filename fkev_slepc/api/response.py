@@ -38,6 +38,20 @@ class ResponseResult:
     elem_nodes: np.ndarray  # (n_el, 2) for drawing
     link_stress: object = None  # periodic.link_stress.LinkStress: σ₊, σ₋ at every element end
     truncation: object = None  # periodic.component_response.ResponseTruncation (None: the full model)
+    method: str = "harmonic balance"  # or "shooting": the balance abandoned (periodic/response.py)
+    error: float = float("nan")  # estimated relative error of the response, by ``method``
+    hb_levels: tuple = ()  # (H, estimate) of every harmonic-balance level, coarse to fine
+    shooting_steps: int = 0  # Magnus steps of the shooting that gave the response (0: harmonic balance)
+
+    def solution(self) -> dict:
+        """How the response was solved and its truncation: ``method``, ``response_error`` (by that method),
+        the balance's ``harmonics``, ``harmonic_balance_error`` and ``levels`` ([H, estimate], coarse
+        to fine; abandoned where the method is shooting), ``shooting_steps``, and the link-component
+        ``truncation`` (None on the full model)."""
+        return {"method": self.method, "response_error": _none(self.error), "harmonics": self.harmonics,
+                "harmonic_balance_error": _none(self.hb_error),
+                "levels": [[int(h), _none(e)] for h, e in self.hb_levels], "shooting_steps": int(self.shooting_steps),
+                "truncation": None if self.truncation is None else self.truncation.as_dict()}
 
     def plot(self, kind: str = "deflected", **options):
         """``deflected`` (the linkage at several angles, magnified, scale stated), ``stations``
@@ -113,8 +127,7 @@ class ResponseResult:
             "multiplier_error": _none(self.multiplier_error), "harmonics": self.harmonics,
             "harmonic_balance_error": _none(self.hb_error), "methods_difference": _none(self.methods_difference),
             "periodicity_closure": _none(self.closure),
-            "reduction": "none" if self.truncation is None else "links",
-            "truncation": None if self.truncation is None else self.truncation.as_dict(),
+            "reduction": "none" if self.truncation is None else "links", **self.solution(),
             "max_deflection_m": float(np.nanmax(np.hypot(*np.moveaxis(self.node_displacement, -1, 0)))),
         }
 
@@ -158,6 +171,7 @@ class ResponseResult:
         meta = {"title": self.title, "scene_toml": self.scene_text, "speed_rad_s": self.speed, "case": self.case,
                 "gravity_m_s2": self.gravity.tolist(), "link_names": list(self.link_names),
                 "harmonics": self.harmonics, "harmonic_balance_error": self.hb_error,
+                "method": self.method, "response_error": self.error, "shooting_steps": self.shooting_steps,
                 "max_abs_multiplier": self.max_abs_multiplier, "methods_difference": self.methods_difference,
                 "reduction": "none" if self.truncation is None else "links",
                 **({} if self.truncation is None else {"truncation": self.truncation.as_dict()}), **(attrs or {})}
@@ -176,7 +190,8 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
 
     Harmonic balance (``harmonics`` fixed, or doubled until the estimated error <= ``tol``)
     gives the response (one static solve where the system is constant in the link frame: a lone
-    rotating link); with ``shoot`` (opt-in) the monodromy gives the Floquet multipliers (some
+    rotating link), or shooting to ``tol`` where the doubling on the full model is abandoned
+    (``method``, fkev_slepc/periodic/response.py); with ``shoot`` (opt-in) the monodromy gives the Floquet multipliers (some
     |μ| > 1: the response exists but does not attract) and the shooting solution, whose
     difference from harmonic balance is reported. ``reduce``: default (the full model up to
     ``periodic.component_response.FULL_MAX_DOFS`` free DOFs, else links), none, links (the link-frame
@@ -203,7 +218,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=ps.shoot,
                      names=names, shooting_tol=ps.shooting_tol, reduce=reduce)
     theta = np.radians(a)
-    q = r.hb.at(theta)
+    q = r.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
     st = station_response(model, theta, q, chosen, rigid)
     whole = whole_link_stress(model, a, q)
@@ -215,7 +230,8 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
-        float("nan") if sh is None else sh.closure, mech.elem_nodes, whole, r.truncation)
+        float("nan") if sh is None else sh.closure, mech.elem_nodes, whole, r.truncation, r.method, r.error,
+        r.hb.levels, 0 if r.periodic is None else r.periodic.steps)
 
 
 def chosen_stations(scene: Scene, mech, stations, names=None):

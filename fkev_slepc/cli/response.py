@@ -118,7 +118,7 @@ def run(args) -> int:
                              reduce=args.reduce)
     except SceneError as err:
         return report_scene_error(err)
-    missed = not res.hb_error <= args.tol  # NaN (not estimated) misses too
+    missed = not res.error <= args.tol  # NaN (not estimated) misses too
     if args.output:
         res.save(args.output, {"command_line": " ".join(sys.argv)})
     if args.plot:
@@ -135,6 +135,10 @@ def run(args) -> int:
         print()
     else:
         _print(d)
+    if missed and res.method == "shooting":
+        _note(f"fkev response: the shooting's error estimate {res.error:.2g} misses --tol {args.tol:g} at "
+              f"{res.shooting_steps} Magnus steps (the most it takes)")
+        return EXIT_NOT_CONVERGED
     if missed:
         _note(f"fkev response: the harmonic balance's error estimate {res.hb_error:.2g} misses --tol {args.tol:g} "
               f"at {res.harmonics} harmonics: raise --harmonics (or leave it out: doubled until --tol)")
@@ -150,8 +154,12 @@ def _print(d: dict) -> None:
     print(f"{d['scene']}: steady periodic response at Ω = {d['speed_rad_s']:g} rad/s, case {d['case']}, "
           f"{len(d['crank_angle_deg'])} output angles")
     err = d["harmonic_balance_error"]
-    print(f"  harmonic balance: {d['harmonics']} harmonics, estimated error {err:.1e}" if err is not None else
-          f"  harmonic balance: {d['harmonics']} harmonics")
+    if d["method"] == "shooting":
+        print(f"  harmonic balance: {_abandoned(d)}")
+        print(f"  response by shooting: {d['shooting_steps']} Magnus steps, estimated error {d['response_error']:.1e}")
+    else:
+        print(f"  harmonic balance: {d['harmonics']} harmonics, estimated error {err:.1e}" if err is not None else
+              f"  harmonic balance: {d['harmonics']} harmonics")
     t = d["truncation"]
     if t is not None:
         state = "converged" if t["converged"] else f"NOT converged to {t['tol']:g}"
@@ -188,6 +196,13 @@ def _print(d: dict) -> None:
             print(f"  whole link {name}: peak |σ| {q['stress_pa'] / 1e6:.6g} MPa (σ = {q['sigma_pa'] / 1e6:.6g} MPa, "
                   f"face {q['face']}) at s = {q['s_m']:g} m, θ = {q['crank_angle_deg']:g}°")
     print(f"  largest node deflection {d['max_deflection_m'] * 1e3:.4g} mm (envelopes are min and max over the cycle)")
+
+
+def _abandoned(d: dict) -> str:
+    """Why the balance of a response (``ResponseResult.solution``) was abandoned, in words."""
+    hs = ", ".join(str(h) for h, _ in d["levels"])
+    es = ", ".join(f"{e:.1e}" for _, e in d["levels"])
+    return f"abandoned at {d['harmonics']} harmonics (estimates {es} at H = {hs}: not falling geometrically to the tol)"
 
 
 def _settings(args, scene):

@@ -182,7 +182,7 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
                                             else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=False,
                      names=names)
-    ls = whole_link_stress(model, a, r.hb.at(np.radians(a)))
+    ls = whole_link_stress(model, a, r.at(np.radians(a)))
     mech = model.mechanism
     jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
     links = check_links(scene, mech, ls, jl, criterion)

@@ -11,6 +11,13 @@ K = K₀ + Ω²K₂ for the case's terms) and the rigid-body inertia loads of
 and a Magnus time-stepper) and the result carries their difference. On large meshes both run on the
 link-frame component basis q = W(θ)z (fkev_slepc/periodic/component_response.py, docs/response.md §3.1),
 the truncation measured by doubling the modes per link and carried with the result.
+
+**Which method gives the response.** Harmonic balance, H doubled to ``tol``; on the full model
+with ``fallback`` (the default), where its estimates say it will not converge
+(:func:`~fkev_slepc.periodic.harmonic_balance.will_not_converge`) the doubling is abandoned and the
+response is the shooting solution (:func:`~fkev_slepc.periodic.shooting.periodic_shot`, its own
+step-doubling error ≤ ``tol``): ``method`` says which, ``error`` is that method's estimate. An exact
+resonance ((I − Φ) singular) raises: the response is never filled from the abandoned balance.
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ import numpy as np
 from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
 from fkev_slepc.periodic.settings import DEFAULTS
-from fkev_slepc.periodic.shooting import ShootingResponse, shooting
+from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, periodic_shot, shooting
 from fkev_slepc.periodic.component_response import (
     RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
 )
@@ -31,13 +38,29 @@ from fkev_slepc.periodic.component_response import (
 @dataclass(frozen=True)
 class PeriodicResponse:
     """The periodic response of one (speed, case): q at the harmonic-balance angles, the
-    shooting solution at the same angles, and the multipliers."""
+    shooting solution at the same angles, and the multipliers; where the balance was abandoned,
+    the response by shooting (``periodic``), which :meth:`at` then evaluates."""
 
     omega: float
     case: str
     hb: HarmonicResponse  # or component_response.LiftedResponse (the same interface, q in the global DOFs)
     shoot: ShootingResponse | None
     truncation: ResponseTruncation | None = None  # on the link-component basis: measured by doubling
+    periodic: PeriodicShot | None = None  # the response by shooting where the balance was abandoned
+
+    @property
+    def method(self) -> str:
+        """``"harmonic balance"`` or ``"shooting"``: the method that gave the response."""
+        return "harmonic balance" if self.periodic is None else "shooting"
+
+    @property
+    def error(self) -> float:
+        """The estimated relative error of the response, by the method that gave it."""
+        return self.hb.error if self.periodic is None else self.periodic.error
+
+    def at(self, theta) -> np.ndarray:
+        """q (k, n) at any crank angles ``theta`` (k,), rad, from the method that gave the response."""
+        return (self.hb if self.periodic is None else self.periodic).at(theta)
 
     @property
     def theta(self) -> np.ndarray:
@@ -65,7 +88,7 @@ class PeriodicResponse:
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,
                       shoot: bool = False, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None,
-                      reduce_tol: float = RESPONSE_REDUCE_TOL) -> PeriodicResponse:
+                      reduce_tol: float = RESPONSE_REDUCE_TOL, fallback: bool = True) -> PeriodicResponse:
     """Harmonic balance (and, with ``shoot``, shooting at the same angles) of ``system``
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
     :class:`~fkev_slepc.periodic.system.PeriodicSystem`). Where the system and its load are
@@ -74,6 +97,8 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     model, "links"/"links:N" the link-frame component basis (modes per link doubled to
     ``reduce_tol``, or N measured against 2N: fkev_slepc/periodic/component_response.py),
     "default" the full model up to ``component_response.FULL_MAX_DOFS`` free DOFs, else "links".
+    ``fallback``: on the full model with H doubled, the response by shooting (to ``tol``) where the
+    balance will not converge (module docstring).
 
     Raises ``periodic.shooting.ResonanceError`` where (I − Φ) is singular to working precision."""
     hb = static_response(system)
@@ -86,11 +111,14 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     sh = None
     if shoot:  # before the full collocation: it refuses an exact resonance before a singular solve
         sh = shooting(target.mck, target.load, omega, np.zeros(1), tol=shooting_tol)
+    shot = None
     if hb is None:
-        hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol)
+        hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol, abandon=fallback)
+        if hb.abandoned:
+            shot = periodic_shot(system.mck, system.load, omega, tol=tol)
     if sh is not None:
         sh = _resample(sh, hb.theta, target, omega)
-    return PeriodicResponse(float(omega), case, hb, sh, trunc)
+    return PeriodicResponse(float(omega), case, hb, sh, trunc, shot)
 
 
 def static_response(system) -> HarmonicResponse | None:
@@ -118,14 +146,9 @@ def static_response(system) -> HarmonicResponse | None:
 
 def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:
     """The shooting solution at other angles: integrated again from its periodic initial state."""
-    from fkev_slepc.periodic import magnus
-    from fkev_slepc.periodic.shooting import _Cached
+    from fkev_slepc.periodic.shooting import _adapters, states_at
 
-    cache = _Cached(system.mck, system.load, omega)
-    gen = magnus.second_order(lambda th: cache(th)[:3])
-    forcing = magnus.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
-    x0 = np.concatenate([sh.q[0], sh.dq[0]])
-    x = magnus.trajectory(gen, x0, theta, forcing=forcing, steps=sh.steps, period=2.0 * np.pi)
+    x = states_at(*_adapters(system.mck, system.load, omega), np.concatenate([sh.q[0], sh.dq[0]]), theta, sh.steps)
     n = sh.q.shape[1]
     q, dq = x[:, :n], x[:, n:]
     if isinstance(system, ProjectedSystem):  # z -> q = W z + Δq

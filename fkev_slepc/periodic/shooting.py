@@ -8,13 +8,25 @@ periodic response starts from x₀ with (I − Φ)x₀ = x_p, Φ the monodromy. 
 attract (the machine would not settle on it); a multiplier at 1 makes (I − Φ) singular (exact
 resonance: no periodic response, or not a unique one), which is refused.
 
+**The periodic response where harmonic balance cannot converge** (:func:`periodic_shot`, docs/response.md
+§3): the same x₀ at the step count N that brings its own step-doubling estimate below ``tol``. The
+estimate: one revolution of N/k steps from x₀ ends at x₀ + r_k, r_k = (Φ_{N/k} − Φ_N)x₀ + p_{N/k} − p_N,
+so to first order x₀ at N/k steps is x₀ + e_k, e_k = (I − Φ)⁻¹r_k (k = 2, 4: two trajectories of
+N/2 and N/4 steps, no monodromy); the relative change d = ‖e₂‖/‖x₀‖ from N/2 to N steps and the
+one before, ‖e₄ − e₂‖/‖x₀‖ (the larger of the q and q' parts, each relative to its own largest
+component), give ``error`` by the Magnus rule
+(:func:`fkev_slepc.periodic.magnus.step_doubling_error`: d/(2⁶ − 1) where the two changes fall at
+the integrator's order, else d). The result is evaluated at any crank angles by the same Magnus
+steps from x₀ (:class:`PeriodicShot`, ``at``): exact in every harmonic of the load, no
+trigonometric interpolation.
+
 Same generic interface as :mod:`fkev_slepc.periodic.harmonic_balance`: ``coefficients(theta)`` -> dense
 (M, C, K) stacks (k, n, n) in the time form, ``load(theta)`` -> (k, n).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as la
@@ -63,21 +75,22 @@ class _Cached:
         return self.value
 
 
-def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = None, tol: float = DEFAULTS.shooting_tol,
-             order: int = 6, max_steps: int = 2**14) -> ShootingResponse:
-    """The periodic response at ``thetas`` (increasing, in [0, 2π]) by shooting on the monodromy.
+def _adapters(coefficients, load, omega):
+    """(generator, forcing) of the state x = (q, q') in θ, sharing one cache of (Ω²M, ΩC, K, f)."""
+    cache = _Cached(coefficients, load, omega)
+    gen = magnus.second_order(lambda th: cache(th)[:3])
+    forcing = magnus.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
+    return gen, forcing
+
+
+def _periodic_state(mono, omega):
+    """(x₀, LU of I − Φ, rcond) of the periodic state (I − Φ)x₀ = x_p of a forced monodromy.
 
     Raises
     ------
     ResonanceError
         (I − Φ) singular to working precision (a multiplier at 1), with the closest multiplier.
     """
-    cache = _Cached(coefficients, load, omega)
-    gen = magnus.second_order(lambda th: cache(th)[:3])
-    forcing = magnus.second_order_forcing(lambda th: cache(th)[0], lambda th: cache(th)[3])
-    with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
-        mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
-                                 max_steps=max_steps)
     n2 = mono.phi.shape[0]
     I_phi = np.eye(n2) - mono.phi
     sv = la.svdvals(I_phi)
@@ -89,12 +102,99 @@ def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = No
                              f"(σ_min / (1 + ‖Φ‖) = {rcond:.1e}; multiplier μ = {near.real:.12g}{near.imag:+.3g}j "
                              "at 1): the periodic response does not exist or is not unique")
     lu = la.lu_factor(I_phi)
-    x0 = la.lu_solve(lu, mono.particular)
+    return la.lu_solve(lu, mono.particular), lu, rcond
+
+
+def _relative(e, x0) -> float:
+    """The larger of ‖e_q‖∞/‖q₀‖∞ and ‖e_q'‖∞/‖q₀'‖∞ of a state change e (2n,) at the state x₀."""
+    n = x0.size // 2
+    return float(max(np.abs(e[:n]).max() / max(np.abs(x0[:n]).max(), 1e-300),
+                     np.abs(e[n:]).max() / max(np.abs(x0[n:]).max(), 1e-300)))
+
+
+def states_at(generator, forcing, x0, thetas, steps: int, order: int = 6) -> np.ndarray:
+    """The periodic state (k, 2n) at any crank angles ``thetas`` (k,) (taken mod 2π, any order)
+    from its state ``x0`` at θ = 0, by Magnus steps of at most 2π/``steps``."""
+    th = np.mod(np.asarray(thetas, dtype=float), 2.0 * np.pi)
+    u, back = np.unique(th, return_inverse=True)
+    path = u if u[0] == 0.0 else np.r_[0.0, u]
+    x = magnus.trajectory(generator, x0, path, forcing=forcing, order=order, steps=steps, period=2.0 * np.pi)
+    return x[path.size - u.size:][back.ravel()]
+
+
+def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = None, tol: float = DEFAULTS.shooting_tol,
+             order: int = 6, max_steps: int = 2**14) -> ShootingResponse:
+    """The periodic response at ``thetas`` (increasing, in [0, 2π]) by shooting on the monodromy.
+
+    Raises
+    ------
+    ResonanceError
+        (I − Φ) singular to working precision (a multiplier at 1), with the closest multiplier.
+    """
+    gen, forcing = _adapters(coefficients, load, omega)
+    with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
+        mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
+                                 max_steps=max_steps)
+    x0, _, rcond = _periodic_state(mono, omega)
     thetas = np.asarray(thetas, dtype=float)
     path = np.r_[thetas, 2.0 * np.pi] if thetas[-1] < 2.0 * np.pi else thetas
     x = magnus.trajectory(gen, x0, path, forcing=forcing, order=order, steps=mono.steps, period=2.0 * np.pi)
     closure = float(np.linalg.norm(x[-1] - x0) / max(np.linalg.norm(x0), 1e-300))
     x = x[: thetas.size]
-    n = n2 // 2
+    n = x0.size // 2
     err = max(mono.phi_error, mono.particular_error or 0.0)
-    return ShootingResponse(thetas, x[:, :n], x[:, n:], mu, err, rcond, mono.steps, closure)
+    return ShootingResponse(thetas, x[:, :n], x[:, n:], mono.multipliers, err, rcond, mono.steps, closure)
+
+
+@dataclass(frozen=True)
+class PeriodicShot:
+    """The periodic response by shooting (:func:`periodic_shot`), evaluable at any crank angles."""
+
+    x0: np.ndarray  # (2n,) the periodic state (q, q') at θ = 0
+    multipliers: np.ndarray  # (2n,) complex, by decreasing |μ|
+    error: float  # relative step-doubling estimate of x₀ (N/4, N/2 against N steps; module docstring)
+    monodromy_error: float  # the monodromy's relative step-doubling estimate of Φ and x_p (the larger)
+    rcond: float  # σ_min(I − Φ) / (1 + ‖Φ‖₂): distance from exact resonance
+    steps: int
+    generator: object = field(repr=False)
+    forcing: object = field(repr=False)
+    order: int = 6
+
+    @property
+    def max_abs_multiplier(self) -> float:
+        return float(np.abs(self.multipliers).max())
+
+    def state(self, theta) -> np.ndarray:
+        """(q, dq/dθ) stacked (k, 2n) at the angles ``theta`` (k,), rad."""
+        return states_at(self.generator, self.forcing, self.x0, np.atleast_1d(theta), self.steps, self.order)
+
+    def at(self, theta) -> np.ndarray:
+        """q (k, n) at the angles ``theta`` (k,), rad."""
+        return self.state(theta)[:, : self.x0.size // 2]
+
+
+def periodic_shot(coefficients, load, omega: float, *, tol: float, order: int = 6,
+                  max_steps: int = 2**16) -> PeriodicShot:
+    """The periodic response by shooting with its step-doubling error ≤ ``tol`` (module docstring):
+    the monodromy to ``tol``, then the steps doubled until the periodic state's estimate is below
+    ``tol`` or ``max_steps`` is reached (the estimate is reported either way).
+
+    Raises
+    ------
+    ResonanceError
+        (I − Φ) singular to working precision (a multiplier at 1): the response is not filled.
+    """
+    gen, forcing = _adapters(coefficients, load, omega)
+    with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
+        mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, tol=tol, max_steps=max_steps)
+        while True:
+            x0, lu, rcond = _periodic_state(mono, omega)
+            e2, e4 = (la.lu_solve(lu, magnus.trajectory(gen, x0, np.array([0.0, 2.0 * np.pi]), forcing=forcing,
+                                                        order=order, steps=max(1, mono.steps // k))[-1] - x0)
+                      for k in (2, 4))
+            err = magnus.step_doubling_error(_relative(e2, x0), _relative(e4 - e2, x0), order)
+            if err <= tol or 2 * mono.steps > max_steps:
+                break
+            mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=2 * mono.steps)
+    return PeriodicShot(x0, mono.multipliers, err, max(mono.phi_error, mono.particular_error or 0.0), rcond,
+                        mono.steps, gen, forcing, order)
