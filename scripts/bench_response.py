@@ -6,8 +6,11 @@ response as ``fkev response`` computes it (fkev_slepc/periodic/steady.steady_sol
 balance doubled to ``--tol``, no shooting, ``reduce`` default: the full model up to
 periodic.component_response.FULL_MAX_DOFS free DOFs, link components above) and
 ``floquet_multipliers`` as ``fkev floquet`` does (``reduce="default"``), timed alternately on the
-same model, medians over ``--repeats``; the ratio response / Floquet, the harmonics reached and the
-harmonic-balance error estimate, as a markdown table. One BLAS thread.
+same model, medians over ``--repeats``; the ratio response / Floquet, the method that gave the
+response (harmonic balance, or shooting where the balance was abandoned:
+fkev_slepc/periodic/response.py), the harmonics reached (with shooting: where the balance was
+abandoned, and the Magnus steps) and the response's error estimate, as a markdown table. One BLAS
+thread.
 
     .venv/bin/python scripts/bench_response.py
     .venv/bin/python scripts/bench_response.py --rows bw:1:500,sc:0:150 --repeats 1
@@ -46,8 +49,8 @@ def main(argv=None) -> None:
     from fkev_slepc.periodic.steady import steady_solve
     from fkev_slepc.scene import load_scene, with_elements
 
-    print("| scene | DOFs | Ω (rad/s) | response (s) | harmonics | HB error | reduction | Floquet (s) | ratio |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| scene | DOFs | Ω (rad/s) | response (s) | method | harmonics | error | reduction | Floquet (s) | ratio |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for row in args.rows.split(","):
         name, elements, speed = row.split(":")
         scene = load_scene(ROOT / SCENES.get(name, name))
@@ -65,8 +68,9 @@ def main(argv=None) -> None:
             t_floq.append(time.perf_counter() - t)
         tr, tf = statistics.median(t_resp), statistics.median(t_floq)
         red = "none" if r.truncation is None else f"links:{r.truncation.modes_per_link}"
-        print(f"| {name} {elements or 'scene'} | {model.n_free} | {w:g} | {tr:.2f} | {r.hb.harmonics.shape[0] - 1} | "
-              f"{r.hb.error:.1e} | {red} | {tf:.2f} | {tr / tf:.2f} |", flush=True)
+        method = "HB" if r.periodic is None else f"shooting, {r.periodic.steps} steps"
+        print(f"| {name} {elements or 'scene'} | {model.n_free} | {w:g} | {tr:.2f} | {method} | "
+              f"{r.hb.harmonics.shape[0] - 1} | {r.error:.1e} | {red} | {tf:.2f} | {tr / tf:.2f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -42,13 +42,20 @@ class ResponseResult:
     error: float = float("nan")  # estimated relative error of the response, by ``method``
     hb_levels: tuple = ()  # (H, estimate) of every harmonic-balance level, coarse to fine
     shooting_steps: int = 0  # Magnus steps of the shooting that gave the response (0: harmonic balance)
+    tol: float = float("nan")  # the tolerance asked of the response (harmonic_tol)
+
+    @property
+    def converged(self) -> bool:
+        """The response's error estimate ≤ ``tol`` (and, on link components, their truncation converged)."""
+        return bool(self.error <= self.tol and (self.truncation is None or self.truncation.converged))
 
     def solution(self) -> dict:
         """How the response was solved and its truncation: ``method``, ``response_error`` (by that method),
-        the balance's ``harmonics``, ``harmonic_balance_error`` and ``levels`` ([H, estimate], coarse
-        to fine; abandoned where the method is shooting), ``shooting_steps``, and the link-component
-        ``truncation`` (None on the full model)."""
-        return {"method": self.method, "response_error": _none(self.error), "harmonics": self.harmonics,
+        ``tol``, ``converged``, the balance's ``harmonics``, ``harmonic_balance_error`` and ``levels``
+        ([H, estimate], coarse to fine; abandoned where the method is shooting), ``shooting_steps``,
+        and the link-component ``truncation`` (None on the full model)."""
+        return {"method": self.method, "response_error": _none(self.error), "tol": _none(self.tol),
+                "converged": self.converged, "harmonics": self.harmonics,
                 "harmonic_balance_error": _none(self.hb_error),
                 "levels": [[int(h), _none(e)] for h, e in self.hb_levels], "shooting_steps": int(self.shooting_steps),
                 "truncation": None if self.truncation is None else self.truncation.as_dict()}
@@ -231,7 +238,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
         float("nan") if sh is None else sh.closure, mech.elem_nodes, whole, r.truncation, r.method, r.error,
-        r.hb.levels, 0 if r.periodic is None else r.periodic.steps)
+        r.hb.levels, 0 if r.periodic is None else r.periodic.steps, float(ps.harmonic_tol))
 
 
 def chosen_stations(scene: Scene, mech, stations, names=None):

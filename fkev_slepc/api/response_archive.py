@@ -68,7 +68,7 @@ class ResponseRequest(ProductRequest):
 
 def _status(values: dict, ps: PeriodicSettings) -> int:
     tol, fixed = ps.harmonic_tol, ps.harmonics != 0
-    if not fixed and not values["harmonic_balance_error"] <= tol:
+    if not fixed and not values["response_error"] <= tol:
         return Status.NOT_CONVERGED.code
     mu = values["max_abs_multiplier"]
     return (Status.UNSTABLE if np.isfinite(mu) and mu > 1.0 + max(1e-8, 10 * values["multiplier_error"])
@@ -122,8 +122,11 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
         data.update({P.R_MAX_ABS.path: np.array(values["max_abs_multiplier"]),
                      P.R_HARMONICS.path: np.array(values["harmonics"], "i4"),
                      P.R_HB_ERROR.path: np.array(values["harmonic_balance_error"]),
+                     P.R_ERROR.path: np.array(values["response_error"]),
+                     P.R_SHOOTING_STEPS.path: np.array(values["shooting_steps"], "i4"),
                      P.R_MEAN_FREQUENCY.path: np.asarray(values["mean_frequency_rad_s"], float)})
-        errors = [((js, jc), code, f"harmonic balance error {values['harmonic_balance_error']:.2e} > tol "
+        what = "harmonic balance" if values["shooting_steps"] == 0 else "shooting"
+        errors = [((js, jc), code, f"{what} error {values['response_error']:.2e} > tol "
                    f"{ps.harmonic_tol:g}")] if code == Status.NOT_CONVERGED.code else []
         return Block(unit, mask, data, np.array(code, np.uint8), errors)
 
@@ -180,7 +183,26 @@ def read_response(path, orders: int = 6):
         wbar = f[P.R_MEAN_FREQUENCY.path][:, 0, :]
         mu = f[P.R_MAX_ABS.path][:, 0]
         title, case = _text(f.attrs.get("title", Path(path).stem)), _text(g.attrs["analysed_case"])
-    return SpeedResponse(title, case, speeds, labels, *peaks, mu, wbar, tuple(forced_resonances(speeds, wbar, orders)))
+        solutions = _solutions(f, g)
+    return SpeedResponse(title, case, speeds, labels, *peaks, mu, wbar, tuple(forced_resonances(speeds, wbar, orders)),
+                         solutions)
+
+
+def _solutions(f, g) -> tuple[dict, ...]:
+    """Per speed what the archive keeps of :meth:`~fkev_slepc.api.response.ResponseResult.solution`: ``method``,
+    ``response_error``, ``tol``, ``converged`` (status not not_converged), ``harmonics``,
+    ``harmonic_balance_error``, ``shooting_steps`` (an archive written before these: those it has)."""
+    def column(var, default):
+        return f[var.path][:, 0] if var.path in f else np.full(f[P.R_STATUS.path].shape[0], default)
+
+    tol = float(json.loads(_text(g.attrs["options"])).get("tol", np.nan))
+    steps, err = column(P.R_SHOOTING_STEPS, 0), column(P.R_ERROR, np.nan)
+    hb, harm, st = f[P.R_HB_ERROR.path][:, 0], f[P.R_HARMONICS.path][:, 0], f[P.R_STATUS.path][:, 0]
+    none = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731
+    return tuple({"method": "harmonic balance" if s == 0 else "shooting", "response_error": none(e), "tol": none(tol),
+                  "converged": bool(c == Status.OK.code or c == Status.UNSTABLE.code), "harmonics": int(h),
+                  "harmonic_balance_error": none(b), "shooting_steps": int(s)}
+                 for s, e, b, h, c in zip(steps, err, hb, harm, st))
 
 
 def read_status(path) -> np.ndarray:

@@ -25,6 +25,7 @@ class SpeedResponse:
     max_abs_multiplier: np.ndarray  # (n_s,) NaN without shooting
     mean_frequencies: np.ndarray  # (n_s, n_modes) cycle-mean frozen frequencies ω̄ₖ, rad/s
     resonances: tuple[dict, ...]  # {"speed_rad_s", "order", "mode", "frequency_rad_s"}
+    solutions: tuple[dict, ...] = ()  # per speed: how it was solved and its truncation (ResponseResult.solution)
 
     def as_dict(self) -> dict:
         from fkev_slepc.model.joint_loads import _list
@@ -37,7 +38,7 @@ class SpeedResponse:
                              for k, lab in enumerate(self.station_labels)],
                 "max_abs_multiplier": _list(self.max_abs_multiplier),
                 "mean_frequencies_rad_s": [_list(r) for r in self.mean_frequencies],
-                "forced_resonances": list(self.resonances)}
+                "forced_resonances": list(self.resonances), "solution": list(self.solutions)}
 
     def save(self, path, attrs: dict | None = None):
         """HDF5 with dimension scales (``xarray.open_dataset(path, engine="h5netcdf")``)."""
@@ -56,7 +57,8 @@ class SpeedResponse:
             "mean_frequency_rad_s": (("speed_rad_s", "mode"), self.mean_frequencies, "rad/s",
                                      "cycle-mean frozen frequency"),
         }
-        meta = {"title": self.title, "case": self.case, "forced_resonances": list(self.resonances), **(attrs or {})}
+        meta = {"title": self.title, "case": self.case, "forced_resonances": list(self.resonances),
+                "solution": list(self.solutions), **(attrs or {})}
         return write_labelled(path, "fkev-response-speeds", coords, variables, meta)
 
     def plot(self, bands=()):
@@ -94,7 +96,8 @@ def checked_speeds(scene: Scene, speeds_rad_s, names=None) -> np.ndarray:
 def speed_peaks(scene: Scene, speed: float, case: str, modes: int, names=None, **options) -> tuple[dict, object]:
     """The response at one speed reduced to what the speed scan keeps: ``(values, result)``,
     values by field (the four station peaks over the cycle (n_station,), ``max_abs_multiplier``,
-    ``harmonics``, ``harmonic_balance_error``, ``mean_frequency_rad_s`` (min(modes, n_free),)),
+    ``harmonics``, ``harmonic_balance_error``, ``response_error``, ``shooting_steps``, ``solution``
+    (:meth:`~fkev_slepc.api.response.ResponseResult.solution`), ``mean_frequency_rad_s`` (min(modes, n_free),)),
     result the :class:`~fkev_slepc.api.response.ResponseResult` (options as there)."""
     from fkev_slepc.api.response import study_response
     from fkev_slepc.model.operators import Model
@@ -108,7 +111,8 @@ def speed_peaks(scene: Scene, speed: float, case: str, modes: int, names=None, *
     wbar = cycle_mean_frequencies(model, float(speed), r.case, min(modes, model.n_free))
     values = dict(zip(PEAK_FIELDS, peaks))
     values.update(max_abs_multiplier=r.max_abs_multiplier, harmonics=r.harmonics,
-                  harmonic_balance_error=r.hb_error, mean_frequency_rad_s=wbar)
+                  harmonic_balance_error=r.hb_error, response_error=r.error, shooting_steps=r.shooting_steps,
+                  solution=r.solution(), mean_frequency_rad_s=wbar)
     return values, r
 
 
@@ -137,5 +141,5 @@ def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: 
     wbar = np.array([row["mean_frequency_rad_s"] for row in rows])
     mu = np.array([row["max_abs_multiplier"] for row in rows], dtype=float)
     return SpeedResponse(scene.title, r.case, speeds, station_labels(r.link_names, r.stations.stations), *peaks, mu,
-                         wbar, tuple(forced_resonances(speeds, wbar, orders)))
+                         wbar, tuple(forced_resonances(speeds, wbar, orders)), tuple(row["solution"] for row in rows))
 

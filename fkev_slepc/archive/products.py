@@ -225,8 +225,8 @@ from fkev_slepc.archive.products_floquet import (  # noqa: E402 (the /floquet pr
 )
 
 from fkev_slepc.archive.products_response import (  # noqa: E402 (the /response product's table)
-    PEAK_CHORD, PEAK_MOMENT, PEAK_STRESS, PEAK_TRANSVERSE, R_ERRORS, R_HARMONICS, R_HB_ERROR, R_MAX_ABS,
-    R_MEAN_FREQUENCY, R_MODE, R_STATION, R_STATUS, RESPONSE, STATION_LINK, STATION_S,
+    PEAK_CHORD, PEAK_MOMENT, PEAK_STRESS, PEAK_TRANSVERSE, R_ERROR, R_ERRORS, R_HARMONICS, R_HB_ERROR, R_MAX_ABS,
+    R_MEAN_FREQUENCY, R_MODE, R_SHOOTING_STEPS, R_STATION, R_STATUS, RESPONSE, STATION_LINK, STATION_S,
 )
 
 from fkev_slepc.archive.products_planes import OUT as PLANE_OUT_GROUP, plane_product  # noqa: E402

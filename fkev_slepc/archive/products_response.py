@@ -27,14 +27,20 @@ R_MAX_ABS = Var("response/max_abs_multiplier", R_UNIT, "f8", "1", "largest |Floq
 R_HARMONICS = Var("response/harmonics", R_UNIT, "i4", "1", "harmonics of the balance", 0, source="harmonics")
 R_HB_ERROR = Var("response/harmonic_balance_error", R_UNIT, "f8", "1",
                  "estimated relative truncation error of the harmonic balance", np.nan, source="harmonic_balance_error")
+R_ERROR = Var("response/response_error", R_UNIT, "f8", "1", "estimated relative error of the response by the method "
+              "that gave it (the harmonic balance's estimate, or the shooting's step doubling)", np.nan,
+              source="response_error")
+R_SHOOTING_STEPS = Var("response/shooting_steps", R_UNIT, "i4", "1", "Magnus steps of the shooting that gave the "
+                       "response where the harmonic balance was abandoned (0: the harmonic balance gave it)", 0,
+                       source="shooting_steps")
 R_MEAN_FREQUENCY = Var("response/mean_frequency_rad_s", R_UNIT + (R_MODE,), "f8", "rad/s",
                        "cycle-mean frozen frequency (Im lambda of the frozen QEP, damping included, "
                        "angle-weighted over 24 angles of one revolution)", np.nan, required=True, source="mean_frequency_rad_s")
 R_STATUS = Var("response/status", R_UNIT, STATUS, "1", "outcome of the speed", 0, required=True, source="status",
                attrs={"description": "ok: the periodic response was solved (and attracts, or was not shot); unstable: "
                                      "solved, some |mu| > 1 beyond its error (it does not attract); not_converged: the "
-                                     "harmonic balance missed the response group's tol; failed: the solver raised or "
-                                     "the speed is an exact resonance (I - Phi singular)"})
+                                     "response's error estimate (response_error) missed the response group's tol; "
+                                     "failed: the solver raised or the speed is an exact resonance (I - Phi singular)"})
 RESPONSE = Product(
     name="response",
     unit_dims=R_UNIT,
@@ -43,7 +49,7 @@ RESPONSE = Product(
     variables=(Var(R_STATION, (R_STATION,), "i4", "1", "station number", scale=True, required=True),
                Var(R_MODE, (R_MODE,), "i4", "1", "frozen mode number, by frequency", scale=True, required=True),
                STATION_LINK, STATION_S, PEAK_TRANSVERSE, PEAK_CHORD, PEAK_MOMENT, PEAK_STRESS, R_MAX_ABS, R_HARMONICS,
-               R_HB_ERROR, R_MEAN_FREQUENCY, R_STATUS) + R_ERRORS.rows,
+               R_HB_ERROR, R_ERROR, R_SHOOTING_STEPS, R_MEAN_FREQUENCY, R_STATUS) + R_ERRORS.rows,
     errors=R_ERRORS,
     groups={"response": "peak steady periodic response of every station over the crank cycle, per (speed, case) of "
                         "the root grid (whose frozen sweep is the same speeds); run settings as attributes",

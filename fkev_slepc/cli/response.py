@@ -205,6 +205,20 @@ def _abandoned(d: dict) -> str:
     return f"abandoned at {d['harmonics']} harmonics (estimates {es} at H = {hs}: not falling geometrically to the tol)"
 
 
+def _truncation_cell(sol: dict) -> str:
+    """One speed's truncation in a scan's row: the balance's H (or the shooting's steps), the change
+    that measures it, the link components' modes and change, and whether it converged to the tol."""
+    def num(x):
+        return "-" if x is None else f"{x:.1e}"
+
+    cell = (f"HB H={sol['harmonics']} {num(sol['response_error'])}" if sol["method"] == "harmonic balance" else
+            f"shot {sol['shooting_steps']} st {num(sol['response_error'])}")
+    t = sol.get("truncation")
+    if t is not None:
+        cell += f", links:{t['modes_per_link']} {num(max(t['stress'], t['deflection']))}"
+    return cell + (" yes" if sol["converged"] else " NO")
+
+
 def _settings(args, scene):
     """The run's PeriodicSettings: the defaults (a speed scan: ``SCAN``) with --tol and --shooting."""
     from fkev_slepc.periodic.settings import SCAN, checked_settings
@@ -250,14 +264,16 @@ def _vs_speed(args, scene, angles, gravity, stations, settings) -> int:
         print()
         return _archived_exit(args)
     print(f"{d['scene']}: peak response over the cycle vs speed, case {d['case']}")
-    print(f"  {'Ω (rad/s)':>10} {'max |μ|':>10} " + " ".join(f"{s['station']:>20}" for s in d["stations"]))
+    print(f"  {'Ω (rad/s)':>10} {'max |μ|':>10} {'truncation (change, converged)':>36} "
+          + " ".join(f"{s['station']:>20}" for s in d["stations"]))
     for i, w in enumerate(d["speed_rad_s"]):
         mu = d["max_abs_multiplier"][i]
         cells = [s["peak_stress_pa"][i] for s in d["stations"]]
         unit, scale = ("MPa", 1e-6) if cells[0] is not None else ("mm", 1e3)
         if unit == "mm":
             cells = [s["peak_transverse_chord_m"][i] for s in d["stations"]]
-        print(f"  {w:10.4g} {'' if mu is None else format(mu, '.6f'):>10} "
+        trunc = _truncation_cell(d["solution"][i]) if d["solution"] else ""
+        print(f"  {w:10.4g} {'' if mu is None else format(mu, '.6f'):>10} {trunc:>36} "
               + " ".join(f"{c * scale:17.4g} {unit}" for c in cells))
     for r in d["forced_resonances"]:
         print(f"  forced resonance {r['order']}·Ω = ω̄{r['mode']} ({r['frequency_rad_s']:.5g} rad/s) at "
