@@ -55,9 +55,9 @@ def test_undamped_bahgat_willmert_at_500_is_shot_to_its_stated_error():
     fine shooting) within its own step-doubling estimate, itself below tol."""
     model = Model(with_elements(load_scene(BW), 1), cases=("full",))
     s = PeriodicSystem(model, 500.0, "full")
-    r = periodic_response(s, 500.0, tol=1e-6)
+    r = periodic_response(s, 500.0, tol=1e-4)
     assert r.method == "shooting" and r.hb.abandoned and [h for h, _ in r.hb.levels] == [16, 32, 64]
-    assert r.error <= 1e-6 and r.periodic.steps >= 1024
+    assert r.error <= 1e-4 and r.periodic.steps >= 512
     th = np.radians(np.arange(0.0, 360.0, 15.0))
     ref = galerkin_solve(s.mck, s.load, 500.0, 128).at(th)
     assert np.abs(r.at(th) - ref).max() <= r.error * np.abs(ref).max()
