@@ -198,9 +198,9 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     Harmonic balance (``harmonics`` fixed, or doubled until the estimated error <= ``tol``)
     gives the response (one static solve where the system is constant in the link frame: a lone
     rotating link), or shooting to ``tol`` where the doubling on the full model is abandoned
-    (``method``, fkev_slepc/periodic/response.py); with ``shoot`` (opt-in) the monodromy gives the Floquet multipliers (some
-    |μ| > 1: the response exists but does not attract) and the shooting solution, whose
-    difference from harmonic balance is reported. ``reduce``: default (the full model up to
+    (``method``, fkev_slepc/periodic/response.py); with ``shoot`` (opt-in) the monodromy gives the
+    Floquet multipliers (some |μ| > 1: the response exists but does not attract) and the shooting
+    solution, whose difference from harmonic balance is reported. ``reduce``: default (the full model up to
     ``periodic.component_response.FULL_MAX_DOFS`` free DOFs, else links), none, links (the link-frame
     component basis, modes per link doubled until stress and deflection converge, static correction
     of the dropped modes; the truncation measured and stated) or links:N. ``stations``: {link name: [s_m, ...]}

@@ -34,8 +34,8 @@ def _dirichlet(theta: np.ndarray, k: int) -> np.ndarray:
 
 
 class TrigInterpolant:
-    """θ -> (len(θ), n, n): the trigonometric interpolant of ``samples`` (k even, (k, n, n)) taken
-    at start + 2πj/k, j = 0..k-1 (period 2π).
+    """θ -> (len(θ), n, n): the trigonometric interpolant of ``samples`` (k even, (k, n, n), or any
+    (k, ...) stack: (len(θ), ...)) taken at start + 2πj/k, j = 0..k-1 (period 2π).
 
     ``drop`` > 0: evaluated as its Fourier series (the same function) with the highest harmonics
     left out where their summed amplitudes are at most ``drop``·max|samples|, a bound on the
@@ -60,13 +60,13 @@ class TrigInterpolant:
 
     def __call__(self, theta):
         theta = np.asarray(theta, dtype=float)
-        n = self.S.shape[1]
+        shape = (theta.size,) + self.S.shape[1:]
         if self.harmonics is not None:
             # e^{imθ} by repeated products of e^{iθ}: one transcendental per angle (round-off
             # grows like m·ε, 1e-14 at the 128th harmonic, below the dropped harmonics' 0.1·tol)
             z = np.exp(1j * (theta - self.start))
             e = np.cumprod(np.broadcast_to(z[:, None], (theta.size, self.harmonics.size)), axis=1) / z[:, None]
             W = np.concatenate([e.real, e.imag[:, 1:]], axis=1)
-            return (W @ self.coefficients).reshape(theta.size, n, n)
+            return (W @ self.coefficients).reshape(shape)
         W = _dirichlet(theta - self.start, self.k)
-        return (W @ self.S.reshape(self.k, -1)).reshape(theta.size, n, n)
+        return (W @ self.S.reshape(self.k, -1)).reshape(shape)

@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, spread
+from fkev_slepc.periodic.interpolant import TrigInterpolant
+from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, PeriodicSystem, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, periodic_shot, shooting
@@ -115,7 +116,7 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     if hb is None:
         hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol, abandon=fallback)
         if hb.abandoned:
-            shot = periodic_shot(system.mck, system.load, omega, tol=tol)
+            shot = _shot(system, omega, tol)
     if sh is not None:
         sh = _resample(sh, hb.theta, target, omega)
     return PeriodicResponse(float(omega), case, hb, sh, trunc, shot)
@@ -142,6 +143,32 @@ def static_response(system) -> HarmonicResponse | None:
     dq = np.real(1j * np.exp(1j * theta)[:, None] * c[1][None, :])
     err = max(spread(frame.generator(frame.angle(th))), spread(f_hat))
     return HarmonicResponse(theta, q, dq, c, err, float(1.0 / np.linalg.cond(K, 1)))
+
+
+def _shot(system, omega: float, tol: float) -> PeriodicShot:
+    """:func:`~fkev_slepc.periodic.shooting.periodic_shot` of ``system``: on a PeriodicSystem in its
+    scaled state, the generator by the trigonometric interpolant Floquet takes
+    (``PeriodicSystem.interpolant``, every setting its default) and the load's forcing by one on the
+    same samples, doubled until it too meets ``interp_tol`` at the midpoints (each Magnus node then
+    costs a weighted sum, not an assembly); any other system in (q, q') from ``mck`` and ``load``."""
+    if not isinstance(system, PeriodicSystem):
+        from fkev_slepc.periodic.shooting import _adapters
+
+        return periodic_shot(*_adapters(system.mck, system.load, omega), omega, tol=tol)
+    interp = system.interpolant()
+    k = interp.samples
+    B = system.forcing(2.0 * np.pi * np.arange(k) / k)
+    while True:
+        mid = system.forcing(2.0 * np.pi * (np.arange(k) + 0.5) / k)
+        err = np.abs(TrigInterpolant(0.0, B)(2.0 * np.pi * (np.arange(k) + 0.5) / k) - mid).max()
+        both = np.empty((2 * k,) + B.shape[1:])
+        both[0::2], both[1::2] = B, mid
+        if err <= DEFAULTS.interp_tol * max(np.abs(B).max(), 1e-300) or k >= DEFAULTS.max_samples:
+            break
+        B, k = both, 2 * k
+    forcing = TrigInterpolant(0.0, B[:, :, None], drop=0.1 * DEFAULTS.interp_tol)  # as the generator's
+    return periodic_shot(interp.generator, lambda tau: forcing(tau)[:, :, 0], omega, tol=tol, dof_scale=system.dof_scaling,
+                         sign=float(np.sign(omega)), start=system.start)
 
 
 def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:

@@ -150,7 +150,7 @@ def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = No
 class PeriodicShot:
     """The periodic response by shooting (:func:`periodic_shot`), evaluable at any crank angles."""
 
-    x0: np.ndarray  # (2n,) the periodic state (q, q') at θ = 0
+    x0: np.ndarray  # (2n,) the periodic state at τ = 0 (the generator's state and angle)
     multipliers: np.ndarray  # (2n,) complex, by decreasing |μ|
     error: float  # relative step-doubling estimate of x₀ (N/4, N/2 against N steps; module docstring)
     monodromy_error: float  # the monodromy's relative step-doubling estimate of Φ and x_p (the larger)
@@ -159,42 +159,51 @@ class PeriodicShot:
     generator: object = field(repr=False)
     forcing: object = field(repr=False)
     order: int = 6
+    dof_scale: np.ndarray | None = None  # the state's first half is d ⊙ q (None: q itself)
+    sign: float = 1.0  # the crank angle θ = start + sign·τ
+    start: float = 0.0
 
     @property
     def max_abs_multiplier(self) -> float:
         return float(np.abs(self.multipliers).max())
 
     def state(self, theta) -> np.ndarray:
-        """(q, dq/dθ) stacked (k, 2n) at the angles ``theta`` (k,), rad."""
-        return states_at(self.generator, self.forcing, self.x0, np.atleast_1d(theta), self.steps, self.order)
+        """The generator's state (k, 2n) at the crank angles ``theta`` (k,), rad."""
+        tau = self.sign * (np.atleast_1d(np.asarray(theta, dtype=float)) - self.start)
+        return states_at(self.generator, self.forcing, self.x0, tau, self.steps, self.order)
 
     def at(self, theta) -> np.ndarray:
-        """q (k, n) at the angles ``theta`` (k,), rad."""
-        return self.state(theta)[:, : self.x0.size // 2]
+        """q (k, n) at the crank angles ``theta`` (k,), rad."""
+        q = self.state(theta)[:, : self.x0.size // 2]
+        return q if self.dof_scale is None else q / self.dof_scale[None, :]
 
 
-def periodic_shot(coefficients, load, omega: float, *, tol: float, order: int = 6,
-                  max_steps: int = 2**16) -> PeriodicShot:
-    """The periodic response by shooting with its step-doubling error ≤ ``tol`` (module docstring):
-    the monodromy to ``tol``, then the steps doubled until the periodic state's estimate is below
-    ``tol`` or ``max_steps`` is reached (the estimate is reported either way).
+def periodic_shot(generator, forcing, omega: float, *, tol: float, order: int = 6, min_steps: int = 16,
+                  max_steps: int = 2**16, **placement) -> PeriodicShot:
+    """The periodic response of x' = A(τ)x + b(τ) (period 2π; ``generator``, ``forcing`` as
+    :func:`fkev_slepc.periodic.magnus.monodromy` takes them; ``omega`` the crank speed, rad/s, named
+    by a resonance) by shooting with its step-doubling
+    error ≤ ``tol`` (module docstring): the monodromy to ``tol``, then the steps doubled until the
+    periodic state's estimate is below ``tol`` or ``max_steps`` is reached (the estimate is
+    reported either way). ``placement``: :class:`PeriodicShot`'s ``dof_scale``, ``sign``, ``start``
+    (how the state and τ map to q and the crank angle; default q, θ = τ).
 
     Raises
     ------
     ResonanceError
         (I − Φ) singular to working precision (a multiplier at 1): the response is not filled.
     """
-    gen, forcing = _adapters(coefficients, load, omega)
     with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
-        mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, tol=tol, max_steps=max_steps)
+        mono = magnus.monodromy(generator, 2.0 * np.pi, forcing=forcing, order=order, tol=tol, min_steps=min_steps,
+                                max_steps=max_steps)
         while True:
             x0, lu, rcond = _periodic_state(mono, omega)
-            e2, e4 = (la.lu_solve(lu, magnus.trajectory(gen, x0, np.array([0.0, 2.0 * np.pi]), forcing=forcing,
+            e2, e4 = (la.lu_solve(lu, magnus.trajectory(generator, x0, np.array([0.0, 2.0 * np.pi]), forcing=forcing,
                                                         order=order, steps=max(1, mono.steps // k))[-1] - x0)
                       for k in (2, 4))
             err = magnus.step_doubling_error(_relative(e2, x0), _relative(e4 - e2, x0), order)
             if err <= tol or 2 * mono.steps > max_steps:
                 break
-            mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=2 * mono.steps)
+            mono = magnus.monodromy(generator, 2.0 * np.pi, forcing=forcing, order=order, steps=2 * mono.steps)
     return PeriodicShot(x0, mono.multipliers, err, max(mono.phi_error, mono.particular_error or 0.0), rcond,
-                        mono.steps, gen, forcing, order)
+                        mono.steps, generator, forcing, order, **placement)

@@ -30,6 +30,9 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
     without the harmonics whose summed amplitudes are below 0.1·``tol``·max|A| (``TrigInterpolant``'s
     ``drop``: the Magnus steps' node values then cost fewer weights, and ``error`` is measured on it).
 
+``forcing(τ) -> b̂ (len(τ), 2n)``
+    the load in the generator's scaled state (1/rad): x̂' = A x̂ + b̂ is M q̈ + C q̇ + K q = f
+    (the response by shooting, fkev_slepc/periodic/response.py).
 ``link_frame() -> PeriodicSystem | None``
     the same system in co-rotating link-frame coordinates q = W(θ) q̂ (every node translation in
     its link's frame: :mod:`fkev_slepc.periodic.reduce` with the whole space as basis, an
@@ -173,6 +176,20 @@ class PeriodicSystem:
             A = state_matrix(c.M, c.C, c.K)
         s = self.scaling
         return A * (s[None, :, None] / s[None, None, :]) / abs(self.omega)
+
+    def forcing_of(self, c: Coefficients, f) -> np.ndarray:
+        """The scaled forcing b̂ (k, 2n) in 1/rad of the load ``f`` (k, n) beside :meth:`generator_of`
+        of the same coefficients: [0, f] in (q, p) (ṗ takes the generalised force), [0, M⁻¹f] in (q, q̇)."""
+        n = c.M.shape[1]
+        f = np.asarray(f, dtype=float)
+        b = np.zeros((f.shape[0], 2 * n))
+        b[:, n:] = f if c.N is not None else np.linalg.solve(c.M, f[:, :, None])[:, :, 0]
+        return b * self.scaling[None, :] / abs(self.omega)
+
+    def forcing(self, tau) -> np.ndarray:
+        """b̂ (len(τ), 2n) in 1/rad at the generator angles ``tau``: the load in the generator's state."""
+        theta = self.angle(tau)
+        return self.forcing_of(self.coefficients(theta), self.load(theta))
 
     def generator(self, tau) -> np.ndarray:
         """A (len(τ), 2n, 2n) in 1/rad at the generator angles ``tau`` (crank angle start ± τ)."""
