@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.periodic.floquet import START_H_RHO
 from fkev_slepc.periodic.interpolant import TrigInterpolant
 from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, PeriodicSystem, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
@@ -167,7 +168,9 @@ def _shot(system, omega: float, tol: float) -> PeriodicShot:
             break
         B, k = both, 2 * k
     forcing = TrigInterpolant(0.0, B[:, :, None], drop=0.1 * DEFAULTS.interp_tol)  # as the generator's
-    return periodic_shot(interp.generator, lambda tau: forcing(tau)[:, :, 0], omega, tol=tol, dof_scale=system.dof_scaling,
+    rho = float(np.max(np.abs(np.linalg.eigvals(interp.generator.S[0]))))  # Floquet's first level (h·ρ(A) ≈ 2)
+    return periodic_shot(interp.generator, lambda tau: forcing(tau)[:, :, 0], omega, tol=tol,
+                         min_steps=int(np.ceil(2.0 * np.pi * rho / START_H_RHO)), dof_scale=system.dof_scaling,
                          sign=float(np.sign(omega)), start=system.start)
 
 

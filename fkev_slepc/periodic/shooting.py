@@ -10,15 +10,15 @@ resonance: no periodic response, or not a unique one), which is refused.
 
 **The periodic response where harmonic balance cannot converge** (:func:`periodic_shot`, docs/response.md
 §3): the same x₀ at the step count N that brings its own step-doubling estimate below ``tol``. The
-estimate: one revolution of N/k steps from x₀ ends at x₀ + r_k, r_k = (Φ_{N/k} − Φ_N)x₀ + p_{N/k} − p_N,
-so to first order x₀ at N/k steps is x₀ + e_k, e_k = (I − Φ)⁻¹r_k (k = 2, 4: two trajectories of
-N/2 and N/4 steps, no monodromy); the relative change d = ‖e₂‖/‖x₀‖ from N/2 to N steps and the
-one before, ‖e₄ − e₂‖/‖x₀‖ (the larger of the q and q' parts, each relative to its own largest
-component), give ``error`` by the Magnus rule
-(:func:`fkev_slepc.periodic.magnus.step_doubling_error`: d/(2⁶ − 1) where the two changes fall at
-the integrator's order, else d). The result is evaluated at any crank angles by the same Magnus
-steps from x₀ (:class:`PeriodicShot`, ``at``): exact in every harmonic of the load, no
-trigonometric interpolation.
+estimate: one revolution of N/2 steps from x₀ ends at x₀ + r, r = (Φ_{N/2} − Φ_N)x₀ + p_{N/2} − p_N,
+so to first order x₀ at N/2 steps is x₀ + (I − Φ)⁻¹r (one trajectory, no second monodromy), and
+``error`` = ‖(I − Φ)⁻¹r‖ / ((2⁶ − 1)‖x₀‖), the larger over the state's two halves (displacements,
+and velocities or momenta), each relative to its own largest component: the step-doubling rule of
+the monodromy's own ``phi_error`` (:mod:`fkev_slepc.periodic.magnus`), on the periodic state. The
+result is evaluated at any crank angles by the same Magnus steps from x₀ (:class:`PeriodicShot`,
+``at``): exact in every harmonic of the load, no trigonometric interpolation of the response. It
+takes any generator and forcing of the state: a linkage's are those of its PeriodicSystem (scaled,
+on the interpolant Floquet takes; fkev_slepc/periodic/response.py).
 
 Same generic interface as :mod:`fkev_slepc.periodic.harmonic_balance`: ``coefficients(theta)`` -> dense
 (M, C, K) stacks (k, n, n) in the time form, ``load(theta)`` -> (k, n).
@@ -152,7 +152,7 @@ class PeriodicShot:
 
     x0: np.ndarray  # (2n,) the periodic state at τ = 0 (the generator's state and angle)
     multipliers: np.ndarray  # (2n,) complex, by decreasing |μ|
-    error: float  # relative step-doubling estimate of x₀ (N/4, N/2 against N steps; module docstring)
+    error: float  # relative step-doubling estimate of x₀ (N/2 against N steps; module docstring)
     monodromy_error: float  # the monodromy's relative step-doubling estimate of Φ and x_p (the larger)
     rcond: float  # σ_min(I − Φ) / (1 + ‖Φ‖₂): distance from exact resonance
     steps: int
@@ -198,10 +198,9 @@ def periodic_shot(generator, forcing, omega: float, *, tol: float, order: int = 
                                 max_steps=max_steps)
         while True:
             x0, lu, rcond = _periodic_state(mono, omega)
-            e2, e4 = (la.lu_solve(lu, magnus.trajectory(generator, x0, np.array([0.0, 2.0 * np.pi]), forcing=forcing,
-                                                        order=order, steps=max(1, mono.steps // k))[-1] - x0)
-                      for k in (2, 4))
-            err = magnus.step_doubling_error(_relative(e2, x0), _relative(e4 - e2, x0), order)
+            end = magnus.trajectory(generator, x0, np.array([0.0, 2.0 * np.pi]), forcing=forcing, order=order,
+                                    steps=mono.steps // 2)[-1]
+            err = _relative(la.lu_solve(lu, end - x0), x0) / (2.0**order - 1.0)
             if err <= tol or 2 * mono.steps > max_steps:
                 break
             mono = magnus.monodromy(generator, 2.0 * np.pi, forcing=forcing, order=order, steps=2 * mono.steps)
