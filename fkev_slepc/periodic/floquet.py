@@ -37,7 +37,8 @@ Result (``LinkageFloquet``): ``multipliers`` (2n,) complex sorted by |μ|, ``exp
 complex in 1/s (Re: growth rate; Im unwrapped to the mode's frequency, rad/s, by its
 eigenvector's Rayleigh quotient on the frozen stiffness and mass at the start angle), ``max_abs``
 (max|μ|, the growth factor per revolution), ``monodromy`` (the :class:`Monodromy`, Φ in the scaled
-coordinates), ``error`` (multiplier error estimate: the monodromy's step-doubling estimate plus
+coordinates), ``error`` (the error estimate of the multipliers' moduli |μ|: the monodromy's
+step-doubling estimate plus
 ``interp_multiplier_error`` = 2π · ``interp_error`` · max|A| · max|μ|, the first-order bound of
 the interpolation error on Φ, where the interpolant stopped at its sample cap above ``interp_tol``;
 one that meets ``interp_tol`` is as accurate as its samples, whose own round-off every monodromy
@@ -62,11 +63,15 @@ from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings
 from fkev_slepc.periodic.system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.periodic.truncation import (
-    AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, Truncation, between, converge, link_modes, resolve_reduce,
+    AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, Truncation, between, converge, frequency_change, link_modes,
+    resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
-START_H_RHO = 2.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step count"); the steps then double on the error
+START_H_RHO = 4.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step count"); the steps then double on the error
+# the Magnus steps' share of the low Floquet frequencies' error: a thousandth of the truncation
+# tolerance whose frequency measure compares them (``reduce_tol``, relative)
+FREQUENCY_TOL_SHARE = 1e-3
 __all__ = ["LinkageFloquet", "TrigInterpolant", "floquet_multipliers", "full_min_steps", "to_dense"]
 
 
@@ -114,6 +119,26 @@ def _unwrapped_exponents(mu, X, c: Coefficients, d, omega: float) -> np.ndarray:
     s = s.real + 1j * cands[pick, np.arange(s.size)]
     order = np.argsort(-np.abs(mu), kind="stable")
     return mu[order], s[order]
+
+
+def _step_measure(c: Coefficients, d, omega: float, retained: int):
+    """The (spectrum, change) pair that the Magnus step count is decided on (``monodromy``'s
+    ``measure``; docs/engine.md "Step count"): what the results use, not the phases of the stiff
+    modes. The multipliers' moduli, compared sorted (the growth factors the verdict reads: the
+    largest difference between the two levels' sorted |μ|, absolute), and the ``retained`` lowest
+    Floquet frequencies (relative, :func:`~fkev_slepc.periodic.truncation.frequency_change`: the
+    frequencies the truncation measures compare)."""
+
+    def spectrum(phi):
+        mu, X = la.eig(phi)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a blown-up coarse level (μ = 0): NaN, never converged
+            return _unwrapped_exponents(mu, X, c, d, omega)
+
+    def change(fine, coarse):
+        moduli = float(np.max(np.abs(np.sort(np.abs(fine[0])) - np.sort(np.abs(coarse[0])))))
+        return moduli, frequency_change(coarse[1], fine[1], omega, retained)
+
+    return spectrum, change
 
 
 def full_min_steps(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0,
@@ -165,9 +190,11 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     :class:`~fkev_slepc.periodic.components.LinkBasis`. ``comm``: an MPI communicator whose
     ranks share every monodromy's steps (collective; one speed on several ranks).
     ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`).
-    ``tol``: the multiplier error asked of the integrator, relative to max(1, max|μ|) (the steps
-    double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling estimate, pre-asymptotic levels
-    guarded, is below it: :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
+    ``tol``: the error of the multipliers' moduli asked of the integrator, relative to
+    max(1, max|μ|) (the steps double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling
+    estimate, pre-asymptotic levels guarded, is below it, and that of the lowest four Floquet
+    frequencies below ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative: :func:`_step_measure`,
+    :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
     verdict's 10 × error a tenth of its 1e-6 (docs/engine.md "Step count"; the default is
     ``PeriodicSettings.monodromy_tol``)."""
     from fkev_slepc.model.operators import Model
@@ -209,6 +236,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     system = system.link_frame() or system  # a lone rotating link: constant in its own frame
     interp = system.interpolant(samples, interp_tol, st.max_samples)
     gen = interp.generator
+    c = system.coefficients(np.array([system.start]))
     if spread(gen.S) <= CONSTANT_TOL:  # constant A: Φ = exp(2π A), by its eigenvalues
         mono, lam, X = exponential_monodromy(gen.S[0], TWO_PI, system.start)
         mu = np.exp(TWO_PI * lam)
@@ -221,9 +249,9 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=np.inf, mu_tol=tol,
                          min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
                          max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
-                         comm=comm, progress=progress)
+                         comm=comm, progress=progress, second_tol=FREQUENCY_TOL_SHARE * st.reduce_tol,
+                         measure=_step_measure(c, system.dof_scaling, omega, min(AUTO_MODES, model.n_free)))
         mu, X = la.eig(mono.phi)
-    c = system.coefficients(np.array([system.start]))
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|
     bound = TWO_PI * interp.error * interp.peak * mono.max_abs if interp.error > interp_tol else 0.0

@@ -43,7 +43,7 @@ class PeriodicSettings:
 
     # the monodromy (fkev_slepc/periodic/floquet.py, fkev_slepc/periodic/magnus.py)
     magnus_order: int = _f(6, "order of the Gauss-Legendre Magnus integrator: 4 or 6")
-    monodromy_tol: float = _f(1e-8, "multiplier error, relative to max(1, max|μ|), asked of the step doubling")
+    monodromy_tol: float = _f(1e-8, "error of the multipliers' moduli, relative to max(1, max|μ|), asked of the step doubling")
     steps: int = _f(0, "a fixed Magnus step count per revolution (0: doubled until monodromy_tol)")
     max_steps: int = _f(2**24, "full-model Magnus steps of one monodromy beyond which a run is refused before work")
     samples: int = _f(16, "exact generator samples the trigonometric interpolant starts from (doubled)")

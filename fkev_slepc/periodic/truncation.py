@@ -98,14 +98,22 @@ def folded(freq, omega: float) -> np.ndarray:
 def measures(coarse, fine, retained: int) -> tuple[float, float, float]:
     """(|Δ max|μ||/max|μ|, |Δ max Re s|, largest relative Δ of the retained frequencies) of two
     levels; the frequencies compared folded and matched (see the module docstring)."""
-    fa, fb = (retained_frequencies(x.exponents, retained) for x in (coarse, fine))
-    n = min(fa.size, fb.size)
-    ga, gb = folded(fa[:n], fine.omega), folded(fb[:n], fine.omega)
-    i, j = match_multipliers(ga, gb)
-    rel = np.abs(ga[i] - gb[j]) / np.maximum(fb[:n][j], 1e-300)
     return (float(abs(coarse.max_abs - fine.max_abs) / max(fine.max_abs, 1e-300)),
             float(abs(np.max(coarse.exponents.real) - np.max(fine.exponents.real))),
-            float(np.max(rel)) if n else float("inf"))
+            frequency_change(coarse.exponents, fine.exponents, fine.omega, retained))
+
+
+def frequency_change(coarse, fine, omega: float, retained: int) -> float:
+    """The largest relative change of the ``retained`` lowest Floquet frequencies between two
+    results' exponents (1/s), compared folded and matched, each relative to ``fine``'s unwrapped
+    frequency (the ``frequency`` measure of the module docstring; also the Magnus step-count
+    criterion's second measure, fkev_slepc/periodic/floquet.py). inf when there is none."""
+    fa, fb = (retained_frequencies(x, retained) for x in (coarse, fine))
+    n = min(fa.size, fb.size)
+    ga, gb = folded(fa[:n], omega), folded(fb[:n], omega)
+    i, j = match_multipliers(ga, gb)
+    rel = np.abs(ga[i] - gb[j]) / np.maximum(fb[:n][j], 1e-300)
+    return float(np.max(rel)) if n else float("inf")
 
 
 def between(coarse, fine, retained: int, tol: float, levels=(), before: Truncation | None = None) -> Truncation:
