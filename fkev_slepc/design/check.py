@@ -179,9 +179,10 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     ps = point_settings(scene, settings, names, harmonics=harmonics, tol=tol, angles_deg=angles_deg)
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
-                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names)
+                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
+                                            settings=ps)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=False,
-                     names=names)
+                     names=names, settings=ps)
     ls = whole_link_stress(model, a, r.hb.at(np.radians(a)))
     mech = model.mechanism
     jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
