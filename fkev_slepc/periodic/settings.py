@@ -126,6 +126,10 @@ class PeriodicSettings:
             values[f.name] = v
         return cls(**values)
 
+    def as_json(self) -> dict:
+        """Every field as JSON takes it (the angles a list): the settings a command prints whole."""
+        return {f.name: list(v) if isinstance(v, tuple) else v for f in fields(self) for v in [getattr(self, f.name)]}
+
     def diff(self, other: "PeriodicSettings") -> dict:
         """``{field: (this value, other value)}`` of every field that differs."""
         return {f.name: (getattr(self, f.name), getattr(other, f.name)) for f in fields(self)
