@@ -57,14 +57,13 @@ import numpy as np
 import scipy.linalg as la
 
 from fkev_slepc.periodic.magnus import Monodromy, exponential_monodromy, monodromy
-from fkev_slepc.periodic.components import LINK_MODES, link_components
+from fkev_slepc.periodic.components import link_components
 from fkev_slepc.periodic.reduce import compress, frozen_pool
 from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings
 from fkev_slepc.periodic.system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.periodic.truncation import (
-    AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, Truncation, between, converge, frequency_change, link_modes,
-    resolve_reduce,
+    Truncation, between, converge, frequency_change, link_modes, resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -149,16 +148,17 @@ def full_min_steps(model, omega: float, case: str = "full", damping: bool = True
     return int(np.ceil(2.0 * TWO_PI * np.max(np.abs(la.eigvals(A[0])))))
 
 
-def default_reduction(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0):
-    """``reduce="default"`` resolved for one speed (docs/engine.md): None (the full model) below
-    ``AUTO_MIN_STEPS`` full-model steps; above, ``"links"`` where the link-component level of
-    4·``LINK_MODES`` modes per link (the first that can end its sequence) is a strict sub-basis
-    needing at most 1/``LINKS_STEP_RATIO`` of the full model's steps, else ``"auto"``."""
+def default_reduction(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0,
+                      settings: PeriodicSettings = DEFAULTS):
+    """``reduce="default"`` resolved for one speed (docs/engine.md) by the fields of ``settings``:
+    None (the full model) below ``auto_min_steps`` full-model steps; above, ``"links"`` where the
+    link-component level of 4·``link_modes`` modes per link (the first that can end its sequence)
+    is a strict sub-basis needing at most 1/``links_step_ratio`` of the full model's steps, else ``"auto"``."""
     full = full_min_steps(model, omega, case, damping, start)
-    if full < AUTO_MIN_STEPS:
+    if full < settings.auto_min_steps:
         return None
-    basis = link_components(model).basis(4 * LINK_MODES)
-    if basis.shape[1] < model.n_free and LINKS_STEP_RATIO * full_min_steps(
+    basis = link_components(model).basis(4 * settings.link_modes)
+    if basis.shape[1] < model.n_free and settings.links_step_ratio * full_min_steps(
             model, omega, case, damping, start, basis) <= full:
         return "links"
     return "auto"
@@ -179,12 +179,12 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     (``order`` magnus_order, ``tol`` monodromy_tol, ``steps``, ``samples``, ``interp_tol``, ``reduce``,
     ``basis_angles``, ``threshold``, ``reduce_tol``, ``max_basis``).
     ``reduce``: None (the full model), ``"default"`` (:func:`default_reduction`: None below
-    ``AUTO_MIN_STEPS`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
+    ``auto_min_steps`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
     :mod:`fkev_slepc.periodic.truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False),
     ``"links"`` (link-frame component modes, :mod:`fkev_slepc.periodic.components`: the
-    modes per link double from ``LINK_MODES`` by the same convergence rule; ``covered_rad_s``
+    modes per link double from ``link_modes`` by the same convergence rule; ``covered_rad_s``
     states the highest retained fixed-interface frequency) or ``"links:N"`` (N modes per link,
     measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
     :class:`~fkev_slepc.periodic.components.LinkBasis`. ``comm``: an MPI communicator whose
@@ -212,18 +212,18 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     except ValueError as err:
         raise ValueError(f"reduce: {err}") from None
     if reduce == "default":
-        reduce = default_reduction(model, omega, case, damping, start)
+        reduce = default_reduction(model, omega, case, damping, start, st)
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, comm=comm, progress=progress, settings=replace(st, reduce="none"))
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
-        n, squeeze, first = int(model.n_free), compress, AUTO_MODES
+        n, squeeze, first = int(model.n_free), compress, st.auto_modes
         if isinstance(reduce, str) and reduce.startswith("links"):  # link-frame component modes
             comp = link_components(model)
-            pool, squeeze, first = comp.basis, lambda P, tau: P, LINK_MODES  # noqa: E731
+            pool, squeeze, first = comp.basis, lambda P, tau: P, st.link_modes  # noqa: E731
         if reduce in ("auto", "links"):
             res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol,
-                                  max_basis=max_basis, compress=squeeze, retained=min(AUTO_MODES, n - 1))
+                                  max_basis=max_basis, compress=squeeze, retained=min(st.auto_modes, n - 1))
             return replace(res, truncation=trunc)
         r = min(reduce, n - 1) if link_modes(reduce) is None else link_modes(reduce)
         res = solve(squeeze(pool(r), threshold))
@@ -250,7 +250,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                          min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
                          max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
                          comm=comm, progress=progress, second_tol=FREQUENCY_TOL_SHARE * st.reduce_tol,
-                         measure=_step_measure(c, system.dof_scaling, omega, min(AUTO_MODES, model.n_free)))
+                         measure=_step_measure(c, system.dof_scaling, omega, min(st.auto_modes, model.n_free)))
         mu, X = la.eig(mono.phi)
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|

@@ -55,10 +55,10 @@ from fkev_slepc.periodic.settings import DEFAULTS, resolve_reduce  # noqa: F401 
 
 THRESHOLDS = tuple(10.0 ** -k for k in range(1, 11))
 REDUCE_TOL = DEFAULTS.reduce_tol  # |Δ max|μ|| and the relative frequency change that end the sequence
-AUTO_MODES = 4  # modes per angle of the first pool
+AUTO_MODES = DEFAULTS.auto_modes  # modes per angle of the first pool
 AUTO_ANGLES = DEFAULTS.basis_angles  # pool angles over a revolution
-AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: reduced where the full model needs this many Magnus steps
-LINKS_STEP_RATIO = 4  # ... on link components where their level of 8 modes per link needs 1/4 of those steps or fewer
+AUTO_MIN_STEPS = DEFAULTS.auto_min_steps  # ``reduce="default"``: reduced where the full model needs this many steps
+LINKS_STEP_RATIO = DEFAULTS.links_step_ratio  # ... on link components where their level needs 1/4 of those or fewer
 
 
 @dataclass(frozen=True)
