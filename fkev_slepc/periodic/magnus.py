@@ -174,7 +174,7 @@ def _product(generator, a, b, steps, forcing, order, comm=None, progress=None):
 
 
 def multiplier_spectrum(phi):
-    """The default level spectrum of :func:`monodromy`: (μ, None), the eigenvalues of Φ."""
+    """The default level spectrum of :func:`monodromy`: (eigenvalues of Φ, None)."""
     return la.eigvals(phi), None
 
 
@@ -257,12 +257,10 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
     ``comm``: an MPI communicator whose ranks share the steps of every product (collective: every
     rank calls with the same arguments and gets the same result; see ``_product``).
     ``progress(steps done, steps)``: called after each block of step exponentials of every run.
-    ``measure`` = (spectrum, change), what the ``mu_tol`` criterion compares between levels:
-    ``spectrum(Φ) -> (μ, extra)`` once per level (μ the multipliers), ``change(fine, coarse) ->
-    (d_μ, d_2)`` between two levels' spectra: d_μ an absolute multiplier difference (its estimate is
-    ``error``, compared with ``mu_tol``·max(1, max|μ|)), d_2 a relative one (its estimate
-    ``second_error``, compared with ``second_tol``, default ``mu_tol``). Default: every multiplier, matched, and no second
-    measure (the linkage Floquet passes the moduli and the low Floquet frequencies: floquet.py)."""
+    ``measure`` = (spectrum(Φ) -> (μ, extra), change(fine, coarse) -> (d_μ, d_2)): what ``mu_tol``
+    compares between levels: d_μ absolute (estimate ``error``, against ``mu_tol``·max(1, max|μ|)),
+    d_2 relative (``second_error``, against ``second_tol``, default ``mu_tol``); default every
+    multiplier matched, no d_2 (the linkage Floquet: the moduli and low frequencies, floquet.py)."""
     if not np.isfinite(period) or period <= 0.0:
         raise ValueError(f"period: must be a positive finite number, got {period!r}")
     if steps is not None and (int(steps) != steps or steps < 2 or steps % 2):
@@ -275,22 +273,17 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         fb = np.asarray(forcing(np.array([a])))
         m = 1 if fb.ndim == 2 else fb.shape[2]
 
-    def run(N):
-        phi, part = _split(_product(generator, a, b, N, forcing, order, comm, progress), n, m)
-        return phi, part
-
     spectrum, change = measure
     scale = 2.0**order - 1.0
     N = int(steps) if steps is not None else int(2 ** np.ceil(np.log2(max(2, min_steps))))
 
     def level(n_steps):  # (phi, particular, spectrum or None where Φ is not finite)
         with np.errstate(over="ignore", invalid="ignore"):  # a coarse level may blow up: handled as not finite
-            phi, part = run(n_steps)
+            phi, part = _split(_product(generator, a, b, n_steps, forcing, order, comm, progress), n, m)
         return phi, part, (spectrum(phi) if np.all(np.isfinite(phi)) else None)
 
-    inf2 = (np.inf, np.inf)
+    inf2, before = (np.inf, np.inf), (None, None)
     coarse = level(N // 2)
-    before = (None, None)
     if mu_tol is not None and steps is None and N >= 8:  # the level before, for the rate check
         older = level(N // 4)
         before = change(coarse[2], older[2]) if coarse[2] is not None and older[2] is not None else inf2
