@@ -131,8 +131,10 @@ def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: 
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
-    checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"))  # before the first speed
-    options = {**options, "settings": SCAN if settings is None else settings}
+    settings = SCAN if settings is None else settings
+    checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"),  # before the first speed
+                  settings=settings)
+    options = {**options, "settings": settings}
     rows = []
     for w in speeds:
         values, r = speed_peaks(scene, float(w), case, modes, names, **options)

@@ -30,7 +30,7 @@ from fkev_slepc.periodic.floquet import START_H_RHO
 from fkev_slepc.periodic.interpolant import TrigInterpolant
 from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, PeriodicSystem, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
-from fkev_slepc.periodic.settings import DEFAULTS
+from fkev_slepc.periodic.settings import DEFAULTS, SAFETY
 from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, periodic_shot, shooting
 from fkev_slepc.periodic.component_response import (
     RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
@@ -83,14 +83,31 @@ class PeriodicResponse:
     def max_abs_multiplier(self) -> float:
         return float("nan") if self.shoot is None else self.shoot.max_abs_multiplier
 
-    def attracting(self, tol: float = 1e-6) -> bool | None:
-        """False where some |μ| > 1 + tol: the periodic response exists but does not attract."""
-        return None if self.shoot is None else bool(self.max_abs_multiplier <= 1.0 + tol)
+    def attracting(self, attract_tol: float = DEFAULTS.attract_tol) -> bool | None:
+        """False where the response does not attract (:func:`response_verdict`); None without shooting."""
+        v = response_verdict(self.max_abs_multiplier, np.nan if self.shoot is None else self.shoot.error, attract_tol)
+        return None if v is None else v != DOES_NOT_ATTRACT
+
+
+DOES_NOT_ATTRACT = "does not attract"
+
+
+def response_verdict(max_abs: float, error: float, attract_tol: float = DEFAULTS.attract_tol) -> str | None:
+    """The one "does it attract" rule of the periodic response (``PeriodicSettings.attract_tol``):
+    ``"does not attract"`` where max|μ| > 1 + t (the response exists, the machine does not settle on
+    it), ``"neutral"`` where max|μ| >= 1 − t (undamped), else ``"attracts"``; t = max(attract_tol,
+    SAFETY·``error``), the multiplier error counted as in the Floquet verdict. None without
+    multipliers (``max_abs`` NaN: no shooting)."""
+    if not np.isfinite(max_abs):
+        return None
+    t = max(attract_tol, SAFETY * error) if np.isfinite(error) else attract_tol
+    return DOES_NOT_ATTRACT if max_abs > 1.0 + t else "neutral" if max_abs >= 1.0 - t else "attracts"
 
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,
                       shoot: bool = False, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None,
-                      reduce_tol: float = RESPONSE_REDUCE_TOL, fallback: bool = True) -> PeriodicResponse:
+                      reduce_tol: float = RESPONSE_REDUCE_TOL, settings=DEFAULTS,
+                      fallback: bool = True) -> PeriodicResponse:
     """Harmonic balance (and, with ``shoot``, shooting at the same angles) of ``system``
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
     :class:`~fkev_slepc.periodic.system.PeriodicSystem`). Where the system and its load are
@@ -98,17 +115,20 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     solve, whatever ``harmonics``. ``reduce`` (a PeriodicSystem only): None/"none" the full
     model, "links"/"links:N" the link-frame component basis (modes per link doubled to
     ``reduce_tol``, or N measured against 2N: fkev_slepc/periodic/component_response.py),
-    "default" the full model up to ``component_response.FULL_MAX_DOFS`` free DOFs, else "links".
+    "default" the full model up to ``full_max_dofs`` free DOFs, else "links"; ``link_modes`` and
+    ``full_max_dofs`` are those of ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`).
     ``fallback``: on the full model with H doubled, the response by shooting (to ``tol``) where the
     balance will not converge (module docstring).
 
     Raises ``periodic.shooting.ResonanceError`` where (I − Φ) is singular to working precision."""
     hb = static_response(system)
-    mode = None if hb is not None or not hasattr(system, "model") else response_reduction(system.model, reduce)
+    mode = (None if hb is not None or not hasattr(system, "model")
+            else response_reduction(system.model, reduce, settings.full_max_dofs))
     trunc, target = None, system
     if mode is not None:
         modes = None if mode == "links" else int(mode[6:])
-        hb, trunc = converged_response(system, omega, modes=modes, harmonics=harmonics, tol=tol, reduce_tol=reduce_tol)
+        hb, trunc = converged_response(system, omega, modes=modes, harmonics=harmonics, tol=tol, reduce_tol=reduce_tol,
+                                       link_modes=settings.link_modes)
         target = hb.system
     sh = None
     if shoot:  # before the full collocation: it refuses an exact resonance before a singular solve
@@ -117,7 +137,7 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     if hb is None:
         hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol, abandon=fallback)
         if hb.abandoned:
-            shot = _shot(system, omega, tol)
+            shot = _shot(system, omega, tol, settings)
     if sh is not None:
         sh = _resample(sh, hb.theta, target, omega)
     return PeriodicResponse(float(omega), case, hb, sh, trunc, shot)
@@ -146,17 +166,17 @@ def static_response(system) -> HarmonicResponse | None:
     return HarmonicResponse(theta, q, dq, c, err, float(1.0 / np.linalg.cond(K, 1)))
 
 
-def _shot(system, omega: float, tol: float) -> PeriodicShot:
+def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
     """:func:`~fkev_slepc.periodic.shooting.periodic_shot` of ``system``: on a PeriodicSystem in its
     scaled state, the generator by the trigonometric interpolant Floquet takes
-    (``PeriodicSystem.interpolant``, every setting its default) and the load's forcing by one on the
+    (``PeriodicSystem.interpolant`` with the samples of ``settings``) and the load's forcing by one on the
     same samples, doubled until it too meets ``interp_tol`` at the midpoints (each Magnus node then
     costs a weighted sum, not an assembly); any other system in (q, q') from ``mck`` and ``load``."""
     if not isinstance(system, PeriodicSystem):
         from fkev_slepc.periodic.shooting import _adapters
 
         return periodic_shot(*_adapters(system.mck, system.load, omega), omega, tol=tol)
-    interp = system.interpolant()
+    interp = system.interpolant(settings.samples, settings.interp_tol, settings.max_samples)
     k = interp.samples
     B = system.forcing(2.0 * np.pi * np.arange(k) / k)
     while True:
@@ -164,11 +184,11 @@ def _shot(system, omega: float, tol: float) -> PeriodicShot:
         err = np.abs(TrigInterpolant(0.0, B)(2.0 * np.pi * (np.arange(k) + 0.5) / k) - mid).max()
         both = np.empty((2 * k,) + B.shape[1:])
         both[0::2], both[1::2] = B, mid
-        if err <= DEFAULTS.interp_tol * max(np.abs(B).max(), 1e-300) or k >= DEFAULTS.max_samples:
+        if err <= settings.interp_tol * max(np.abs(B).max(), 1e-300) or k >= settings.max_samples:
             break
         B, k = both, 2 * k
-    forcing = TrigInterpolant(0.0, B[:, :, None], drop=0.1 * DEFAULTS.interp_tol)  # as the generator's
-    rho = float(np.max(np.abs(np.linalg.eigvals(interp.generator.S[0]))))  # Floquet's first level (h·ρ(A) ≈ 2)
+    forcing = TrigInterpolant(0.0, B[:, :, None], drop=0.1 * settings.interp_tol)  # as the generator's
+    rho = float(np.max(np.abs(np.linalg.eigvals(interp.generator.S[0]))))  # Floquet's first level, h·ρ(A) = START_H_RHO
     return periodic_shot(interp.generator, lambda tau: forcing(tau)[:, :, 0], omega, tol=tol,
                          min_steps=int(np.ceil(2.0 * np.pi * rho / START_H_RHO)), dof_scale=system.dof_scaling,
                          sign=float(np.sign(omega)), start=system.start)
