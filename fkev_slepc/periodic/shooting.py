@@ -10,15 +10,16 @@ resonance: no periodic response, or not a unique one), which is refused.
 
 **The periodic response where harmonic balance cannot converge** (:func:`periodic_shot`, docs/response.md
 §3): the same x₀ at the step count N that brings its own step-doubling estimate below ``tol``. The
-estimate: one revolution of N/2 steps from x₀ ends at x₀ + r, r = (Φ_{N/2} − Φ_N)x₀ + p_{N/2} − p_N,
-so to first order x₀ at N/2 steps is x₀ + (I − Φ)⁻¹r (one trajectory, no second monodromy), and
-``error`` = ‖(I − Φ)⁻¹r‖ / ((2⁶ − 1)‖x₀‖), the larger over the state's two halves (displacements,
-and velocities or momenta), each relative to its own largest component: the step-doubling rule of
-the monodromy's own ``phi_error`` (:mod:`fkev_slepc.periodic.magnus`), on the periodic state. The
-result is evaluated at any crank angles by the same Magnus steps from x₀ (:class:`PeriodicShot`,
-``at``): exact in every harmonic of the load, no trigonometric interpolation of the response. It
-takes any generator and forcing of the state: a linkage's are those of its PeriodicSystem (scaled,
-on the interpolant Floquet takes; fkev_slepc/periodic/response.py).
+monodromy runs on the augmented state (x, 1), whose Φ̃ = [[Φ, x_p], [0, 1]] carries the particular
+state, and its levels N/2, N are compared on x₀ = (I − Φ)⁻¹x_p itself (``measure`` of
+:func:`fkev_slepc.periodic.magnus.monodromy`): ``error`` is the change of x₀ between the two, the
+larger over the state's two halves (displacements, and velocities or momenta), each relative to its
+own largest component, divided by 2⁶ − 1 where the level before shows the integrator's rate (the
+pre-asymptotic guard of :func:`~fkev_slepc.periodic.magnus.step_doubling_error`). The result is
+evaluated at any crank angles by the same Magnus steps from x₀ (:class:`PeriodicShot`, ``at``):
+exact in every harmonic of the load, no trigonometric interpolation of the response. It takes any
+generator and forcing of the state: a linkage's are those of its PeriodicSystem (scaled, on the
+interpolant Floquet takes; fkev_slepc/periodic/response.py).
 
 Same generic interface as :mod:`fkev_slepc.periodic.harmonic_balance`: ``coefficients(theta)`` -> dense
 (M, C, K) stacks (k, n, n) in the time form, ``load(theta)`` -> (k, n).
@@ -83,26 +84,25 @@ def _adapters(coefficients, load, omega):
     return gen, forcing
 
 
-def _periodic_state(mono, omega):
-    """(x₀, LU of I − Φ, rcond) of the periodic state (I − Φ)x₀ = x_p of a forced monodromy.
+def _periodic_state(phi, particular, mu, omega):
+    """(x₀, LU of I − Φ, rcond) of the periodic state (I − Φ)x₀ = x_p of a forced monodromy Φ, x_p
+    (``mu`` its multipliers).
 
     Raises
     ------
     ResonanceError
         (I − Φ) singular to working precision (a multiplier at 1), with the closest multiplier.
     """
-    n2 = mono.phi.shape[0]
-    I_phi = np.eye(n2) - mono.phi
+    I_phi = np.eye(phi.shape[0]) - phi
     sv = la.svdvals(I_phi)
-    rcond = float(sv[-1] / (1.0 + la.norm(mono.phi, 2)))
-    mu = mono.multipliers
+    rcond = float(sv[-1] / (1.0 + la.norm(phi, 2)))
     if rcond < RESONANCE_TOL:
         near = mu[np.argmin(np.abs(mu - 1.0))]
         raise ResonanceError(f"exact resonance at Ω = {omega:g} rad/s: (I - Φ) is singular to working precision "
                              f"(σ_min / (1 + ‖Φ‖) = {rcond:.1e}; multiplier μ = {near.real:.12g}{near.imag:+.3g}j "
                              "at 1): the periodic response does not exist or is not unique")
     lu = la.lu_factor(I_phi)
-    return la.lu_solve(lu, mono.particular), lu, rcond
+    return la.lu_solve(lu, particular), lu, rcond
 
 
 def _relative(e, x0) -> float:
@@ -135,7 +135,7 @@ def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = No
     with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
         mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
                                  max_steps=max_steps)
-    x0, _, rcond = _periodic_state(mono, omega)
+    x0, _, rcond = _periodic_state(mono.phi, mono.particular, mono.multipliers, omega)
     thetas = np.asarray(thetas, dtype=float)
     path = np.r_[thetas, 2.0 * np.pi] if thetas[-1] < 2.0 * np.pi else thetas
     x = magnus.trajectory(gen, x0, path, forcing=forcing, order=order, steps=mono.steps, period=2.0 * np.pi)
@@ -153,7 +153,7 @@ class PeriodicShot:
     x0: np.ndarray  # (2n,) the periodic state at τ = 0 (the generator's state and angle)
     multipliers: np.ndarray  # (2n,) complex, by decreasing |μ|
     error: float  # relative step-doubling estimate of x₀ (N/2 against N steps; module docstring)
-    monodromy_error: float  # the monodromy's relative step-doubling estimate of Φ and x_p (the larger)
+    monodromy_error: float  # the multipliers' step-doubling estimate (absolute)
     rcond: float  # σ_min(I − Φ) / (1 + ‖Φ‖₂): distance from exact resonance
     steps: int
     generator: object = field(repr=False)
@@ -178,14 +178,30 @@ class PeriodicShot:
         return q if self.dof_scale is None else q / self.dof_scale[None, :]
 
 
+def _state_spectrum(phi):
+    """The level spectrum of the augmented monodromy [[Φ, x_p], [0, 1]] (:func:`periodic_shot`):
+    (multipliers of Φ, the periodic state x₀ = (I − Φ)⁻¹x_p; NaN where I − Φ is singular)."""
+    n = phi.shape[0] - 1
+    mu = la.eigvals(phi[:n, :n])
+    try:
+        x0 = np.linalg.solve(np.eye(n) - phi[:n, :n], phi[:n, n])
+    except np.linalg.LinAlgError:
+        x0 = np.full(n, np.nan)
+    return mu, x0
+
+
+def _state_change(fine, coarse) -> tuple[float, float]:
+    """(max |μ − μ_coarse|, the relative change of the periodic state: :func:`_relative`) of two levels."""
+    return magnus.multiplier_change(fine, coarse)[0], _relative(fine[1] - coarse[1], fine[1])
+
+
 def periodic_shot(generator, forcing, omega: float, *, tol: float, order: int = 6, min_steps: int = 16,
                   max_steps: int = 2**16, **placement) -> PeriodicShot:
     """The periodic response of x' = A(τ)x + b(τ) (period 2π; ``generator``, ``forcing`` as
     :func:`fkev_slepc.periodic.magnus.monodromy` takes them; ``omega`` the crank speed, rad/s, named
-    by a resonance) by shooting with its step-doubling
-    error ≤ ``tol`` (module docstring): the monodromy to ``tol``, then the steps doubled until the
-    periodic state's estimate is below ``tol`` or ``max_steps`` is reached (the estimate is
-    reported either way). ``placement``: :class:`PeriodicShot`'s ``dof_scale``, ``sign``, ``start``
+    by a resonance) by shooting, the steps doubled from ``min_steps`` until the periodic state's
+    step-doubling estimate is ≤ ``tol`` or ``max_steps`` is reached (the estimate is reported either
+    way; module docstring). ``placement``: :class:`PeriodicShot`'s ``dof_scale``, ``sign``, ``start``
     (how the state and τ map to q and the crank angle; default q, θ = τ).
 
     Raises
@@ -193,16 +209,12 @@ def periodic_shot(generator, forcing, omega: float, *, tol: float, order: int = 
     ResonanceError
         (I − Φ) singular to working precision (a multiplier at 1): the response is not filled.
     """
-    with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
-        mono = magnus.monodromy(generator, 2.0 * np.pi, forcing=forcing, order=order, tol=tol, min_steps=min_steps,
-                                max_steps=max_steps)
-        while True:
-            x0, lu, rcond = _periodic_state(mono, omega)
-            end = magnus.trajectory(generator, x0, np.array([0.0, 2.0 * np.pi]), forcing=forcing, order=order,
-                                    steps=mono.steps // 2)[-1]
-            err = _relative(la.lu_solve(lu, end - x0), x0) / (2.0**order - 1.0)
-            if err <= tol or 2 * mono.steps > max_steps:
-                break
-            mono = magnus.monodromy(generator, 2.0 * np.pi, forcing=forcing, order=order, steps=2 * mono.steps)
-    return PeriodicShot(x0, mono.multipliers, err, max(mono.phi_error, mono.particular_error or 0.0), rcond,
-                        mono.steps, generator, forcing, order, **placement)
+    def augmented(tau):
+        return magnus._augmented(generator, forcing, tau)[0]
+
+    mono = magnus.monodromy(augmented, 2.0 * np.pi, order=order, mu_tol=np.inf, second_tol=tol, min_steps=min_steps,
+                            max_steps=max_steps, measure=(_state_spectrum, _state_change))
+    n = mono.phi.shape[0] - 1
+    x0, _, rcond = _periodic_state(mono.phi[:n, :n], mono.phi[:n, n], mono.multipliers, omega)
+    return PeriodicShot(x0, mono.multipliers, float(mono.second_error), float(mono.error), rcond, mono.steps, generator, forcing,
+                        order, **placement)
