@@ -30,6 +30,8 @@ def test_the_rule_keeps_a_geometric_balance_and_abandons_a_stagnating_one():
     assert will_not_converge([(32, 1e-2), (64, 1e-3)], 1e-8, 128)
     assert not will_not_converge([(32, 1e-2), (64, 1e-3)], 1e-6, 256)  # 1e-3 * 0.1^6 = 1e-9 at 4H
     assert not will_not_converge([(16, 1.0)], 1e-8, 256)  # one estimate: no rate yet
+    # runs/slider-crank-design.toml at 100 rad/s: a stall within √tol is the balance's floor: kept
+    assert not will_not_converge([(16, 1.4e-3), (32, 2.3e-7), (64, 1.1e-7)], 1e-8, 128)
 
 
 def mathieu(c=0.1):

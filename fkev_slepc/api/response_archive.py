@@ -70,7 +70,7 @@ def _status(values: dict, ps: PeriodicSettings) -> int:
     from fkev_slepc.periodic.response import DOES_NOT_ATTRACT, response_verdict
 
     tol, fixed = ps.harmonic_tol, ps.harmonics != 0
-    if not fixed and not values["response_error"] <= tol:
+    if not fixed and not values.get("response_error", values["harmonic_balance_error"]) <= tol:  # by the method
         return Status.NOT_CONVERGED.code
     grows = response_verdict(values["max_abs_multiplier"], values["multiplier_error"], ps.attract_tol) == DOES_NOT_ATTRACT
     return (Status.UNSTABLE if grows else Status.OK).code

@@ -119,13 +119,13 @@ class StaticCorrection:
 class LiftedResponse:
     """The response of a projected system in the global DOFs (the interface of
     :class:`~fkev_slepc.periodic.harmonic_balance.HarmonicResponse`: ``theta``, ``q``, ``dq``,
-    ``harmonics`` (of z), ``error``, ``condition``, ``at``)."""
+    ``harmonics`` (of z), ``error``, ``condition``, ``levels``, ``abandoned``, ``at``)."""
 
     z: HarmonicResponse
     system: ProjectedSystem
 
-    def __getattr__(self, name):  # theta, harmonics (of z), error and condition: those of z
-        if name in ("theta", "harmonics", "error", "condition"):
+    def __getattr__(self, name):  # theta, harmonics (of z), error, condition, levels, abandoned: those of z
+        if name in ("theta", "harmonics", "error", "condition", "levels", "abandoned"):
             return getattr(self.z, name)
         raise AttributeError(name)
 

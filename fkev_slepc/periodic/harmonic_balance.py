@@ -23,9 +23,11 @@ harmonics decay geometrically, |c_k| ~ r^k, the estimate at H measures the H/2 s
 e_H ≈ A r^{H/2}, so two successive estimates give ρ = e_H/e_{H/2} = r^{H/4} and the level H' is
 predicted at e_H ρ^{2(H'/H − 1)} (ρ² at 2H: the estimate squares each doubling). The doubling is
 abandoned at the first level whose two last estimates do not fall (ρ ≥ 1) or whose prediction at
-the last level allowed (``max_harmonics``, :data:`MAX_UNKNOWNS`) misses ``tol``: the costly last
-levels are not solved, and the caller takes the periodic response by shooting
-(fkev_slepc/periodic/response.py). Undamped Bahgat–Willmert (1 element per link) at 500 rad/s:
+the last level allowed (``max_harmonics``, :data:`MAX_UNKNOWNS`) misses ``tol``, as long as the
+estimate is above √tol (the balance resolves the response there, and a stall is its conditioning
+floor, which shooting does not beat: the slider-crank design scene at 100 rad/s stalls at 2.3e-7,
+1.1e-7 for H = 32, 64, and its shooting misses 1e-8 at 65,536 steps): the costly last levels are
+not solved, and the caller takes the periodic response by shooting (fkev_slepc/periodic/response.py). Undamped Bahgat–Willmert (1 element per link) at 500 rad/s:
 estimates 3.0, 0.67, 1.0 at H = 16, 32, 64, abandoned at 64 (it reached 1.8e-7 at H = 256, the
 last level, 20× the cost of the levels before); Turcic–Midha at 60 rad/s: 1.35, 4.6e-2, 1.5e-4,
 3.3e-9 at H = 16 ... 128, ρ = 0.034, 3.3e-3: predicted 7e-11 at 128 from H = 32, kept.
@@ -169,8 +171,9 @@ def will_not_converge(levels, tol: float, last: int) -> bool:
     """True where the estimates of ``levels`` ((H, estimate), coarse to fine) say the doubling
     will not bring the estimate to ``tol`` by the harmonics ``last``: the last two estimates do not
     fall, or their geometric prediction e_H ρ^{2(last/H − 1)} at ``last`` misses ``tol`` (module
-    docstring); False with fewer than two estimates or one already ≤ ``tol``."""
-    if len(levels) < 2 or levels[-1][1] <= tol:
+    docstring); False with fewer than two estimates or the last ≤ √tol (a floor there is the
+    balance's own, not an unresolved spectrum: the doubling goes on)."""
+    if len(levels) < 2 or levels[-1][1] <= np.sqrt(tol):
         return False
     (_, before), (H, e) = levels[-2], levels[-1]
     rho = e / before if before > 0 else np.inf
