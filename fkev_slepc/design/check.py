@@ -161,7 +161,7 @@ def check_problems(criterion, threshold, names=None) -> list[Problem]:
 
 def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
                  angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float | None = None,
-                 threshold: float = WARN_BELOW, names=None, settings=None) -> DesignCheck:
+                 threshold: float = WARN_BELOW, names=None, settings=None, model_for=None) -> DesignCheck:
     """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
     ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
     weak-axis factor below which a warning is given. The out-of-plane lowest frequency is frozen-time
@@ -169,7 +169,9 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     (fkev_slepc/periodic/steady.py, the monodromy skipped), the loads those of ``fkev loads``
     without crank acceleration. Raises SceneError naming a bad argument. ``settings``
     (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`): harmonics, harmonic_tol and
-    response_angles_deg, overridden by ``harmonics``, ``tol`` and ``angles_deg`` when given."""
+    response_angles_deg, overridden by ``harmonics``, ``tol`` and ``angles_deg`` when given.
+    ``model_for(scene, cases, plane)`` gives the in-plane and out-of-plane models (default ``Model``:
+    new ones; ``Study.design_check``: the study's pool, fkev_slepc/api/pool.py)."""
     from fkev_slepc.model.joint_loads import joint_loads
     from fkev_slepc.periodic.steady import checked_point, point_settings, steady_solve, whole_link_stress
 
@@ -179,12 +181,13 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     ps = point_settings(scene, settings, names, harmonics=harmonics, tol=tol, angles_deg=angles_deg)
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
-                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names)
+                                            else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
+                                            model_for=model_for)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=False,
                      names=names)
     ls = whole_link_stress(model, a, r.hb.at(np.radians(a)))
     mech = model.mechanism
     jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
     links = check_links(scene, mech, ls, jl, criterion)
-    oop = out_of_plane_check(scene, float(speed_rad_s), case, a, [lc.buckling for lc in links])
+    oop = out_of_plane_check(scene, float(speed_rad_s), case, a, [lc.buckling for lc in links], model_for)
     return DesignCheck(scene.title, float(speed_rad_s), case, criterion, float(threshold), links, oop)
