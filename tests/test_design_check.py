@@ -131,3 +131,26 @@ def test_no_stress_gives_no_factor_and_strict_json():
         lk = d["links"][name]
         assert lk["peak_stress_pa"] == 0.0 and lk["static_sf"] is None and lk["fatigue_sf"] is None
         assert lk["buckling_sf"] is None
+
+
+def test_the_check_carries_its_periodic_settings_whole():
+    """The check's JSON (strict) carries the response's PeriodicSettings whole, --harmonics and the
+    angles as run. full_max_dofs = 0 puts the response on link components, whose levels at 2 elements
+    per link end with every interior mode kept (W square, 12 of 12 DOFs: the full model): the same
+    peak stresses to the harmonic balance's truncation (1.4e-4 at H = 8, 5.8e-8 at H = 16)."""
+    from dataclasses import replace
+
+    import fkev_slepc as fk
+    from fkev_slepc.periodic.settings import DEFAULTS
+
+    study = fk.load(SCENE, elements=2)
+    angles = np.arange(0.0, 360.0, 30.0)
+    base = study.design_check(100.0, angles_deg=angles, harmonics=16)
+    d = base.as_dict()
+    json.dumps(d, allow_nan=False)
+    assert d["settings"] == {**DEFAULTS.as_json(), "harmonics": 16, "response_angles_deg": list(angles)}
+    links = study.design_check(100.0, angles_deg=angles, harmonics=16, settings=replace(DEFAULTS, full_max_dofs=0))
+    assert links.as_dict()["settings"]["full_max_dofs"] == 0
+    for name in ("crank", "rod"):
+        a, b = (c.as_dict()["links"][name]["peak_stress_pa"] for c in (base, links))
+        assert abs(a - b) <= 1e-6 * a

@@ -22,7 +22,9 @@ FLOQUET = ("floquet", BW, "--elements", "1", "--speeds", "100", "--angles", "0:3
 BAD = {"magnus_order": 5, "monodromy_tol": 0.0, "steps": -1, "max_steps": 0, "samples": 1, "interp_tol": 1.0,
        "max_samples": 1, "reduce": "half", "basis_angles": 0, "threshold": float("nan"), "reduce_tol": -1e-3,
        "max_basis": 2.5, "verdict_tol": 2.0, "edge_rtol": float("inf"), "resonance_order": -1, "probe": "yes",
-       "harmonics": 1, "harmonic_tol": "1e-8", "shoot": 1, "shooting_tol": 0.0, "response_angles_deg": [0.0, np.nan]}
+       "harmonics": 1, "harmonic_tol": "1e-8", "shoot": 1, "shooting_tol": 0.0, "response_angles_deg": [0.0, np.nan],
+       "auto_modes": 0, "link_modes": 1.5, "auto_min_steps": -1, "links_step_ratio": 0.0, "full_max_dofs": True,
+       "attract_tol": 1e-8j}
 
 
 def test_round_trip_through_hdf5_attributes_is_exact(tmp_path):
@@ -154,3 +156,115 @@ def test_response_takes_its_tolerances_from_the_settings():
     assert loose.hb_error <= 1e-4
     with pytest.raises(SceneError, match="tol: must be in"):
         study.response(150.0, tol=2.0)
+
+
+REDUCTION = {"auto_modes": 6, "link_modes": 3, "auto_min_steps": 1000, "links_step_ratio": 2.5,
+             "full_max_dofs": 12, "attract_tol": 1e-5}  # the fields of LATER, each off its default
+
+
+def test_later_fields_round_trip_and_an_archive_without_them_reads_as_the_defaults(tmp_path):
+    """The reduction constants, the response's full-model limit and its attract rule are fields: written
+    and read back exactly; settings written before they were fields (none of them among the
+    attributes) read back with their defaults, the module constants those runs used. Any other missing
+    field is still refused."""
+    from fkev_slepc.periodic import component_response, components, truncation
+    from fkev_slepc.periodic.settings import LATER
+
+    assert set(REDUCTION) == set(LATER)
+    s = replace(DEFAULTS, **REDUCTION)
+    with h5py.File(tmp_path / "s.h5", "w") as f:
+        f.create_group("settings").attrs.update(s.to_attrs())
+    with h5py.File(tmp_path / "s.h5", "r") as f:
+        back = PeriodicSettings.from_attrs(f["settings"].attrs)
+    assert back == s and set(DEFAULTS.diff(back)) == set(LATER)
+    assert type(back.links_step_ratio) is float and type(back.auto_min_steps) is int
+    old = {k: v for k, v in s.to_attrs().items() if k not in LATER}
+    assert PeriodicSettings.from_attrs(old) == replace(s, **{k: getattr(DEFAULTS, k) for k in LATER})
+    with pytest.raises(SettingsError, match="verdict_tol: missing from the archived settings"):
+        PeriodicSettings.from_attrs({k: v for k, v in old.items() if k != "verdict_tol"})
+    # the constants other modules export are the defaults (one source)
+    assert (truncation.AUTO_MODES, components.LINK_MODES, truncation.AUTO_MIN_STEPS, truncation.LINKS_STEP_RATIO,
+            component_response.FULL_MAX_DOFS) == (4, 2, 60_000, 4.0, 48)
+
+
+def test_default_reduction_reads_its_thresholds_from_the_settings():
+    """reduce="default" at one speed (docs/engine.md): the full model exactly below ``auto_min_steps``
+    full-model steps 2·2π·ρ(A), reduced from there on; above, "links" only where the level of
+    4·``link_modes`` modes per link needs at most 1/``links_step_ratio`` of the full steps.
+    Bahgat–Willmert at 500 rad/s: thesis mesh (9 DOFs), 1553 full-model steps; 3 elements per link
+    (27 DOFs), 24654 steps against 7282 for 4 modes per link (16 vectors): a ratio of 3.39."""
+    from fkev_slepc.periodic.floquet import default_reduction, full_min_steps
+
+    thesis = Model(with_elements(load_scene(BW), 1), ("full",))
+    full = full_min_steps(thesis, 500.0)
+    assert default_reduction(thesis, 500.0) is None  # the defaults: 60000 steps
+    assert default_reduction(thesis, 500.0, settings=replace(DEFAULTS, auto_min_steps=full + 1)) is None
+    assert default_reduction(thesis, 500.0, settings=replace(DEFAULTS, auto_min_steps=full)) == "auto"
+    assert default_reduction(thesis, 500.0, settings=replace(DEFAULTS, auto_min_steps=1)) == "auto"  # 8 per link: all
+    fine = Model(with_elements(load_scene(BW), 3), ("full",))
+    st = replace(DEFAULTS, auto_min_steps=1, link_modes=1)
+    assert default_reduction(fine, 500.0, settings=st) == "auto"  # 4 x 7282 > 24654
+    assert default_reduction(fine, 500.0, settings=replace(st, links_step_ratio=3.0)) == "links"  # 3 x 7282 <= 24654
+    assert default_reduction(fine, 500.0, settings=replace(st, links_step_ratio=3.0, link_modes=2)) == "auto"  # all
+
+
+def test_an_archive_without_the_later_fields_resumes_and_a_changed_one_is_refused(archive, tmp_path):
+    """A /floquet/settings group written before the reduction constants were fields (their attributes
+    removed, checksums re-stamped): the same run resumes (nothing left to solve). An archive whose
+    auto_min_steps differs from the run's is refused by the resume's check (the one the command runs
+    before any work: exit 2 there, tested above), naming the field with both values, the archive untouched."""
+    from fkev_slepc.archive import products as P
+    from fkev_slepc.periodic.settings import LATER
+    from fkev_slepc.sweep.parallel import local
+    from fkev_slepc.sweep.product_run import refuse_changed_settings
+    from fkev_slepc.sweep.session import OutputError
+
+    old = tmp_path / "old.h5"
+    old.write_bytes(archive.read_bytes())
+    with edited(old) as f:
+        for k in LATER:
+            del f["floquet/settings"].attrs[k]
+    run = replace(DEFAULTS, reduce="none", monodromy_tol=1e-9)
+    refuse_changed_settings(old, P.FLOQUET, run, local())  # the defaults filled in: nothing differs
+    r = fkev(*FLOQUET, "--monodromy-tol", "1e-9", "--resume", "-o", old)
+    assert r.returncode == 0 and "floquet: 0 of 1 speed(s) to solve" in r.stderr, r.stderr
+    before = digest(archive)
+    with pytest.raises(OutputError) as err:
+        refuse_changed_settings(archive, P.FLOQUET, replace(run, auto_min_steps=1000), local())
+    assert str(err.value).endswith("cannot resume: the periodic settings differ from the archive's: auto_min_steps: "
+                                   "archive has 60000, this run 1000") and "\n" not in str(err.value)
+    with pytest.raises(OutputError, match="link_modes: archive has 2, this run 1$"):
+        refuse_changed_settings(old, P.FLOQUET, replace(run, link_modes=1), local())
+    assert digest(archive) == before
+
+
+def test_the_response_reads_its_reduction_and_attract_rule_from_the_settings():
+    """full_max_dofs: the slider-crank benchmark on one element per link (6 DOFs) is solved on the full
+    model by default and on link components with full_max_dofs = 0, where its 2 modes per link keep
+    every DOF (W square: the full model, truncation zero, the same response to the harmonic
+    balance's truncation). attract_tol: one rule (periodic.response.response_verdict) for the result's
+    verdict, with the run's value, and the archived speed scan's status."""
+    from clitools import ROOT
+
+    from fkev_slepc.api import Study
+    from fkev_slepc.api.response_archive import _status
+    from fkev_slepc.periodic.response import response_verdict
+    from fkev_slepc.status import Status
+
+    study = Study(with_elements(load_scene(ROOT / "runs" / "slider-crank-benchmark-stiff-crank.toml"), (1, 1)))
+    s = replace(DEFAULTS, harmonics=8, response_angles_deg=(0.0, 90.0, 180.0, 270.0))
+    full = study.response(150.0, settings=s)
+    links = study.response(150.0, settings=replace(s, full_max_dofs=0, attract_tol=1e-5))
+    assert full.truncation is None and full.attract_tol == 1e-8
+    t = links.truncation
+    assert t.basis == full.q.shape[1] and t.converged and (t.stress, t.deflection) == (0.0, 0.0)
+    assert np.abs(links.q - full.q).max() <= 1e-5 * np.abs(full.q).max()
+    # max|μ| 1 + 5e-8 (error 1e-12): grows beyond attract_tol 1e-8, neutral within 1e-5 or within 10 x error 1e-8
+    assert response_verdict(1 + 5e-8, 1e-12) == "does not attract" and response_verdict(0.9, 1e-12) == "attracts"
+    assert response_verdict(1 + 5e-8, 1e-12, 1e-5) == "neutral" == response_verdict(1 + 5e-8, 1e-8)
+    assert response_verdict(np.nan, np.nan) is None and full.verdict is None
+    assert replace(links, max_abs_multiplier=1 + 5e-8, multiplier_error=1e-12).verdict == "neutral"
+    assert replace(full, max_abs_multiplier=1 + 5e-8, multiplier_error=1e-12).attracting is False
+    row = {"harmonic_balance_error": 0.0, "max_abs_multiplier": 1 + 5e-8, "multiplier_error": 1e-12}
+    assert _status(row, DEFAULTS) == Status.UNSTABLE.code
+    assert _status(row, replace(DEFAULTS, attract_tol=1e-5)) == Status.OK.code

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 RESPONSE_FORMAT = "fkev-response"
@@ -38,6 +39,7 @@ class ResponseResult:
     elem_nodes: np.ndarray  # (n_el, 2) for drawing
     link_stress: object = None  # periodic.link_stress.LinkStress: σ₊, σ₋ at every element end
     truncation: object = None  # periodic.component_response.ResponseTruncation (None: the full model)
+    attract_tol: float = DEFAULTS.attract_tol  # PeriodicSettings.attract_tol of the run (the verdict's rule)
 
     def plot(self, kind: str = "deflected", **options):
         """``deflected`` (the linkage at several angles, magnified, scale stated), ``stations``
@@ -57,19 +59,19 @@ class ResponseResult:
     @property
     def verdict(self) -> str | None:
         """``attracts`` (every |μ| < 1 beyond its error), ``neutral`` (max |μ| = 1 within its
-        error: undamped), ``does not attract`` (some |μ| > 1); None without shooting."""
-        if not np.isfinite(self.max_abs_multiplier):
-            return None
-        tol = max(1e-8, 10 * self.multiplier_error)
-        if self.max_abs_multiplier > 1.0 + tol:
-            return "does not attract"
-        return "neutral" if self.max_abs_multiplier >= 1.0 - tol else "attracts"
+        error: undamped), ``does not attract`` (some |μ| > 1); None without shooting
+        (:func:`fkev_slepc.periodic.response.response_verdict`, the one rule)."""
+        from fkev_slepc.periodic.response import response_verdict
+
+        return response_verdict(self.max_abs_multiplier, self.multiplier_error, self.attract_tol)
 
     @property
     def attracting(self) -> bool | None:
         """False where some |μ| > 1 beyond its error: the periodic response does not attract."""
+        from fkev_slepc.periodic.response import DOES_NOT_ATTRACT
+
         v = self.verdict
-        return None if v is None else v != "does not attract"
+        return None if v is None else v != DOES_NOT_ATTRACT
 
     def peak_stress(self) -> dict | None:
         s = self.stations.stress
@@ -198,11 +200,11 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
                                             else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
-                                            reduce=reduce, model_for=model_for)
+                                            reduce=reduce, settings=ps, model_for=model_for)
     mech = model.mechanism
     chosen = chosen_stations(scene, mech, stations, names)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=ps.shoot,
-                     names=names, shooting_tol=ps.shooting_tol, reduce=reduce)
+                     names=names, shooting_tol=ps.shooting_tol, reduce=reduce, settings=ps)
     theta = np.radians(a)
     q = r.hb.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
@@ -216,7 +218,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
         scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
         mech.link_names, st, r.hb.harmonics.shape[0] - 1, r.hb.error, r.hb.condition,
         r.max_abs_multiplier, float("nan") if sh is None else sh.error, r.methods_difference,
-        float("nan") if sh is None else sh.closure, mech.elem_nodes, whole, r.truncation)
+        float("nan") if sh is None else sh.closure, mech.elem_nodes, whole, r.truncation, ps.attract_tol)
 
 
 def chosen_stations(scene: Scene, mech, stations, names=None):

@@ -73,12 +73,13 @@ class ResponseRequest(ProductRequest):
 
 
 def _status(values: dict, ps: PeriodicSettings) -> int:
+    from fkev_slepc.periodic.response import DOES_NOT_ATTRACT, response_verdict
+
     tol, fixed = ps.harmonic_tol, ps.harmonics != 0
     if not fixed and not values["harmonic_balance_error"] <= tol:
         return Status.NOT_CONVERGED.code
-    mu = values["max_abs_multiplier"]
-    return (Status.UNSTABLE if np.isfinite(mu) and mu > 1.0 + max(1e-8, 10 * values["multiplier_error"])
-            else Status.OK).code
+    grows = response_verdict(values["max_abs_multiplier"], values["multiplier_error"], ps.attract_tol) == DOES_NOT_ATTRACT
+    return (Status.UNSTABLE if grows else Status.OK).code
 
 
 def run_response(request: ResponseRequest, comm=None, notify=None, progress: bool = False) -> Path:
@@ -159,7 +160,7 @@ def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *,
     speeds = checked_speeds(scene, speeds_rad_s, names)
     model_for = ModelPool(scene).model_for if model_for is None else model_for
     checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"),  # before the frozen sweep
-                  model_for=model_for)
+                  settings=settings or SCAN, model_for=model_for)
     case = case_name(case)
     sc = configure(scene, speeds=[float(w) for w in speeds], cases=[case])
     out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line,

@@ -131,10 +131,11 @@ def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: 
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
+    settings = SCAN if settings is None else settings
     model_for = ModelPool(scene).model_for if model_for is None else model_for
     checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"),  # before the first speed
-                  model_for=model_for)
-    options = {**options, "settings": SCAN if settings is None else settings}
+                  settings=settings, model_for=model_for)
+    options = {**options, "settings": settings}
     rows = []
     for w in speeds:
         values, r = speed_peaks(scene, float(w), case, modes, names, model_for, **options)

@@ -17,7 +17,7 @@ MAX_ABS_MULTIPLIER = Var("floquet/max_abs_multiplier", (SPEED, CASE), "f8", "1",
                          "largest |mu|: amplitude factor per crank revolution of the fastest-growing solution", np.nan,
                          required=True, source="max_abs")
 MULTIPLIER_ERROR = Var("floquet/multiplier_error", (SPEED, CASE), "f8", "1",
-                       "estimated absolute error of the multipliers (monodromy step doubling; reduced model: plus the "
+                       "estimated absolute error of the multipliers' moduli |mu| (monodromy step doubling; reduced model: plus the "
                        "truncation change of max|mu|)", np.nan, source="error")
 BASIS_SIZE = Var("floquet/basis_size", (SPEED, CASE), "i4", "1",
                  "vectors of the reduced basis, frozen-mode or link components (0: the full model)", 0, source="basis")
@@ -77,7 +77,7 @@ SAMPLE_ROWS = (  # every monodromy beside the grid, appended as it is solved: a 
         CNAN, source="multipliers", growable=True),
     Var("floquet/samples/max_abs_multiplier", (F_SAMPLE,), "f8", "1", "largest |mu|", np.nan, source="max_abs",
         **_ROW),
-    Var("floquet/samples/multiplier_error", (F_SAMPLE,), "f8", "1", "estimated absolute error of the multipliers",
+    Var("floquet/samples/multiplier_error", (F_SAMPLE,), "f8", "1", "estimated absolute error of the multipliers' moduli |mu|",
         np.nan, source="error", **_ROW),
     SAMPLE_STATUS,
     Var("floquet/samples/message", (F_SAMPLE,), STRING, "1", "the solver's message of a failed speed", source="message",

@@ -24,6 +24,7 @@ CSV_KEYS = ("peak_stress_pa", "static_sf", "fatigue_sf", "fatigue_criterion", "s
 def add_parser(sub) -> None:
     from fkev_slepc.design.fatigue import CRITERIA
     from fkev_slepc.model.buckling import WARN_BELOW
+    from fkev_slepc.periodic.settings import DEFAULTS
 
     p = sub.add_parser(
         "design-check", help="per-link stress, safety factors, weak-axis buckling and pin loads at one speed",
@@ -46,7 +47,7 @@ def add_parser(sub) -> None:
     p.add_argument("--angles", metavar="SPEC", help="crank angles of the cycle, deg (default 0:355:5)")
     p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
                    "until the estimated error is below --tol)")
-    p.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (default 1e-8)")
+    p.add_argument("--tol", type=float, default=DEFAULTS.harmonic_tol, help="harmonic-balance tolerance (default 1e-8)")
     add_elements_argument(p)
     p.add_argument("--csv", metavar="PATH", help="write one row per link as CSV ('-': stdout)")
     p.add_argument("--json", action="store_true", help="machine-readable output")

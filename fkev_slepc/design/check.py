@@ -63,6 +63,7 @@ class DesignCheck:
     threshold: float  # weak-axis buckling warning below this factor
     links: tuple[LinkCheck, ...]
     out_of_plane: OutOfPlaneCheck | None = None  # None: no out-of-plane section (not checked)
+    settings: object = None  # the response's periodic.settings.PeriodicSettings, whole (printed in as_dict)
 
     @property
     def warnings(self) -> list[str]:
@@ -73,7 +74,8 @@ class DesignCheck:
                 "buckling_threshold": self.threshold, "warnings": self.warnings,
                 "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links},
                 "out_of_plane": ({"checked": False, "note": NOT_CHECKED} if self.out_of_plane is None
-                                 else self.out_of_plane.as_dict())}
+                                 else self.out_of_plane.as_dict()),
+                "settings": None if self.settings is None else self.settings.as_json()}
 
 
 def point_strengths(scene: Scene, mech, ls) -> SimpleNamespace:
@@ -169,7 +171,9 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     (fkev_slepc/periodic/steady.py, the monodromy skipped), the loads those of ``fkev loads``
     without crank acceleration. Raises SceneError naming a bad argument. ``settings``
     (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`): harmonics, harmonic_tol and
-    response_angles_deg, overridden by ``harmonics``, ``tol`` and ``angles_deg`` when given.
+    response_angles_deg, overridden by ``harmonics``, ``tol`` and ``angles_deg`` when given, and the
+    response's reduction (full_max_dofs, link_modes); the result carries them whole (``settings``).
+    The check's own knobs are ``criterion`` and ``threshold`` (arguments, checked and printed).
     ``model_for(scene, cases, plane)`` gives the in-plane and out-of-plane models (default ``Model``:
     new ones; ``Study.design_check``: the study's pool, fkev_slepc/api/pool.py)."""
     from fkev_slepc.model.joint_loads import joint_loads
@@ -182,12 +186,12 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
                                             else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
-                                            model_for=model_for)
+                                            settings=ps, model_for=model_for)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=False,
-                     names=names)
+                     names=names, settings=ps)
     ls = whole_link_stress(model, a, r.hb.at(np.radians(a)))
     mech = model.mechanism
     jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
     links = check_links(scene, mech, ls, jl, criterion)
     oop = out_of_plane_check(scene, float(speed_rad_s), case, a, [lc.buckling for lc in links], model_for)
-    return DesignCheck(scene.title, float(speed_rad_s), case, criterion, float(threshold), links, oop)
+    return DesignCheck(scene.title, float(speed_rad_s), case, criterion, float(threshold), links, oop, ps)

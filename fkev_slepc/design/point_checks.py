@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 REL_STEP = 1e-6  # the sensitivities' relative step (as fkev_slepc/solve/sensitivity.py)
@@ -37,7 +38,7 @@ class CheckOptions:
     sensitivity: bool = False
     criterion: str = "goodman"
     harmonics: int | None = None
-    tol: float = 1e-8
+    tol: float = DEFAULTS.harmonic_tol
 
     @property
     def needs(self) -> tuple[str, ...]:

@@ -20,7 +20,7 @@ full model). Modes above the kept ones respond quasi-statically to a load whose 
 below their frequencies: the correction removes the leading truncation error of stresses under
 inertial loads (measured in docs/engine.md).
 
-**Truncation** (:func:`converged_response`): the modes per link double from ``LINK_MODES`` (the
+**Truncation** (:func:`converged_response`): the modes per link double from ``link_modes`` (the
 rule of fkev_slepc/periodic/truncation.py; the harmonics of the first level, doubled to ``tol``,
 are kept for the next ones) until the whole-link elastic stress (σ₊, σ₋ at every
 element end; the bending moment where a section has no fibre distance) and the node deflections
@@ -38,11 +38,12 @@ import numpy as np
 from fkev_slepc.model.kinematics import solve_kinematics
 from fkev_slepc.periodic.components import LINK_MODES, _rows, link_components
 from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS, HarmonicResponse, harmonic_balance
+from fkev_slepc.periodic.settings import DEFAULTS
 
 RESPONSE_REDUCE_TOL = 1e-3  # relative change of stress and deflection that ends the doubling
 MEASURE_ANGLES = 72  # crank angles (every 5°) at which two levels are compared
 CHUNK = 64  # crank angles whose full-mesh periodic pieces are held at once
-FULL_MAX_DOFS = 48  # reduce="default": the full model up to this many free DOFs (docs/engine.md)
+FULL_MAX_DOFS = DEFAULTS.full_max_dofs  # reduce="default": the full model up to this many free DOFs (docs/engine.md)
 
 
 class ProjectedSystem:
@@ -164,10 +165,11 @@ class ResponseTruncation:
                 "basis": self.basis, "levels": [list(x) for x in self.levels]}
 
 
-def response_reduction(model, value) -> str | None:
+def response_reduction(model, value, full_max_dofs: int = FULL_MAX_DOFS) -> str | None:
     """None (the full model), "links" or "links:N" from what a user asked (None, "none",
-    "default", "links", "links:N"): "default" is the full model up to ``FULL_MAX_DOFS`` free DOFs
-    (docs/engine.md measures why), else "links". ValueError naming the accepted values otherwise."""
+    "default", "links", "links:N"): "default" is the full model up to ``full_max_dofs`` free DOFs
+    (``PeriodicSettings.full_max_dofs``; docs/engine.md measures why), else "links". ValueError naming
+    the accepted values otherwise."""
     from fkev_slepc.periodic.truncation import resolve_reduce
 
     try:
@@ -175,7 +177,7 @@ def response_reduction(model, value) -> str | None:
     except ValueError:
         v = "bad"
     if v == "default":
-        return None if model is None else None if int(model.n_free) <= FULL_MAX_DOFS else "links"
+        return None if model is None else None if int(model.n_free) <= full_max_dofs else "links"
     if v is None or (isinstance(v, str) and v.startswith("links")):
         return v
     raise ValueError(f"must be default, none, links or links:N (modes per link >= 0) (got {value!r})")
@@ -194,9 +196,9 @@ def _interior_sizes(mech) -> tuple[int, list[int]]:
     return int(bnd.sum()), sizes
 
 
-def first_level_size(model, mode: str) -> int:
-    """R of the first component level of ``mode`` ("links": ``LINK_MODES`` per link, "links:N": N)."""
-    k = LINK_MODES if mode == "links" else int(mode[6:])
+def first_level_size(model, mode: str, link_modes: int = LINK_MODES) -> int:
+    """R of the first component level of ``mode`` ("links": ``link_modes`` per link, "links:N": N)."""
+    k = link_modes if mode == "links" else int(mode[6:])
     n_b, sizes = _interior_sizes(model.mechanism)
     return n_b + sum(min(k, n) for n in sizes)
 
@@ -262,14 +264,14 @@ def changes(model, coarse: LiftedResponse, fine: LiftedResponse) -> tuple[float,
 
 
 def converged_response(system, omega: float, *, modes: int | None = None, harmonics=None, tol: float = 1e-10,
-                       reduce_tol: float = RESPONSE_REDUCE_TOL, correct: bool = True):
+                       reduce_tol: float = RESPONSE_REDUCE_TOL, correct: bool = True, link_modes: int = LINK_MODES):
     """(LiftedResponse, ResponseTruncation): ``modes`` per link measured against 2·modes, or
-    (``modes`` None) doubled from ``LINK_MODES`` until converged (module docstring) or every
+    (``modes`` None) doubled from ``link_modes`` until converged (module docstring) or every
     interior mode is kept (then the full model: truncation zero)."""
     comp = link_components(system.model)
     top = int(comp.interior.max(initial=0))
     solve = lambda k: component_response(system, omega, k, harmonics=harmonics, tol=tol, correct=correct)  # noqa: E731
-    k = LINK_MODES if modes is None else int(modes)
+    k = link_modes if modes is None else int(modes)
     prev, levels, pair = solve(k), [], None
     if harmonics is None:  # the next levels at the H the first one reached: no doubling of H again
         H1 = prev.harmonics.shape[0] - 1

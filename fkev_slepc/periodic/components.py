@@ -42,9 +42,10 @@ import scipy.linalg as la
 import scipy.sparse as sp
 
 from fkev_slepc.model import elements as el
+from fkev_slepc.periodic.settings import DEFAULTS
 
 DENSE_MAX = 300  # interior DOFs of a link up to which its fixed-interface modes are found densely
-LINK_MODES = 2  # fixed-interface modes per link of the first level of reduce="links" (then doubled)
+LINK_MODES = DEFAULTS.link_modes  # fixed-interface modes per link of the first level of reduce="links" (then doubled)
 HALF_PI = 0.5 * np.pi
 
 

@@ -37,7 +37,8 @@ Result (``LinkageFloquet``): ``multipliers`` (2n,) complex sorted by |μ|, ``exp
 complex in 1/s (Re: growth rate; Im unwrapped to the mode's frequency, rad/s, by its
 eigenvector's Rayleigh quotient on the frozen stiffness and mass at the start angle), ``max_abs``
 (max|μ|, the growth factor per revolution), ``monodromy`` (the :class:`Monodromy`, Φ in the scaled
-coordinates), ``error`` (multiplier error estimate: the monodromy's step-doubling estimate plus
+coordinates), ``error`` (the error estimate of the multipliers' moduli |μ|: the monodromy's
+step-doubling estimate plus
 ``interp_multiplier_error`` = 2π · ``interp_error`` · max|A| · max|μ|, the first-order bound of
 the interpolation error on Φ, where the interpolant stopped at its sample cap above ``interp_tol``;
 one that meets ``interp_tol`` is as accurate as its samples, whose own round-off every monodromy
@@ -56,17 +57,20 @@ import numpy as np
 import scipy.linalg as la
 
 from fkev_slepc.periodic.magnus import Monodromy, exponential_monodromy, monodromy
-from fkev_slepc.periodic.components import LINK_MODES, link_components
+from fkev_slepc.periodic.components import link_components
 from fkev_slepc.periodic.reduce import compress, frozen_pool
 from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings
 from fkev_slepc.periodic.system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.periodic.truncation import (
-    AUTO_MIN_STEPS, AUTO_MODES, LINKS_STEP_RATIO, Truncation, between, converge, link_modes, resolve_reduce,
+    Truncation, between, converge, frequency_change, link_modes, resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
-START_H_RHO = 2.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step count"); the steps then double on the error
+START_H_RHO = 4.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step count"); the steps then double on the error
+# the Magnus steps' share of the low Floquet frequencies' error: a thousandth of the truncation
+# tolerance whose frequency measure compares them (``reduce_tol``, relative)
+FREQUENCY_TOL_SHARE = 1e-3
 __all__ = ["LinkageFloquet", "TrigInterpolant", "floquet_multipliers", "full_min_steps", "to_dense"]
 
 
@@ -116,6 +120,26 @@ def _unwrapped_exponents(mu, X, c: Coefficients, d, omega: float) -> np.ndarray:
     return mu[order], s[order]
 
 
+def _step_measure(c: Coefficients, d, omega: float, retained: int):
+    """The (spectrum, change) pair that the Magnus step count is decided on (``monodromy``'s
+    ``measure``; docs/engine.md "Step count"): what the results use, not the phases of the stiff
+    modes. The multipliers' moduli, compared sorted (the growth factors the verdict reads: the
+    largest difference between the two levels' sorted |μ|, absolute), and the ``retained`` lowest
+    Floquet frequencies (relative, :func:`~fkev_slepc.periodic.truncation.frequency_change`: the
+    frequencies the truncation measures compare)."""
+
+    def spectrum(phi):
+        mu, X = la.eig(phi)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a blown-up coarse level (μ = 0): NaN, never converged
+            return _unwrapped_exponents(mu, X, c, d, omega)
+
+    def change(fine, coarse):
+        moduli = float(np.max(np.abs(np.sort(np.abs(fine[0])) - np.sort(np.abs(coarse[0])))))
+        return moduli, frequency_change(coarse[1], fine[1], omega, retained)
+
+    return spectrum, change
+
+
 def full_min_steps(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0,
                    basis=None) -> int:
     """The full model's (or, given ``basis``, the reduced model's) least Magnus step count over a
@@ -124,16 +148,17 @@ def full_min_steps(model, omega: float, case: str = "full", damping: bool = True
     return int(np.ceil(2.0 * TWO_PI * np.max(np.abs(la.eigvals(A[0])))))
 
 
-def default_reduction(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0):
-    """``reduce="default"`` resolved for one speed (docs/engine.md): None (the full model) below
-    ``AUTO_MIN_STEPS`` full-model steps; above, ``"links"`` where the link-component level of
-    4·``LINK_MODES`` modes per link (the first that can end its sequence) is a strict sub-basis
-    needing at most 1/``LINKS_STEP_RATIO`` of the full model's steps, else ``"auto"``."""
+def default_reduction(model, omega: float, case: str = "full", damping: bool = True, start: float = 0.0,
+                      settings: PeriodicSettings = DEFAULTS):
+    """``reduce="default"`` resolved for one speed (docs/engine.md) by the fields of ``settings``:
+    None (the full model) below ``auto_min_steps`` full-model steps; above, ``"links"`` where the
+    link-component level of 4·``link_modes`` modes per link (the first that can end its sequence)
+    is a strict sub-basis needing at most 1/``links_step_ratio`` of the full model's steps, else ``"auto"``."""
     full = full_min_steps(model, omega, case, damping, start)
-    if full < AUTO_MIN_STEPS:
+    if full < settings.auto_min_steps:
         return None
-    basis = link_components(model).basis(4 * LINK_MODES)
-    if basis.shape[1] < model.n_free and LINKS_STEP_RATIO * full_min_steps(
+    basis = link_components(model).basis(4 * settings.link_modes)
+    if basis.shape[1] < model.n_free and settings.links_step_ratio * full_min_steps(
             model, omega, case, damping, start, basis) <= full:
         return "links"
     return "auto"
@@ -154,20 +179,22 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     (``order`` magnus_order, ``tol`` monodromy_tol, ``steps``, ``samples``, ``interp_tol``, ``reduce``,
     ``basis_angles``, ``threshold``, ``reduce_tol``, ``max_basis``).
     ``reduce``: None (the full model), ``"default"`` (:func:`default_reduction`: None below
-    ``AUTO_MIN_STEPS`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
+    ``auto_min_steps`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
     :mod:`fkev_slepc.periodic.truncation`, to ``reduce_tol``, at most ``max_basis``
     vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
     its truncation measured against the pool of 2r unless ``check_truncation`` is False),
     ``"links"`` (link-frame component modes, :mod:`fkev_slepc.periodic.components`: the
-    modes per link double from ``LINK_MODES`` by the same convergence rule; ``covered_rad_s``
+    modes per link double from ``link_modes`` by the same convergence rule; ``covered_rad_s``
     states the highest retained fixed-interface frequency) or ``"links:N"`` (N modes per link,
     measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
     :class:`~fkev_slepc.periodic.components.LinkBasis`. ``comm``: an MPI communicator whose
     ranks share every monodromy's steps (collective; one speed on several ranks).
     ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`).
-    ``tol``: the multiplier error asked of the integrator, relative to max(1, max|μ|) (the steps
-    double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling estimate, pre-asymptotic levels
-    guarded, is below it: :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
+    ``tol``: the error of the multipliers' moduli asked of the integrator, relative to
+    max(1, max|μ|) (the steps double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling
+    estimate, pre-asymptotic levels guarded, is below it, and that of the lowest four Floquet
+    frequencies below ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative: :func:`_step_measure`,
+    :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
     verdict's 10 × error a tenth of its 1e-6 (docs/engine.md "Step count"; the default is
     ``PeriodicSettings.monodromy_tol``)."""
     from fkev_slepc.model.operators import Model
@@ -185,18 +212,18 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     except ValueError as err:
         raise ValueError(f"reduce: {err}") from None
     if reduce == "default":
-        reduce = default_reduction(model, omega, case, damping, start)
+        reduce = default_reduction(model, omega, case, damping, start, st)
     if basis is None and reduce is not None:
         opts = dict(damping=damping, start=start, comm=comm, progress=progress, settings=replace(st, reduce="none"))
         solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
         pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
-        n, squeeze, first = int(model.n_free), compress, AUTO_MODES
+        n, squeeze, first = int(model.n_free), compress, st.auto_modes
         if isinstance(reduce, str) and reduce.startswith("links"):  # link-frame component modes
             comp = link_components(model)
-            pool, squeeze, first = comp.basis, lambda P, tau: P, LINK_MODES  # noqa: E731
+            pool, squeeze, first = comp.basis, lambda P, tau: P, st.link_modes  # noqa: E731
         if reduce in ("auto", "links"):
             res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol,
-                                  max_basis=max_basis, compress=squeeze, retained=min(AUTO_MODES, n - 1))
+                                  max_basis=max_basis, compress=squeeze, retained=min(st.auto_modes, n - 1))
             return replace(res, truncation=trunc)
         r = min(reduce, n - 1) if link_modes(reduce) is None else link_modes(reduce)
         res = solve(squeeze(pool(r), threshold))
@@ -209,6 +236,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     system = system.link_frame() or system  # a lone rotating link: constant in its own frame
     interp = system.interpolant(samples, interp_tol, st.max_samples)
     gen = interp.generator
+    c = system.coefficients(np.array([system.start]))
     if spread(gen.S) <= CONSTANT_TOL:  # constant A: Φ = exp(2π A), by its eigenvalues
         mono, lam, X = exponential_monodromy(gen.S[0], TWO_PI, system.start)
         mu = np.exp(TWO_PI * lam)
@@ -221,9 +249,9 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=np.inf, mu_tol=tol,
                          min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
                          max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
-                         comm=comm, progress=progress)
+                         comm=comm, progress=progress, second_tol=FREQUENCY_TOL_SHARE * st.reduce_tol,
+                         measure=_step_measure(c, system.dof_scaling, omega, min(st.auto_modes, model.n_free)))
         mu, X = la.eig(mono.phi)
-    c = system.coefficients(np.array([system.start]))
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|
     bound = TWO_PI * interp.error * interp.peak * mono.max_abs if interp.error > interp_tol else 0.0

@@ -22,7 +22,9 @@ doubles until ``phi_error`` is below ``tol``.
 **Pre-asymptotic levels** (``mu_tol``, the linkage Floquet criterion; docs/engine.md "Step
 count"): the division by 2^p - 1 assumes the N/2 level is asymptotic, so the integrator also runs
 N/4 and divides d = max|μ_N - μ_{N/2}| only where d_{N/2}/d_N is within 4× of 2^p, else states d
-(:func:`step_doubling_error`); N doubles until that, over max(1, max|μ|), is <= ``mu_tol``.
+(:func:`step_doubling_error`); N doubles until that, over max(1, max|μ|), is <= ``mu_tol``. What is
+compared between levels is the caller's ``measure`` (default every multiplier, matched; the linkage
+Floquet compares the moduli and the low Floquet frequencies, which is what its results use).
 
 Public API (shapes with n the state size, k the number of θ values; θ in the caller's units,
 radians of crank angle for a linkage; exponents in 1/[θ])
@@ -171,11 +173,16 @@ def _product(generator, a, b, steps, forcing, order, comm=None, progress=None):
     return total
 
 
-def _multiplier_change(phi, phi_coarse) -> float:
-    """max |μ - μ_coarse| over the multipliers of two monodromies, matched (:func:`match_multipliers`)."""
-    mu, mu_coarse = la.eigvals(phi), la.eigvals(phi_coarse)
-    i, j = match_multipliers(mu, mu_coarse)
-    return float(np.max(np.abs(mu[i] - mu_coarse[j])))
+def multiplier_spectrum(phi):
+    """The default level spectrum of :func:`monodromy`: (eigenvalues of Φ, None)."""
+    return la.eigvals(phi), None
+
+
+def multiplier_change(fine, coarse) -> tuple[float, float]:
+    """The default level change of :func:`monodromy`: (max |μ - μ_coarse| over the multipliers of
+    two levels' spectra, matched by :func:`match_multipliers`; 0.0: no second measure)."""
+    i, j = match_multipliers(fine[0], coarse[0])
+    return float(np.max(np.abs(fine[0][i] - coarse[0][j]))), 0.0
 
 
 def match_multipliers(a, b):
@@ -199,6 +206,7 @@ class Monodromy:
     converged: bool
     particular: np.ndarray | None = None
     particular_error: float | None = None
+    second_error: float = 0.0  # the step-doubling estimate of the ``measure``'s second (relative) change
 
     @property
     def exponents(self) -> np.ndarray:
@@ -235,7 +243,8 @@ def step_doubling_error(d: float, d_before: float | None, order: int) -> float:
 
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
               steps: int | None = None, tol: float = 1e-10, mu_tol: float | None = None, start: float = 0.0,
-              max_steps: int = 2**16, min_steps: int = 16, comm=None, progress=None) -> Monodromy:
+              max_steps: int = 2**16, min_steps: int = 16, comm=None, progress=None,
+              measure=(multiplier_spectrum, multiplier_change), second_tol: float | None = None) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
@@ -247,7 +256,11 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
 
     ``comm``: an MPI communicator whose ranks share the steps of every product (collective: every
     rank calls with the same arguments and gets the same result; see ``_product``).
-    ``progress(steps done, steps)``: called after each block of step exponentials of every run."""
+    ``progress(steps done, steps)``: called after each block of step exponentials of every run.
+    ``measure`` = (spectrum(Φ) -> (μ, extra), change(fine, coarse) -> (d_μ, d_2)): what ``mu_tol``
+    compares between levels: d_μ absolute (estimate ``error``, against ``mu_tol``·max(1, max|μ|)),
+    d_2 relative (``second_error``, against ``second_tol``, default ``mu_tol``); default every
+    multiplier matched, no d_2 (the linkage Floquet: the moduli and low frequencies, floquet.py)."""
     if not np.isfinite(period) or period <= 0.0:
         raise ValueError(f"period: must be a positive finite number, got {period!r}")
     if steps is not None and (int(steps) != steps or steps < 2 or steps % 2):
@@ -260,34 +273,38 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         fb = np.asarray(forcing(np.array([a])))
         m = 1 if fb.ndim == 2 else fb.shape[2]
 
-    def run(N):
-        phi, part = _split(_product(generator, a, b, N, forcing, order, comm, progress), n, m)
-        return phi, part
-
+    spectrum, change = measure
     scale = 2.0**order - 1.0
     N = int(steps) if steps is not None else int(2 ** np.ceil(np.log2(max(2, min_steps))))
-    coarse = run(N // 2)
-    d_before = None
+
+    def level(n_steps):  # (phi, particular, spectrum or None where Φ is not finite)
+        with np.errstate(over="ignore", invalid="ignore"):  # a coarse level may blow up: handled as not finite
+            phi, part = _split(_product(generator, a, b, n_steps, forcing, order, comm, progress), n, m)
+        return phi, part, (spectrum(phi) if np.all(np.isfinite(phi)) else None)
+
+    inf2, before = (np.inf, np.inf), (None, None)
+    coarse = level(N // 2)
     if mu_tol is not None and steps is None and N >= 8:  # the level before, for the rate check
-        older = run(N // 4)[0]
-        finite = bool(np.all(np.isfinite(older)) and np.all(np.isfinite(coarse[0])))
-        d_before = _multiplier_change(coarse[0], older) if finite else np.inf
+        older = level(N // 4)
+        before = change(coarse[2], older[2]) if coarse[2] is not None and older[2] is not None else inf2
     while True:
-        fine = run(N)
+        fine = level(N)
         phi_err = float(np.linalg.norm(fine[0] - coarse[0])
                         / (scale * max(np.linalg.norm(fine[0]), 1e-300)))
-        finite = bool(np.all(np.isfinite(fine[0])) and np.all(np.isfinite(coarse[0])))
-        d = _multiplier_change(fine[0], coarse[0]) if finite else np.inf
-        err = step_doubling_error(d, d_before, order)
-        mu = la.eigvals(fine[0]) if finite else np.full(n, np.nan)
-        ok = phi_err <= tol if mu_tol is None else err <= mu_tol * max(1.0, float(np.max(np.abs(mu))))
+        finite = fine[2] is not None and coarse[2] is not None
+        d = change(fine[2], coarse[2]) if finite else inf2
+        err, err2 = (step_doubling_error(x, x_before, order) for x, x_before in zip(d, before))
+        mu = fine[2][0] if finite else np.full(n, np.nan)
+        ok = (phi_err <= tol if mu_tol is None
+              else err <= mu_tol * max(1.0, float(np.max(np.abs(mu))))
+              and err2 <= (mu_tol if second_tol is None else second_tol))
         if steps is not None or ok or 2 * N > max_steps:
             break
-        coarse, N, d_before = fine, 2 * N, d
+        coarse, N, before = fine, 2 * N, d
     if not finite:
         raise ValueError(f"steps: {N} steps (and {N // 2} for the error estimate) do not resolve "
                          f"the generator over the period: use more steps (or steps=None)")
-    phi, part = fine
+    phi, part = fine[0], fine[1]
     part_err = None
     if part is not None:
         part_err = float(np.linalg.norm(part - coarse[1])
@@ -296,7 +313,7 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
     return Monodromy(phi=phi, multipliers=mu[order_], period=float(period), start=a, steps=N,
                      order=order, error=err, phi_error=phi_err,
                      converged=bool(steps is not None or ok), particular=part,
-                     particular_error=part_err)
+                     particular_error=part_err, second_error=err2)
 
 
 def exponential_monodromy(A: np.ndarray, period: float = 2.0 * np.pi, start: float = 0.0):

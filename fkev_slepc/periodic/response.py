@@ -21,7 +21,7 @@ import numpy as np
 
 from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
-from fkev_slepc.periodic.settings import DEFAULTS
+from fkev_slepc.periodic.settings import DEFAULTS, SAFETY
 from fkev_slepc.periodic.shooting import ShootingResponse, shooting
 from fkev_slepc.periodic.component_response import (
     RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
@@ -58,14 +58,30 @@ class PeriodicResponse:
     def max_abs_multiplier(self) -> float:
         return float("nan") if self.shoot is None else self.shoot.max_abs_multiplier
 
-    def attracting(self, tol: float = 1e-6) -> bool | None:
-        """False where some |μ| > 1 + tol: the periodic response exists but does not attract."""
-        return None if self.shoot is None else bool(self.max_abs_multiplier <= 1.0 + tol)
+    def attracting(self, attract_tol: float = DEFAULTS.attract_tol) -> bool | None:
+        """False where the response does not attract (:func:`response_verdict`); None without shooting."""
+        v = response_verdict(self.max_abs_multiplier, np.nan if self.shoot is None else self.shoot.error, attract_tol)
+        return None if v is None else v != DOES_NOT_ATTRACT
+
+
+DOES_NOT_ATTRACT = "does not attract"
+
+
+def response_verdict(max_abs: float, error: float, attract_tol: float = DEFAULTS.attract_tol) -> str | None:
+    """The one "does it attract" rule of the periodic response (``PeriodicSettings.attract_tol``):
+    ``"does not attract"`` where max|μ| > 1 + t (the response exists, the machine does not settle on
+    it), ``"neutral"`` where max|μ| >= 1 − t (undamped), else ``"attracts"``; t = max(attract_tol,
+    SAFETY·``error``), the multiplier error counted as in the Floquet verdict. None without
+    multipliers (``max_abs`` NaN: no shooting)."""
+    if not np.isfinite(max_abs):
+        return None
+    t = max(attract_tol, SAFETY * error) if np.isfinite(error) else attract_tol
+    return DOES_NOT_ATTRACT if max_abs > 1.0 + t else "neutral" if max_abs >= 1.0 - t else "attracts"
 
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,
                       shoot: bool = False, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None,
-                      reduce_tol: float = RESPONSE_REDUCE_TOL) -> PeriodicResponse:
+                      reduce_tol: float = RESPONSE_REDUCE_TOL, settings=DEFAULTS) -> PeriodicResponse:
     """Harmonic balance (and, with ``shoot``, shooting at the same angles) of ``system``
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
     :class:`~fkev_slepc.periodic.system.PeriodicSystem`). Where the system and its load are
@@ -73,15 +89,18 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     solve, whatever ``harmonics``. ``reduce`` (a PeriodicSystem only): None/"none" the full
     model, "links"/"links:N" the link-frame component basis (modes per link doubled to
     ``reduce_tol``, or N measured against 2N: fkev_slepc/periodic/component_response.py),
-    "default" the full model up to ``component_response.FULL_MAX_DOFS`` free DOFs, else "links".
+    "default" the full model up to ``full_max_dofs`` free DOFs, else "links"; ``link_modes`` and
+    ``full_max_dofs`` are those of ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`).
 
     Raises ``periodic.shooting.ResonanceError`` where (I − Φ) is singular to working precision."""
     hb = static_response(system)
-    mode = None if hb is not None or not hasattr(system, "model") else response_reduction(system.model, reduce)
+    mode = (None if hb is not None or not hasattr(system, "model")
+            else response_reduction(system.model, reduce, settings.full_max_dofs))
     trunc, target = None, system
     if mode is not None:
         modes = None if mode == "links" else int(mode[6:])
-        hb, trunc = converged_response(system, omega, modes=modes, harmonics=harmonics, tol=tol, reduce_tol=reduce_tol)
+        hb, trunc = converged_response(system, omega, modes=modes, harmonics=harmonics, tol=tol, reduce_tol=reduce_tol,
+                                       link_modes=settings.link_modes)
         target = hb.system
     sh = None
     if shoot:  # before the full collocation: it refuses an exact resonance before a singular solve

@@ -10,7 +10,9 @@ response products archive the whole object (``/floquet/settings``, ``/response/s
 ``--resume`` compares it whole (:func:`resume_refusal`).
 
 The module constants that other modules still export by name (``periodic.bands.DEFAULT_TOL``,
-``periodic.truncation.REDUCE_TOL``, ...) are read from :data:`DEFAULTS`: the values live here only.
+``periodic.truncation.REDUCE_TOL``, ``periodic.components.LINK_MODES``, ...) are read from
+:data:`DEFAULTS`: the values live here only; the code reads the run's settings. An archive written
+before a field of :data:`LATER` existed reads back with that field's default (the constant it ran with).
 """
 
 from __future__ import annotations
@@ -22,6 +24,9 @@ import numpy as np
 SAFETY = 10.0  # the verdict rule: the multiplier error estimate counts this many times against an apparent growth
 # fields a --resume may change: every archived monodromy stays valid and the band edges are bisected further
 REFINEMENTS = ("edge_rtol",)
+# fields added after the first archived settings, as module constants until then with today's defaults as
+# values: an archive without one was computed with its default, which from_attrs fills in
+LATER = ("auto_modes", "link_modes", "auto_min_steps", "links_step_ratio", "full_max_dofs", "attract_tol")
 
 
 def _f(default, doc: str):
@@ -43,7 +48,7 @@ class PeriodicSettings:
 
     # the monodromy (fkev_slepc/periodic/floquet.py, fkev_slepc/periodic/magnus.py)
     magnus_order: int = _f(6, "order of the Gauss-Legendre Magnus integrator: 4 or 6")
-    monodromy_tol: float = _f(1e-8, "multiplier error, relative to max(1, max|μ|), asked of the step doubling")
+    monodromy_tol: float = _f(1e-8, "error of the multipliers' moduli, relative to max(1, max|μ|), asked of the step doubling")
     steps: int = _f(0, "a fixed Magnus step count per revolution (0: doubled until monodromy_tol)")
     max_steps: int = _f(2**24, "full-model Magnus steps of one monodromy beyond which a run is refused before work")
     samples: int = _f(16, "exact generator samples the trigonometric interpolant starts from (doubled)")
@@ -55,6 +60,11 @@ class PeriodicSettings:
     threshold: float = _f(1e-10, "relative singular value at which a fixed frozen-mode basis is compressed")
     reduce_tol: float = _f(1e-3, "|Δ max|μ|| and relative frequency change that end the basis sequence")
     max_basis: int = _f(0, "largest basis of reduce=auto/links (0: no cap but the model's DOFs)")
+    auto_modes: int = _f(4, "frozen modes per angle of reduce=auto's first pool; the Floquet frequencies compared")
+    link_modes: int = _f(2, "fixed-interface modes per link of the first level of reduce=links (then doubled)")
+    auto_min_steps: int = _f(60_000, "reduce=default: the full model below this many full-model Magnus steps")
+    links_step_ratio: float = _f(4.0, "reduce=default above auto_min_steps: links where 4 x link_modes per link "
+                                      "need 1/links_step_ratio of the full model's steps or fewer, else auto")
     # the verdict and the bands (fkev_slepc/periodic/bands.py, fkev_slepc/sweep/floquet_run.py)
     verdict_tol: float = _f(1e-6, "unstable where max|μ| - 1 > verdict_tol + 10 (SAFETY) x multiplier error")
     edge_rtol: float = _f(1e-6, "relative accuracy of the band edges (bisection)")
@@ -66,6 +76,9 @@ class PeriodicSettings:
     shoot: bool = _f(False, "cross-check by shooting on the monodromy (Floquet multipliers of the response)")
     shooting_tol: float = _f(1e-11, "relative error asked of the shooting monodromy")
     response_angles_deg: tuple = _f(tuple(float(a) for a in np.arange(0.0, 360.0, 5.0)), "output crank angles, deg")
+    full_max_dofs: int = _f(48, "response reduce=default: the full model up to this many free DOFs, links above")
+    attract_tol: float = _f(1e-8, "the response does not attract where max|μ| > 1 + max(attract_tol, "
+                                  "10 (SAFETY) x multiplier error)")
 
     def __post_init__(self):
         for f in fields(self):
@@ -90,9 +103,12 @@ class PeriodicSettings:
     @classmethod
     def from_attrs(cls, attrs) -> "PeriodicSettings":
         """The settings written by :meth:`to_attrs` (an HDF5 attribute mapping or a dict). A missing
-        field raises :class:`SettingsError` naming it (never a default in its place)."""
+        field raises :class:`SettingsError` naming it (never a default in its place), except one of
+        :data:`LATER` (an archive written before it was a field): its default, the value it was run with."""
         values = {}
         for f in fields(cls):
+            if f.name not in attrs and f.name in LATER:
+                continue
             if f.name not in attrs:
                 raise SettingsError(f.name, None, "missing from the archived settings")
             v = attrs[f.name]
@@ -109,6 +125,10 @@ class PeriodicSettings:
                 v = float(v)
             values[f.name] = v
         return cls(**values)
+
+    def as_json(self) -> dict:
+        """Every field as JSON takes it (the angles a list): the settings a command prints whole."""
+        return {f.name: list(v) if isinstance(v, tuple) else v for f in fields(self) for v in [getattr(self, f.name)]}
 
     def diff(self, other: "PeriodicSettings") -> dict:
         """``{field: (this value, other value)}`` of every field that differs."""
@@ -128,6 +148,13 @@ def _fraction(name, v):
     if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not (
             np.isfinite(v) and 0.0 < v < 1.0):
         raise SettingsError(name, v, "must be in (0, 1)")
+    return float(v)
+
+
+def _positive(name, v):
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not (
+            np.isfinite(v) and v > 0.0):
+        raise SettingsError(name, v, "must be a finite number > 0")
     return float(v)
 
 
@@ -160,9 +187,10 @@ def _reduce(name, v):
 def resolve_reduce(value):
     """None (the full model), "default", "auto", a number of modes per angle, "links" or
     "links:N" from what a user asked: "default" (decided per speed by
-    ``periodic.floquet.default_reduction``: the full model below ``AUTO_MIN_STEPS`` full-model steps
-    2·2π·ρ(A), above "links" where the link-component level of 8 modes per link needs at most
-    1/``LINKS_STEP_RATIO`` of them, else "auto"; docs/engine.md measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
+    ``periodic.floquet.default_reduction``: the full model below ``auto_min_steps`` full-model steps
+    2·2π·ρ(A), above "links" where the link-component level of 4·``link_modes`` modes per link needs at
+    most 1/``links_step_ratio`` of them, else "auto": fields of :class:`PeriodicSettings`; docs/engine.md
+    measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
     link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled until
     converged) or "links:N" (N >= 0 fixed-interface modes per link). ValueError otherwise."""
     if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
@@ -193,9 +221,11 @@ def _angles(name, v):
 _CHECKS = {
     "magnus_order": _order, "monodromy_tol": _fraction, "steps": _int(0), "max_steps": _int(1), "samples": _int(2),
     "interp_tol": _fraction, "max_samples": _int(2), "reduce": _reduce, "basis_angles": _int(1),
-    "threshold": _fraction, "reduce_tol": _fraction, "max_basis": _int(0), "verdict_tol": _fraction,
+    "threshold": _fraction, "reduce_tol": _fraction, "max_basis": _int(0), "auto_modes": _int(1),
+    "link_modes": _int(1), "auto_min_steps": _int(0), "links_step_ratio": _positive, "verdict_tol": _fraction,
     "edge_rtol": _fraction, "resonance_order": _int(0), "probe": _flag, "harmonics": _harmonics,
     "harmonic_tol": _fraction, "shoot": _flag, "shooting_tol": _fraction, "response_angles_deg": _angles,
+    "full_max_dofs": _int(0), "attract_tol": _fraction,
 }
 
 DEFAULTS = PeriodicSettings()

@@ -19,10 +19,10 @@ DEFAULT_ANGLES_DEG = DEFAULTS.response_angles_deg  # output angles of a response
 
 
 def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
-                  harmonics=None, names=None, reduce=None, model_for=None):
+                  harmonics=None, names=None, reduce=None, settings: PeriodicSettings = DEFAULTS, model_for=None):
     """``(model, case, angles_deg, gravity)`` of a response at ``speed_rad_s``, or one SceneError
     naming every bad argument: a speed or gravity that is not finite, and every problem of
-    :func:`checked_model` (``model_for`` as there); then the output angles (default
+    :func:`checked_model` (``settings`` and ``model_for`` as there); then the output angles (default
     :data:`DEFAULT_ANGLES_DEG`) where the linkage does not assemble. ``case`` is returned by name."""
     from fkev_slepc.model.operating_point import checked_angles, operating_point_problems
     from fkev_slepc.scene.cases import case_name
@@ -30,13 +30,14 @@ def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None
     names = names or {}
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
     model = checked_model(scene, case, harmonics, names, operating_point_problems(speed_rad_s, 0.0, gravity, names),
-                          reduce=reduce, model_for=model_for)
+                          reduce=reduce, settings=settings, model_for=model_for)
     a = checked_angles(scene, model.mechanism, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
                        names.get("angles_deg", "angles_deg"))
     return model, case_name(case), a, np.asarray(gravity, float)
 
 
-def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, reduce=None, model_for=None):
+def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, reduce=None,
+                  settings: PeriodicSettings = DEFAULTS, model_for=None):
     """The Model of a periodic response of ``case``, or SceneError listing ``bad`` and every problem
     found before any work (docs/response.md §3): the case, a constant crank speed, a crank that
     turns fully, ``harmonics`` an integer >= 2 (the error estimate compares H with H/2), ``reduce``
@@ -44,7 +45,8 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     ``periodic.harmonic_balance.MAX_UNKNOWNS`` ((2H + 1)·R unknowns at the fixed H, or at H = 16, the
     first level doubled from 8; R = n for the full model, the first level's basis on link
     components: :func:`fkev_slepc.periodic.component_response.first_level_size`; not asked of a
-    lone rotating link, one static solve). ``model_for(scene, cases, plane)`` gives the model once
+    lone rotating link, one static solve). ``settings``: its ``full_max_dofs`` and ``link_modes``
+    decide the reduction and its first level. ``model_for(scene, cases, plane)`` gives the model once
     the arguments are checked (default ``Model``: a new one; a Study passes its pool's
     :meth:`~fkev_slepc.api.pool.ModelPool.model_for`, whose model may assemble more terms than the
     case keeps: it is solved for ``case``, never for ``model.cases``)."""
@@ -56,6 +58,9 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     from fkev_slepc.periodic.component_response import first_level_size, response_reduction
 
     names, bad = names or {}, list(bad or [])
+    if not isinstance(settings, PeriodicSettings):
+        bad.append(Problem("settings", f"must be a PeriodicSettings (got {type(settings).__name__})"))
+        settings = DEFAULTS
     h_name = names.get("harmonics", "harmonics")
     try:
         case = case_name(case)
@@ -81,8 +86,8 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
         raise SceneError(scene.source, bad)
     model = (Model if model_for is None else model_for)(scene, (case,), "in")
     H = 16 if harmonics is None else int(harmonics)
-    mode = response_reduction(model, reduce)
-    R = int(model.n_free) if mode is None else first_level_size(model, mode)
+    mode = response_reduction(model, reduce, settings.full_max_dofs)
+    R = int(model.n_free) if mode is None else first_level_size(model, mode, settings.link_modes)
     size = (2 * H + 1) * R
     if size > MAX_UNKNOWNS and PeriodicSystem(model, 1.0, case).link_frame() is None:
         gb = 16.0 * size * size / 1e9  # the complex LU
@@ -96,10 +101,11 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
 
 
 def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=None, tol: float = DEFAULTS.harmonic_tol,
-                 shoot: bool = True, names=None, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None):
+                 shoot: bool = True, names=None, shooting_tol: float = DEFAULTS.shooting_tol, reduce=None,
+                 settings: PeriodicSettings = DEFAULTS):
     """:func:`fkev_slepc.periodic.response.periodic_response` of the model's
-    :class:`~fkev_slepc.periodic.system.PeriodicSystem` (``reduce`` as there); an exact resonance is a
-    SceneError naming the speed."""
+    :class:`~fkev_slepc.periodic.system.PeriodicSystem` (``reduce`` and ``settings`` as there); an
+    exact resonance is a SceneError naming the speed."""
     from fkev_slepc.periodic.system import PeriodicSystem
     from fkev_slepc.periodic.response import periodic_response
     from fkev_slepc.periodic.shooting import ResonanceError
@@ -107,7 +113,7 @@ def steady_solve(model, speed_rad_s: float, case: str, gravity, *, harmonics=Non
     system = PeriodicSystem(model, float(speed_rad_s), case, gravity=gravity)
     try:
         return periodic_response(system, float(speed_rad_s), case, harmonics=harmonics, tol=tol, shoot=shoot,
-                                 shooting_tol=shooting_tol, reduce=reduce)
+                                 shooting_tol=shooting_tol, reduce=reduce, settings=settings)
     except ResonanceError as err:
         name = (names or {}).get("speed_rad_s", "speed_rad_s")
         raise SceneError(model.mechanism.scene.source, [Problem(name, str(err))]) from None

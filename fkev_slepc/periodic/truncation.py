@@ -55,10 +55,10 @@ from fkev_slepc.periodic.settings import DEFAULTS, resolve_reduce  # noqa: F401 
 
 THRESHOLDS = tuple(10.0 ** -k for k in range(1, 11))
 REDUCE_TOL = DEFAULTS.reduce_tol  # |Δ max|μ|| and the relative frequency change that end the sequence
-AUTO_MODES = 4  # modes per angle of the first pool
+AUTO_MODES = DEFAULTS.auto_modes  # modes per angle of the first pool
 AUTO_ANGLES = DEFAULTS.basis_angles  # pool angles over a revolution
-AUTO_MIN_STEPS = 60_000  # ``reduce="default"``: reduced where the full model needs this many Magnus steps
-LINKS_STEP_RATIO = 4  # ... on link components where their level of 8 modes per link needs 1/4 of those steps or fewer
+AUTO_MIN_STEPS = DEFAULTS.auto_min_steps  # ``reduce="default"``: reduced where the full model needs this many steps
+LINKS_STEP_RATIO = DEFAULTS.links_step_ratio  # ... on link components where their level needs 1/4 of those or fewer
 
 
 @dataclass(frozen=True)
@@ -98,14 +98,22 @@ def folded(freq, omega: float) -> np.ndarray:
 def measures(coarse, fine, retained: int) -> tuple[float, float, float]:
     """(|Δ max|μ||/max|μ|, |Δ max Re s|, largest relative Δ of the retained frequencies) of two
     levels; the frequencies compared folded and matched (see the module docstring)."""
-    fa, fb = (retained_frequencies(x.exponents, retained) for x in (coarse, fine))
-    n = min(fa.size, fb.size)
-    ga, gb = folded(fa[:n], fine.omega), folded(fb[:n], fine.omega)
-    i, j = match_multipliers(ga, gb)
-    rel = np.abs(ga[i] - gb[j]) / np.maximum(fb[:n][j], 1e-300)
     return (float(abs(coarse.max_abs - fine.max_abs) / max(fine.max_abs, 1e-300)),
             float(abs(np.max(coarse.exponents.real) - np.max(fine.exponents.real))),
-            float(np.max(rel)) if n else float("inf"))
+            frequency_change(coarse.exponents, fine.exponents, fine.omega, retained))
+
+
+def frequency_change(coarse, fine, omega: float, retained: int) -> float:
+    """The largest relative change of the ``retained`` lowest Floquet frequencies between two
+    results' exponents (1/s), compared folded and matched, each relative to ``fine``'s unwrapped
+    frequency (the ``frequency`` measure of the module docstring; also the Magnus step-count
+    criterion's second measure, fkev_slepc/periodic/floquet.py). inf when there is none."""
+    fa, fb = (retained_frequencies(x, retained) for x in (coarse, fine))
+    n = min(fa.size, fb.size)
+    ga, gb = folded(fa[:n], omega), folded(fb[:n], omega)
+    i, j = match_multipliers(ga, gb)
+    rel = np.abs(ga[i] - gb[j]) / np.maximum(fb[:n][j], 1e-300)
+    return float(np.max(rel)) if n else float("inf")
 
 
 def between(coarse, fine, retained: int, tol: float, levels=(), before: Truncation | None = None) -> Truncation:
