@@ -358,7 +358,7 @@ def test_study_running_speed_methods_take_their_model_from_the_pool(tmp_path, mo
     from fkev_slepc.design.check import design_check
     from fkev_slepc.model.operators import Model
 
-    study = fk.load(RUNS / "flat-rod-slider-crank.toml", elements=1)
+    study = fk.load(RUNS / "flat-rod-slider-crank.toml", elements=1).replace("analysis.crank_angles_deg", [0.0, 90.0])
     facts, built, real = model_facts(study.scene), [], Model.__init__
 
     def counted(self, scene, *args, **kwargs):
