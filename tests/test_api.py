@@ -346,8 +346,8 @@ def test_study_sweeps_take_their_model_from_the_pool(tmp_path):
 
 def test_study_running_speed_methods_take_their_model_from_the_pool(tmp_path, monkeypatch):
     """Issue 27 (design review): Study.response, response_vs_speed (archived or not), design_check (in
-    plane and out of plane) and the sensitivity of a point the study solved take their models from the
-    study's pool, and loads needs none: called in turn they build one model of the study's scene per
+    plane and out of plane), the sensitivity of a point the study solved and the out-of-plane half of a
+    two-plane sweep take their models from the study's pool, and loads needs none: called in turn they build one model of the study's scene per
     plane (every Model construction counted; before, every call built its own). The answers are those of
     models of their own: a no_coriolis response on the pool's full model, the design check and the
     sensitivity (an unpickled copy builds its own model) agree with fresh ones to 1e-12."""
@@ -376,7 +376,9 @@ def test_study_running_speed_methods_take_their_model_from_the_pool(tmp_path, mo
     s = r.sensitivity("links[rod].length_m")
     study.response_vs_speed([w], "full", angles_deg=angles, harmonics=2)
     study.response_vs_speed([w], "full", tmp_path / "r.h5", angles_deg=angles, harmonics=2, modes=2)
+    both = study.sweep(angles, [w], ["full"], tmp_path / "s.h5", modes=2)  # plane both: in, then /planes/out
     assert sorted(built) == ["in", "out"] and len(study.pool) == 2  # one model per plane, all from the pool
+    assert both.planes == ("in", "out")
     assert loads.power_residual < 1e-12 and check.out_of_plane is not None
     del built[:]
     own = study_response(study.scene, w, "no_coriolis", angles, harmonics=2)
