@@ -19,40 +19,36 @@ method and order. The error is estimated by step doubling: the monodromy at N st
 ``error = max |μ_N - μ_{N/2}| / (2^p - 1)`` over matched multipliers; with ``steps=None`` N
 doubles until ``phi_error`` is below ``tol``.
 
-**Pre-asymptotic levels** (``mu_tol``, the linkage Floquet criterion; docs/engine.md "Step
-count"): the division by 2^p - 1 assumes the N/2 level is asymptotic, so the integrator also runs
-N/4 and divides d = max|μ_N - μ_{N/2}| only where d_{N/2}/d_N is within 4× of 2^p, else states d
-(:func:`step_doubling_error`); N doubles until that, over max(1, max|μ|), is <= ``mu_tol``. What is
-compared between levels is the caller's ``measure`` (default every multiplier, matched; the linkage
-Floquet compares the moduli and the low Floquet frequencies, which is what its results use).
+**Pre-asymptotic levels** (``mu_tol``, the linkage Floquet criterion; docs/engine.md "Step count"):
+d = max|μ_N - μ_{N/2}| is divided by 2^p - 1 only where d_{N/2}/d_N is within 4× of 2^p, else
+stated (:func:`step_doubling_error`); the first level runs N/4 for that rate only where d itself is
+too large and d/(2^p - 1) would do. N doubles until the estimate, over max(1, max|μ|), is <= ``mu_tol``.
+The caller's ``measure`` says what d compares (default every multiplier, matched; the linkage
+Floquet: the moduli and the low Floquet frequencies, which is what its results use).
 
 Public API (shapes with n the state size, k the number of θ values; θ in the caller's units,
 radians of crank angle for a linkage; exponents in 1/[θ])
 
 ``monodromy(generator, period=2π, *, forcing=None, order=6, steps=None, tol=1e-10, mu_tol=None,
-start=0.0, max_steps=2**16, comm=None) -> Monodromy`` (``comm``: split the steps over MPI ranks)
+start=0.0, max_steps=2**16, comm=None, measure=...) -> Monodromy`` (``comm``: steps over MPI ranks)
     ``generator(theta)``: theta (k,) -> A (k, n, n), vectorised over θ.
     ``forcing(theta)``: theta (k,) -> b (k, n) or (k, n, m) for m load cases; optional.
 ``Monodromy`` (frozen dataclass)
-    ``phi`` (n, n) Φ = x(start + P) for x(start) = I; ``multipliers`` (n,) complex, eigenvalues
-    of Φ sorted by decreasing |μ|; ``exponents`` (n,) complex principal log(μ)/P (imaginary part
-    defined modulo 2π/P); ``max_abs`` max |μ| (the growth factor per period, per
-    revolution for a linkage); ``growth_rate`` log(max|μ|)/P; ``error`` the estimated absolute
-    multiplier error, ``phi_error`` the estimated relative error of Φ (Frobenius); ``steps``,
-    ``order``, ``period``, ``start``, ``converged`` (``phi_error`` <= tol, or with ``mu_tol``
-    ``error``/max(1, max|μ|) <= mu_tol; always True for fixed steps);
-    ``particular`` (n,) or (n, m): x(start + P) from x(start) = 0 under the forcing (None
-    without forcing), with ``particular_error`` its relative step-doubling estimate.
+    ``phi`` (n, n) Φ = x(start + P) for x(start) = I; ``multipliers`` (n,) complex, sorted by
+    decreasing |μ|; ``exponents`` principal log(μ)/P (Im modulo 2π/P); ``max_abs`` max |μ| (per
+    period: per revolution for a linkage); ``growth_rate`` log(max|μ|)/P; ``error`` the estimated
+    absolute multiplier error (of what ``measure`` compares), ``second_error`` its second measure's,
+    ``phi_error`` the relative error of Φ (Frobenius); ``steps``, ``order``, ``period``, ``start``,
+    ``converged``; ``particular`` (n,) or (n, m): x(start + P) from x(start) = 0 under the forcing
+    (None without), ``particular_error`` its relative step-doubling estimate.
 ``exponential_monodromy(A, period=2π, start=0.0) -> (Monodromy, λ, X)``
     the monodromy exp(P A) of a constant generator from its eigen-decomposition (``steps`` 1,
     ``order`` 0: exact up to the eigenvalues' round-off, which ``error`` bounds).
 ``trajectory(generator, x0, thetas, *, forcing=None, order=6, steps) -> x (len(thetas), n[, m])``
     the state at the given θ (increasing, first = start) from x(thetas[0]) = x0, by the same
     Magnus steps (``steps`` per period P = thetas[-1] - thetas[0] unless ``period`` is given).
-``second_order(coefficients) -> generator``, ``second_order_forcing(mass, load)``
-    adapters for M q'' + C q' + K q = f: ``coefficients(theta)`` -> (M, C, K) each (k, n, n)
-    dense; A = [[0, I], [-M⁻¹K, -M⁻¹C]] (``state_matrix(M, C, K)``, the one state-space form),
-    b = [0, M⁻¹f].
+``second_order(coefficients) -> generator``, ``second_order_forcing(mass, load)``: adapters for
+    M q'' + C q' + K q = f, (M, C, K) (k, n, n) dense; A = [[0, I], [-M⁻¹K, -M⁻¹C]] (``state_matrix``), b = [0, M⁻¹f].
 ``match_multipliers(a, b) -> (i, j)``: the pairing minimising Σ|a_i - b_j| (Hungarian).
 """
 
@@ -179,8 +175,7 @@ def multiplier_spectrum(phi):
 
 
 def multiplier_change(fine, coarse) -> tuple[float, float]:
-    """The default level change of :func:`monodromy`: (max |μ - μ_coarse| over the multipliers of
-    two levels' spectra, matched by :func:`match_multipliers`; 0.0: no second measure)."""
+    """The default level change of :func:`monodromy`: (max |μ - μ_coarse|, matched; 0.0: no second measure)."""
     i, j = match_multipliers(fine[0], coarse[0])
     return float(np.max(np.abs(fine[0][i] - coarse[0][j]))), 0.0
 
@@ -231,10 +226,8 @@ def _split(total, n, m):
 
 
 def step_doubling_error(d: float, d_before: float | None, order: int) -> float:
-    """The error of the N-step level from its difference ``d`` to the N/2 level and the N/2
-    level's difference ``d_before`` to N/4 (None: not computed): d/(2^p - 1) where the ratio
-    d_before/d shows the asymptotic rate 2^p within a factor 4 (or is unknown), else d (the
-    N/2 level is pre-asymptotic; see the module docstring)."""
+    """The N-step level's error from its change ``d`` from N/2 and N/2's change ``d_before`` from N/4
+    (None: unknown): d/(2^p - 1) where d_before/d is 2^p within 4× (or unknown), else d (module docstring)."""
     rate = 2.0**order
     if d_before is None or d == 0.0 or rate / 4.0 <= d_before / d <= 4.0 * rate:
         return d / (rate - 1.0)
@@ -283,21 +276,30 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         return phi, part, (spectrum(phi) if np.all(np.isfinite(phi)) else None)
 
     inf2, before = (np.inf, np.inf), (None, None)
+    guard = mu_tol is not None and steps is None and N >= 8  # the N/4 level, for the rate check, when needed
+    tol2 = mu_tol if second_tol is None else second_tol
     coarse = level(N // 2)
-    if mu_tol is not None and steps is None and N >= 8:  # the level before, for the rate check
-        older = level(N // 4)
-        before = change(coarse[2], older[2]) if coarse[2] is not None and older[2] is not None else inf2
+
+    def judged(d, before, mu):  # (err, err2, ok) of a level's change d given the change before it
+        err, err2 = (step_doubling_error(x, x_before, order) for x, x_before in zip(d, before))
+        return err, err2, (phi_err <= tol if mu_tol is None
+                           else err <= mu_tol * max(1.0, float(np.max(np.abs(mu)))) and err2 <= tol2)
+
     while True:
         fine = level(N)
         phi_err = float(np.linalg.norm(fine[0] - coarse[0])
                         / (scale * max(np.linalg.norm(fine[0]), 1e-300)))
         finite = fine[2] is not None and coarse[2] is not None
         d = change(fine[2], coarse[2]) if finite else inf2
-        err, err2 = (step_doubling_error(x, x_before, order) for x, x_before in zip(d, before))
         mu = fine[2][0] if finite else np.full(n, np.nan)
-        ok = (phi_err <= tol if mu_tol is None
-              else err <= mu_tol * max(1.0, float(np.max(np.abs(mu))))
-              and err2 <= (mu_tol if second_tol is None else second_tol))
+        if guard:  # the first level: undivided, a bound, needs no N/4; the rate only if it would decide
+            guard, (err, err2, ok) = False, judged(d, inf2, mu)
+            if not ok and judged(d, (None, None), mu)[2]:
+                older = level(N // 4)
+                before = change(coarse[2], older[2]) if coarse[2] is not None and older[2] is not None else inf2
+                err, err2, ok = judged(d, before, mu)
+        else:
+            err, err2, ok = judged(d, before, mu)
         if steps is not None or ok or 2 * N > max_steps:
             break
         coarse, N, before = fine, 2 * N, d
