@@ -344,6 +344,56 @@ def test_study_sweeps_take_their_model_from_the_pool(tmp_path):
     study.close()
 
 
+def test_study_running_speed_methods_take_their_model_from_the_pool(tmp_path, monkeypatch):
+    """Issue 27 (design review): Study.response, response_vs_speed (archived or not), design_check (in
+    plane and out of plane), the sensitivity of a point the study solved and the out-of-plane half of a
+    two-plane sweep take their models from the study's pool, and loads needs none: called in turn they build one model of the study's scene per
+    plane (every Model construction counted; before, every call built its own). The answers are those of
+    models of their own: a no_coriolis response on the pool's full model, the design check and the
+    sensitivity (an unpickled copy builds its own model) agree with fresh ones to 1e-12."""
+    import pickle
+
+    from fkev_slepc.api.pool import model_facts
+    from fkev_slepc.api.response import study_response
+    from fkev_slepc.design.check import design_check
+    from fkev_slepc.model.operators import Model
+
+    study = fk.load(RUNS / "flat-rod-slider-crank.toml", elements=1).replace("analysis.crank_angles_deg", [0.0, 90.0])
+    facts, built, real = model_facts(study.scene), [], Model.__init__
+
+    def counted(self, scene, *args, **kwargs):
+        real(self, scene, *args, **kwargs)
+        if model_facts(scene) == facts:  # the scenes moved by a sensitivity's key are other scenes
+            built.append(self.plane)
+
+    monkeypatch.setattr(Model, "__init__", counted)
+    w, angles = 2000 * np.pi / 30, [0.0, 90.0]
+    study.response(w, "full", angles, harmonics=2)
+    nc = study.response(w, "no_coriolis", angles, harmonics=2)
+    loads = study.loads(w, angles)
+    check = study.design_check(w, angles_deg=angles, harmonics=2)
+    r = study.point(30, w, "full")
+    s = r.sensitivity("links[rod].length_m")
+    study.response_vs_speed([w], "full", angles_deg=angles, harmonics=2)
+    study.response_vs_speed([w], "full", tmp_path / "r.h5", angles_deg=angles, harmonics=2, modes=2)
+    both = study.sweep(angles, [w], ["full"], tmp_path / "s.h5", modes=2)  # plane both: in, then /planes/out
+    assert sorted(built) == ["in", "out"] and len(study.pool) == 2  # one model per plane, all from the pool
+    assert both.planes == ("in", "out")
+    assert loads.power_residual < 1e-12 and check.out_of_plane is not None
+    del built[:]
+    own = study_response(study.scene, w, "no_coriolis", angles, harmonics=2)
+    np.testing.assert_allclose(nc.q, own.q, rtol=1e-12, atol=1e-12 * np.abs(own.q).max())
+    fresh = design_check(study.scene, w, angles_deg=angles, harmonics=2).as_dict()
+    np.testing.assert_allclose(check.out_of_plane.f1_hz, fresh["out_of_plane"]["f1_hz"], rtol=1e-12)
+    assert [lk["peak_stress_pa"] for lk in check.as_dict()["links"].values()] == pytest.approx(
+        [lk["peak_stress_pa"] for lk in fresh["links"].values()], rel=1e-12)
+    copy = pickle.loads(pickle.dumps(r))
+    assert copy.pool_ref is None and r.pool_ref() is study.pool
+    np.testing.assert_allclose(copy.sensitivity("links[rod].length_m").eigenvalue, s.eigenvalue, rtol=1e-12)
+    assert built.count("in") == 3 and built.count("out") == 1  # each fresh call: models of its own
+    study.close()
+
+
 def test_sweep_results_to_csv_is_the_export_table(tmp_path):
     res = fk.load(BW).sweep([0, 90], [0], ["structure"], tmp_path / "a.h5", modes=2)
     text = res.to_csv()

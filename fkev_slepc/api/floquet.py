@@ -34,11 +34,13 @@ def work_problems(scene, case: str, reduce, names: dict, pool=None,
     from fkev_slepc.solve.finite import overflow_problems
     from fkev_slepc.periodic.floquet import full_min_steps
 
-    bad = [Problem(names["speeds"] if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(scene)]
+    with np.errstate(all="ignore"):  # an overflow is the finding of overflow_problems, not a warning
+        model = (ModelPool(scene) if pool is None else pool).model(case)  # its terms include the structure's
+    bad = [Problem(names["speeds"] if p.path == "driver.speeds" else p.path, p.message)
+           for p in overflow_problems(scene, model)]
     if bad or isinstance(reduce, int):
         return bad
     low = float(np.min(scene.driver.speeds))
-    model = (ModelPool(scene) if pool is None else pool).model(case)
     with np.errstate(all="ignore"):
         try:
             steps = float(full_min_steps(model, low, case))

@@ -5,6 +5,8 @@
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from fkev_slepc.api.checks import modes_fit, point_arguments
@@ -69,7 +71,8 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
     return PointResult(
         float(angle_deg), float(speed_rad_s), case, res, sc.title, model.n_free, qep.kind,
         float(np.degrees(mu[0])) if mu is not None else float("nan"), mesh_of(model),
-        np.asarray(model.node_positions(theta)), model.scene, diff, plan, engine.max_pair_error, an.damping_tol, plane)
+        np.asarray(model.node_positions(theta)), model.scene, diff, plan, engine.max_pair_error, an.damping_tol, plane,
+        weakref.ref(pool))
 
 
 def out_of_plane_arguments(sc: Scene, plane, rel_error, asked: str | None = None) -> None:

@@ -7,6 +7,16 @@ are kept by the terms they hold, not by case name. An engine is made once per (m
 and reused by every later call on that model; :meth:`ModelPool.close` (or the Study's) frees
 them. A call on another grid of the study's scene (other crank angles, speeds, cases or modes:
 ``sweep.grid.configure``) takes its pool from :meth:`ModelPool.for_scene`, which shares them.
+
+Every Study method takes its models here: ``point``, ``critical``, ``sweep`` (both planes), ``design``'s
+base sweep, ``floquet`` (overflow and work checks, frozen sweep, monodromies, frozen-time scan),
+``response``, ``response_vs_speed`` (archived or not), ``design_check`` (in plane and out of plane) and
+:meth:`PointResult.sensitivity <fkev_slepc.api.results.PointResult.sensitivity>` of a point the study
+solved; the stages below api (periodic/, design/, sweep/) are given a model, or
+:meth:`ModelPool.model_for` as their ``model_for`` (default ``Model`` itself: a model of their own).
+Called in turn, they build each distinct (scene facts, motion terms, plane) model once. Models of
+other scenes are their own: a point re-meshed for ``rel_error``, the design points of ``design``, the
+scenes moved by a sensitivity's key. ``loads`` builds no model (the mechanism alone).
 """
 
 from __future__ import annotations
@@ -63,6 +73,11 @@ class ModelPool:
             return self._models[min(fits, key=lambda key: len(key[1]))]
         model = self._models[(plane, need)] = Model(self._built_from, cases=cases, plane=plane)
         return model
+
+    def model_for(self, scene: Scene, cases, plane: str = "in") -> Model:
+        """A model of ``scene`` for ``cases`` in ``plane``, called as ``Model(scene, cases, plane)``:
+        :meth:`model` of :meth:`for_scene`. What the stages below api take as ``model_for``."""
+        return self.for_scene(scene).model(cases, plane)
 
     def n_free(self) -> int:
         """Free DOFs of the scene's model (the same for every case)."""

@@ -193,7 +193,7 @@ def _none(x):
 
 def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
                    harmonics: int | None = None, tol: float | None = None, shoot: bool | None = None, stations=None,
-                   names=None, settings=None, reduce=None) -> ResponseResult:
+                   names=None, settings=None, reduce=None, model_for=None) -> ResponseResult:
     """The steady periodic response at ``speed_rad_s`` for ``case``: the code path of
     ``Study.response`` and ``fkev response`` (docs/response.md §3-4).
 
@@ -210,7 +210,8 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     crank acceleration (constant speed only) or an exact resonance ((I − Φ) singular).
     ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`, default its defaults):
     harmonics, harmonic_tol (1e-8), shoot (False), shooting_tol and response_angles_deg; ``harmonics``,
-    ``tol``, ``shoot`` and ``angles_deg``, when given, override them.
+    ``tol``, ``shoot`` and ``angles_deg``, when given, override them. ``model_for``: where the model
+    comes from (:func:`fkev_slepc.periodic.steady.checked_model`; ``Study.response``: the study's pool).
     """
     from fkev_slepc.model.joint_loads import joint_loads
     from fkev_slepc.model.kinematics import point_local
@@ -221,7 +222,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
                                             else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
-                                            reduce=reduce, settings=ps)
+                                            reduce=reduce, settings=ps, model_for=model_for)
     mech = model.mechanism
     chosen = chosen_stations(scene, mech, stations, names)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=ps.shoot,

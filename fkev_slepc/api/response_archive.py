@@ -23,11 +23,13 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from fkev_slepc.api.pool import ModelPool
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.periodic.settings import SCAN, PeriodicSettings
 from fkev_slepc.scene import Scene, SceneError
+from fkev_slepc.scene.cases import case_name
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.parallel import local
 from fkev_slepc.sweep.product_run import (
@@ -45,11 +47,15 @@ class ResponseRequest(ProductRequest):
     (:data:`OPTION_KEYS`); ``modes`` the cycle-mean frozen frequencies kept per speed. ``periodic``:
     the :class:`~fkev_slepc.periodic.settings.PeriodicSettings` (default ``SCAN``), whose harmonics,
     harmonic_tol, shoot and response_angles_deg the options ``harmonics``, ``tol``, ``shoot`` and
-    ``angles_deg`` override when given (:meth:`resolved`, archived whole in ``/response/settings``)."""
+    ``angles_deg`` override when given (:meth:`resolved`, archived whole in ``/response/settings``).
+    ``model_for``: ``model_for(scene, cases, plane)`` gives the model of every speed's response (default
+    ``Model``: new ones; :func:`archived_response_vs_speed` passes a pool's, the Study its own);
+    ``model`` (:class:`~fkev_slepc.sweep.product_run.ProductRequest`) that of the frozen sweep and the stations."""
 
     options: dict = field(default_factory=dict)
     modes: int = 4
     periodic: PeriodicSettings | None = None
+    model_for: object = field(default=None, compare=False, repr=False)
 
     def resolved(self) -> PeriodicSettings:
         o = self.options
@@ -95,7 +101,7 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
     request.run_frozen_sweep(comm, notify, progress)
     if request.resume:  # the archived settings compared whole: a difference refused before the product's work
         refuse_changed_settings(out, P.RESPONSE, ps, comm)
-    model = Model(sc, (request.case,))
+    model = Model(sc, (request.case,)) if request.model is None else request.model
     stations = chosen_stations(sc, model.mechanism, opts.get("stations"))
     stations = default_stations(model.mechanism) if stations is None else stations
     n_modes = min(int(request.modes), model.n_free)
@@ -112,7 +118,8 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
     def solve(unit, mask):
         js, jc = unit
         try:
-            values, r = speed_peaks(sc, float(speeds[js]), request.case, n_modes, settings=ps, **opts)
+            values, r = speed_peaks(sc, float(speeds[js]), request.case, n_modes, model_for=request.model_for,
+                                    settings=ps, **opts)
         except (SceneError, *recoverable_errors()) as exc:
             msg = "; ".join(p.message for p in exc.problems) if isinstance(exc, SceneError) else str(exc)
             return Block(unit, mask, {}, np.array(Status.FAILED.code, np.uint8),
@@ -143,21 +150,25 @@ def run_response(request: ResponseRequest, comm=None, notify=None, progress: boo
 def archived_response_vs_speed(scene: Scene, speeds_rad_s, case: str, output, *, modes: int = 4, orders: int = 6,
                                resume: bool = False, force: bool = False, comm=None, solver: str | None = None,
                                command_line: str = "", notify=None, progress: bool = False, names=None,
-                               settings=None, **options):
+                               settings=None, model_for=None, **options):
     """:func:`fkev_slepc.api.response_speeds.response_vs_speed` archived in ``output`` over the ranks of ``comm``
     (:func:`run_response`: one speed per unit of work, resumable);
-    the same numbers, read back from the archive."""
+    the same numbers, read back from the archive. ``model_for``: the models' source
+    (``Study.response_vs_speed``: the study's pool; default a new pool of ``scene``, one model for the run)."""
     from fkev_slepc.periodic.steady import checked_model
     from fkev_slepc.api.response_speeds import checked_speeds
     from fkev_slepc.sweep.grid import configure
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
-    case = checked_model(scene, case, options.get("harmonics"), names,  # before the frozen sweep
-                         reduce=options.get("reduce"), settings=settings or SCAN).cases[0]
+    model_for = ModelPool(scene).model_for if model_for is None else model_for
+    checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"),  # before the frozen sweep
+                  settings=settings or SCAN, model_for=model_for)
+    case = case_name(case)
     sc = configure(scene, speeds=[float(w) for w in speeds], cases=[case])
-    out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line, options=options, modes=modes,
-                                       periodic=settings), comm,
+    out = run_response(ResponseRequest(sc, Path(output), resume, force, solver, command_line,
+                                       model=model_for(sc, (case,), "in"), options=options, modes=modes,
+                                       periodic=settings, model_for=model_for), comm,
                        notify=notify, progress=progress)
     return read_response(out, orders)
 

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.api.pool import ModelPool
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 
@@ -93,21 +94,23 @@ def checked_speeds(scene: Scene, speeds_rad_s, names=None) -> np.ndarray:
     return speeds
 
 
-def speed_peaks(scene: Scene, speed: float, case: str, modes: int, names=None, **options) -> tuple[dict, object]:
+def speed_peaks(scene: Scene, speed: float, case: str, modes: int, names=None, model_for=None,
+                **options) -> tuple[dict, object]:
     """The response at one speed reduced to what the speed scan keeps: ``(values, result)``,
     values by field (the four station peaks over the cycle (n_station,), ``max_abs_multiplier``,
     ``harmonics``, ``harmonic_balance_error``, ``response_error``, ``shooting_steps``, ``solution``
     (:meth:`~fkev_slepc.api.response.ResponseResult.solution`), ``mean_frequency_rad_s`` (min(modes, n_free),)),
-    result the :class:`~fkev_slepc.api.response.ResponseResult` (options as there)."""
+    result the :class:`~fkev_slepc.api.response.ResponseResult` (options as there). ``model_for``:
+    ``model_for(scene, cases, plane)`` gives the model of both (default ``Model``: new ones)."""
     from fkev_slepc.api.response import study_response
     from fkev_slepc.model.operators import Model
     from fkev_slepc.periodic.cycle_mean import cycle_mean_frequencies
 
-    r = study_response(scene, float(speed), case, names=names, **options)
+    r = study_response(scene, float(speed), case, names=names, model_for=model_for, **options)
     sr = r.stations
     peaks = [np.nanmax(np.abs(x), axis=0) for x in (sr.transverse, sr.transverse_chord, sr.moment)]
     peaks.append(np.max(sr.stress, axis=0))
-    model = Model(scene, cases=(r.case,))
+    model = (Model if model_for is None else model_for)(scene, (r.case,), "in")
     wbar = cycle_mean_frequencies(model, float(speed), r.case, min(modes, model.n_free))
     values = dict(zip(PEAK_FIELDS, peaks))
     values.update(max_abs_multiplier=r.max_abs_multiplier, harmonics=r.harmonics,
@@ -121,23 +124,25 @@ def station_labels(link_names, stations) -> tuple[str, ...]:
 
 
 def response_vs_speed(scene: Scene, speeds_rad_s, case: str = "full", *, modes: int = 4, orders: int = 6,
-                      names=None, settings=None, **options) -> SpeedResponse:
+                      names=None, settings=None, model_for=None, **options) -> SpeedResponse:
     """:func:`~fkev_slepc.api.response.study_response` at every speed (options as there; ``settings``
     default :data:`fkev_slepc.periodic.settings.SCAN`, harmonic_tol 1e-6), the station peaks, and the
     forced-resonance speeds; in this process (the archived run over MPI ranks:
-    :func:`fkev_slepc.api.response_archive.run_response`)."""
+    :func:`fkev_slepc.api.response_archive.run_response`). ``model_for``: the models' source
+    (``Study.response_vs_speed``: the study's pool; default a new pool of ``scene``, one model for every speed)."""
     from fkev_slepc.periodic.settings import SCAN
     from fkev_slepc.periodic.steady import checked_model
 
     names = names or {}
     speeds = checked_speeds(scene, speeds_rad_s, names)
     settings = SCAN if settings is None else settings
+    model_for = ModelPool(scene).model_for if model_for is None else model_for
     checked_model(scene, case, options.get("harmonics"), names, reduce=options.get("reduce"),  # before the first speed
-                  settings=settings)
+                  settings=settings, model_for=model_for)
     options = {**options, "settings": settings}
     rows = []
     for w in speeds:
-        values, r = speed_peaks(scene, float(w), case, modes, names, **options)
+        values, r = speed_peaks(scene, float(w), case, modes, names, model_for, **options)
         rows.append(values)
     peaks = [np.array([row[k] for row in rows]) for k in PEAK_FIELDS]
     wbar = np.array([row["mean_frequency_rad_s"] for row in rows])

@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import weakref
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -43,7 +44,9 @@ class PointResult:
     """The outcome of :meth:`~fkev_slepc.api.study.Study.point` at one (crank angle, speed, case).
 
     Plain data (it pickles): arrays, numbers, strings and the frozen scene tree solved, no live
-    model or solver. Arrays have one entry per mode (NaN where fewer modes were found):
+    model or solver; ``pool_ref`` is a weak reference to the model pool of the study that solved it
+    (:mod:`fkev_slepc.api.pool`; not pickled), where :meth:`sensitivity` takes its model while the
+    study lives. Arrays have one entry per mode (NaN where fewer modes were found):
     ``eigenvalues`` λ (1/s, the Im λ > 0 member of each pair), ``frequency_hz`` = Im λ / 2π,
     ``pair_error`` the relative residual of each eigenpair (docs/theory.md §10). ``max_real``
     is the largest Re λ over every computed eigenvalue (stability indicator), ``divergent`` the
@@ -66,6 +69,11 @@ class PointResult:
     max_pair_error: float = float("nan")  # the engine's acceptance threshold on each reported pair's error
     damping_tol: float = float("nan")  # a mode with damping ratio < -damping_tol is unstable (analysis.damping_tol)
     plane: str = "in"  # "in": the in-plane problem; "out": bending out of the plane and torsion (theory §19)
+    pool_ref: weakref.ref | None = field(default=None, compare=False, repr=False)  # the study's ModelPool
+
+    def __getstate__(self) -> dict:
+        """The fields but ``pool_ref`` (a weak reference does not pickle; a copy builds its own model)."""
+        return {k: v for k, v in vars(self).items() if k != "pool_ref"}
 
     @property
     def theta_rad(self) -> float:
@@ -128,11 +136,10 @@ class PointResult:
         """
         if self.plane != "in":
             raise ValueError(f"sensitivities are in plane only (this point is plane {self.plane!r})")
-
-
         engine = next((m for m in ("dense", "slepc") if self.solver.startswith(m)), "auto")
         solve = point_solver(self.theta_rad, self.speed_rad_s, self.case, len(self.eigenvalues), engine)
-        model = Model(self.scene, cases=(self.case,))
+        pool = None if self.pool_ref is None else self.pool_ref()
+        model = Model(self.scene, cases=(self.case,)) if pool is None else pool.model_for(self.scene, self.case)
         return point_sensitivity(model, self.theta_rad, self.speed_rad_s, self.case, self.eigenvalues, key, solve)
 
     def mode_shape(self, k: int) -> ModeShape:

@@ -14,7 +14,7 @@ from fkev_slepc.design.check import design_check
 
 class RunningSpeed:
     """``Study.loads``, ``Study.response``, ``Study.design_check`` and ``Study.floquet`` (``self.scene`` is
-    the study's scene)."""
+    the study's scene; their models come from ``self.pool``, fkev_slepc/api/pool.py; ``loads`` needs none)."""
 
     def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
         """Kinetostatics over the crank cycle (``fkev loads``): :func:`fkev_slepc.api.loads.study_loads`."""
@@ -25,7 +25,7 @@ class RunningSpeed:
         :func:`fkev_slepc.api.response.study_response` (options ``gravity_m_s2``, ``harmonics``,
         ``tol``, ``shoot``, ``stations``, ``settings``: a
         :class:`~fkev_slepc.periodic.settings.PeriodicSettings` that the other options override)."""
-        return study_response(self.scene, speed_rad_s, case, angles_deg, **options)
+        return study_response(self.scene, speed_rad_s, case, angles_deg, model_for=self.pool.model_for, **options)
 
     def design_check(self, speed_rad_s: float, criterion: str = "goodman", **options):
         """Per link peak |σ|, static and fatigue safety factors, weak-axis buckling factor and peak
@@ -33,7 +33,7 @@ class RunningSpeed:
         (``out_of_plane``; None where the scene has no out-of-plane section) (``fkev design-check``):
         :func:`fkev_slepc.design.check.design_check` (options ``case``, ``angles_deg``,
         ``gravity_m_s2``, ``harmonics``, ``tol``, ``threshold``, ``settings``)."""
-        return design_check(self.scene, speed_rad_s, criterion=criterion, **options)
+        return design_check(self.scene, speed_rad_s, criterion=criterion, model_for=self.pool.model_for, **options)
 
     def response_vs_speed(self, speeds_rad_s, case="full", output=None, **options):
         """Peak response of every station over a speed range (``fkev response --speeds``):
@@ -44,8 +44,9 @@ class RunningSpeed:
         from fkev_slepc.api.response_archive import archived_response_vs_speed
 
         if output is None:
-            return response_vs_speed(self.scene, speeds_rad_s, case, **options)
-        return archived_response_vs_speed(self.scene, speeds_rad_s, case, output, **options)
+            return response_vs_speed(self.scene, speeds_rad_s, case, model_for=self.pool.model_for, **options)
+        return archived_response_vs_speed(self.scene, speeds_rad_s, case, output, model_for=self.pool.model_for,
+                                          **options)
 
     def floquet(self, speeds_rad_s=None, case="full", output=None, **options):
         """Floquet multipliers over a speed range, unstable bands labelled (``fkev floquet``):

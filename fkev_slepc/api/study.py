@@ -312,10 +312,11 @@ class Study(RunningSpeed):
         scene, plan = mesh_for_accuracy(scene, solver, comm, log.info)
         request = SweepRequest(scene, Path(output), resume=resume, retry_failed=retry_failed, solver=solver,
                                cross_check=cross_check, force=force, accuracy=plan, plane=sweep_plane)
-        model = self.pool.for_scene(scene).model(scene.analysis.cases, sweep_plane)  # re-meshed for rel_error: a new one
-        outcome = run_sweep(request, comm, notify=log.info, progress=progress, model=model)
+        pool = self.pool.for_scene(scene)  # re-meshed for rel_error: a pool of its own
+        outcome = run_sweep(request, comm, notify=log.info, progress=progress,
+                            model=pool.model(scene.analysis.cases, sweep_plane))
         if plane == "both":
-            run_out_of_plane(request, comm, log.info, progress)
+            run_out_of_plane(request, comm, log.info, progress, model=pool.model(scene.analysis.cases, "out"))
         return open(outcome.output)
 
 

@@ -163,7 +163,7 @@ def check_problems(criterion, threshold, names=None) -> list[Problem]:
 
 def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
                  angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float | None = None,
-                 threshold: float = WARN_BELOW, names=None, settings=None) -> DesignCheck:
+                 threshold: float = WARN_BELOW, names=None, settings=None, model_for=None) -> DesignCheck:
     """The :class:`DesignCheck` of ``scene`` at ``speed_rad_s``: the code path of
     ``fkev design-check``. ``criterion`` one of goodman, soderberg, gerber; ``threshold`` the
     weak-axis factor below which a warning is given. The out-of-plane lowest frequency is frozen-time
@@ -173,7 +173,9 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`): harmonics, harmonic_tol and
     response_angles_deg, overridden by ``harmonics``, ``tol`` and ``angles_deg`` when given, and the
     response's reduction (full_max_dofs, link_modes); the result carries them whole (``settings``).
-    The check's own knobs are ``criterion`` and ``threshold`` (arguments, checked and printed)."""
+    The check's own knobs are ``criterion`` and ``threshold`` (arguments, checked and printed).
+    ``model_for(scene, cases, plane)`` gives the in-plane and out-of-plane models (default ``Model``:
+    new ones; ``Study.design_check``: the study's pool, fkev_slepc/api/pool.py)."""
     from fkev_slepc.model.joint_loads import joint_loads
     from fkev_slepc.periodic.steady import checked_point, point_settings, steady_solve, whole_link_stress
 
@@ -184,12 +186,12 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
                                             else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,
-                                            settings=ps)
+                                            settings=ps, model_for=model_for)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=False,
                      names=names, settings=ps)
     ls = whole_link_stress(model, a, r.at(np.radians(a)))
     mech = model.mechanism
     jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
     links = check_links(scene, mech, ls, jl, criterion)
-    oop = out_of_plane_check(scene, float(speed_rad_s), case, a, [lc.buckling for lc in links])
+    oop = out_of_plane_check(scene, float(speed_rad_s), case, a, [lc.buckling for lc in links], model_for)
     return DesignCheck(scene.title, float(speed_rad_s), case, criterion, float(threshold), links, oop, ps)

@@ -49,10 +49,12 @@ class OutOfPlaneCheck:
                 "f1_hz": [float(f) if np.isfinite(f) else None for f in self.f1_hz]}
 
 
-def out_of_plane_check(scene, speed_rad_s: float, case: str, angles_deg, buckling) -> OutOfPlaneCheck | None:
+def out_of_plane_check(scene, speed_rad_s: float, case: str, angles_deg, buckling,
+                       model_for=None) -> OutOfPlaneCheck | None:
     """The :class:`OutOfPlaneCheck` of ``scene`` at ``speed_rad_s`` over ``angles_deg`` (deg, angles
     that assemble), ``buckling`` the links' :class:`~fkev_slepc.model.buckling.Buckling`; None
-    when the scene has no out-of-plane section (:data:`NOT_CHECKED`)."""
+    when the scene has no out-of-plane section (:data:`NOT_CHECKED`). ``model_for(scene, cases, plane)``
+    gives the out-of-plane model (default ``Model``: a new one)."""
     from fkev_slepc.model.mechanism import build_mechanism
     from fkev_slepc.model.out_of_plane import has_section
     from fkev_slepc.model.operators import Model
@@ -64,7 +66,7 @@ def out_of_plane_check(scene, speed_rad_s: float, case: str, angles_deg, bucklin
     if not has_section(build_mechanism(scene)):
         return None
     a = np.asarray(angles_deg, dtype=float)
-    model = Model(scene, (case,), plane="out")
+    model = (Model if model_for is None else model_for)(scene, (case,), "out")
     stack = model.piece_stack(np.radians(a))
     qeps = [model.qep(model.pieces_at(stack, i), float(speed_rad_s), case) for i in range(a.size)]
     settings = SolveSettings.from_scene(scene)

@@ -68,8 +68,9 @@ from fkev_slepc.periodic.truncation import (
 
 TWO_PI = 2.0 * np.pi
 START_H_RHO = 4.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step count"); the steps then double on the error
-# the Magnus steps' share of the low Floquet frequencies' error: a thousandth of the truncation
-# tolerance whose frequency measure compares them (``reduce_tol``, relative)
+# the Magnus steps' share of a reduced level's low Floquet frequencies' error: a thousandth of the
+# truncation tolerance whose frequency measure compares them (``reduce_tol``, relative); the full
+# model's frequencies enter no result and are not asked (``Monodromy.second_error`` states them)
 FREQUENCY_TOL_SHARE = 1e-3
 __all__ = ["LinkageFloquet", "TrigInterpolant", "floquet_multipliers", "full_min_steps", "to_dense"]
 
@@ -192,8 +193,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`).
     ``tol``: the error of the multipliers' moduli asked of the integrator, relative to
     max(1, max|μ|) (the steps double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling
-    estimate, pre-asymptotic levels guarded, is below it, and that of the lowest four Floquet
-    frequencies below ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative: :func:`_step_measure`,
+    estimate, pre-asymptotic levels guarded, is below it, and on a reduced basis that of the lowest
+    four Floquet frequencies below ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative: :func:`_step_measure`,
     :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
     verdict's 10 × error a tenth of its 1e-6 (docs/engine.md "Step count"; the default is
     ``PeriodicSettings.monodromy_tol``)."""
@@ -249,7 +250,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=np.inf, mu_tol=tol,
                          min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
                          max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
-                         comm=comm, progress=progress, second_tol=FREQUENCY_TOL_SHARE * st.reduce_tol,
+                         comm=comm, progress=progress,  # frequencies: compared by the truncation only
+                         second_tol=np.inf if basis is None else FREQUENCY_TOL_SHARE * st.reduce_tol,
                          measure=_step_measure(c, system.dof_scaling, omega, min(st.auto_modes, model.n_free)))
         mu, X = la.eig(mono.phi)
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)

@@ -19,24 +19,25 @@ DEFAULT_ANGLES_DEG = DEFAULTS.response_angles_deg  # output angles of a response
 
 
 def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
-                  harmonics=None, names=None, reduce=None, settings: PeriodicSettings = DEFAULTS):
+                  harmonics=None, names=None, reduce=None, settings: PeriodicSettings = DEFAULTS, model_for=None):
     """``(model, case, angles_deg, gravity)`` of a response at ``speed_rad_s``, or one SceneError
     naming every bad argument: a speed or gravity that is not finite, and every problem of
-    :func:`checked_model` (``settings`` as there); then the output angles (default
-    :data:`DEFAULT_ANGLES_DEG`) where the linkage does not assemble."""
+    :func:`checked_model` (``settings`` and ``model_for`` as there); then the output angles (default
+    :data:`DEFAULT_ANGLES_DEG`) where the linkage does not assemble. ``case`` is returned by name."""
     from fkev_slepc.model.operating_point import checked_angles, operating_point_problems
+    from fkev_slepc.scene.cases import case_name
 
     names = names or {}
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
     model = checked_model(scene, case, harmonics, names, operating_point_problems(speed_rad_s, 0.0, gravity, names),
-                          reduce=reduce, settings=settings)
+                          reduce=reduce, settings=settings, model_for=model_for)
     a = checked_angles(scene, model.mechanism, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
                        names.get("angles_deg", "angles_deg"))
-    return model, model.cases[0], a, np.asarray(gravity, float)
+    return model, case_name(case), a, np.asarray(gravity, float)
 
 
 def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, reduce=None,
-                  settings: PeriodicSettings = DEFAULTS):
+                  settings: PeriodicSettings = DEFAULTS, model_for=None):
     """The Model of a periodic response of ``case``, or SceneError listing ``bad`` and every problem
     found before any work (docs/response.md §3): the case, a constant crank speed, a crank that
     turns fully, ``harmonics`` an integer >= 2 (the error estimate compares H with H/2), ``reduce``
@@ -45,7 +46,10 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     first level doubled from 8; R = n for the full model, the first level's basis on link
     components: :func:`fkev_slepc.periodic.component_response.first_level_size`; not asked of a
     lone rotating link, one static solve). ``settings``: its ``full_max_dofs`` and ``link_modes``
-    decide the reduction and its first level."""
+    decide the reduction and its first level. ``model_for(scene, cases, plane)`` gives the model once
+    the arguments are checked (default ``Model``: a new one; a Study passes its pool's
+    :meth:`~fkev_slepc.api.pool.ModelPool.model_for`, whose model may assemble more terms than the
+    case keeps: it is solved for ``case``, never for ``model.cases``)."""
     from fkev_slepc.model.operating_point import full_turn_problem
     from fkev_slepc.model.operators import Model
     from fkev_slepc.scene.cases import case_name
@@ -80,7 +84,7 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
         bad.append(turn)
     if bad:
         raise SceneError(scene.source, bad)
-    model = Model(scene, cases=(case,))
+    model = (Model if model_for is None else model_for)(scene, (case,), "in")
     H = 16 if harmonics is None else int(harmonics)
     mode = response_reduction(model, reduce, settings.full_max_dofs)
     R = int(model.n_free) if mode is None else first_level_size(model, mode, settings.link_modes)

@@ -57,15 +57,17 @@ def require_finite(qep) -> None:
         raise NonFiniteProblem(why)
 
 
-def overflow_problems(scene) -> list:
+def overflow_problems(scene, model=None) -> list:
     """Problems (``scene.Problem``) of a scene whose operators overflow: the QEP of every case at
     the first crank angle and the largest crank speed, judged by :func:`operator_problem`. A
-    problem of the ``structure`` case (no speed in it) names the links, else the crank speeds."""
+    problem of the ``structure`` case (no speed in it) names the links, else the crank speeds.
+    ``model``: an in-plane model of ``scene`` assembling the terms of every case (default a new one)."""
     cases = tuple(scene.analysis.cases)
     speeds = np.abs(np.asarray(scene.driver.speeds, dtype=float))
     top = float(speeds.max()) if speeds.size else 0.0
     with np.errstate(all="ignore"):  # the overflow is the finding, not a warning
-        model = Model(scene, cases=tuple(dict.fromkeys(("structure", *cases))))
+        if model is None:
+            model = Model(scene, cases=tuple(dict.fromkeys(("structure", *cases))))
         pieces = model.pieces(np.radians(scene.analysis.crank_angles_deg[0]))
         still = operator_problem(model.qep(pieces, 0.0, "structure"))
         if still:

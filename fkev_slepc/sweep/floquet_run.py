@@ -182,7 +182,7 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     request.run_frozen_sweep(comm, notify, progress)
     if request.resume:  # the archived settings compared whole: a difference refused before the product's work
         refuse_changed_settings(out, P.FLOQUET, ps, comm)
-    model = Model(sc, (request.case,), plane=request.plane)
+    model = Model(sc, (request.case,), plane=request.plane) if request.model is None else request.model
     n_index = 2 * model.n_free
     part, status = open_product(out, P.FLOQUET, {P.F_INDEX: np.arange(1, n_index + 1)}, _settings(request, ps),
                                 request.resume, comm, same=lambda p: _index_size(p) == n_index,

@@ -64,9 +64,10 @@ def default_plane(scene, plane: str | None, rel_error: float | None = None) -> s
     return "both" if not planned and both_planes_possible(scene) else "in"
 
 
-def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) -> PlaneOutcome:
+def run_out_of_plane(request, comm=None, notify=None, progress: bool = False, model=None) -> PlaneOutcome:
     """Collective over ``comm``: add (or resume) the out-of-plane sweep of the finished in-plane archive
     ``request.output`` (a :class:`~fkev_slepc.sweep.session.SweepRequest` whose in-plane sweep ran).
+    ``model``: the out-of-plane model of ``request.scene`` for its cases (a Study: its pool's; default a new one).
     Raises :class:`~fkev_slepc.sweep.interrupt.SweepInterrupted` on every rank after Ctrl-C/SIGTERM."""
     from fkev_slepc.archive.products import Grid
     from fkev_slepc.archive.store import status_counts
@@ -88,7 +89,7 @@ def run_out_of_plane(request, comm=None, notify=None, progress: bool = False) ->
     an = scene.analysis
     grid = Grid(np.asarray(an.crank_angles_deg, float), np.asarray(scene.driver.speeds, float), tuple(an.cases),
                 int(an.modes))
-    model = Model(scene, cases=grid.cases, plane="out")
+    model = Model(scene, cases=grid.cases, plane="out") if model is None else model
     engine = make_engine(request.solver or scene.solver.method, model.n_free, scene.solver.petsc,
                          settings=SolveSettings.from_scene(scene))
     track = tracking_dofs(model.n_free, len(grid.angles_deg), len(grid.speeds))

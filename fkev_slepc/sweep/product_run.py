@@ -36,7 +36,8 @@ class ProductRequest:
     command_line: str = ""
     make_dirs: bool = True
     plane: str = "in"  # the frozen sweep's and the product's problem (docs/theory.md §19: "out")
-    model: object = field(default=None, compare=False, repr=False)  # the frozen sweep's (Study: its pool's)
+    model: object = field(default=None, compare=False, repr=False)  # of the frozen sweep and the product
+    # (of ``plane``, assembling the case's terms; a Study: its pool's; None: a new one)
 
     @property
     def case(self) -> str:
