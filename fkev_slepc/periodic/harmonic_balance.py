@@ -27,10 +27,11 @@ the last level allowed (``max_harmonics``, :data:`MAX_UNKNOWNS`) misses ``tol``,
 estimate is above √tol (the balance resolves the response there, and a stall is its conditioning
 floor, which shooting does not beat: the slider-crank design scene at 100 rad/s stalls at 2.3e-7,
 1.1e-7 for H = 32, 64, and its shooting misses 1e-8 at 65,536 steps): the costly last levels are
-not solved, and the caller takes the periodic response by shooting (fkev_slepc/periodic/response.py). Undamped Bahgat–Willmert (1 element per link) at 500 rad/s:
-estimates 3.0, 0.67, 1.0 at H = 16, 32, 64, abandoned at 64 (it reached 1.8e-7 at H = 256, the
-last level, 20× the cost of the levels before); Turcic–Midha at 60 rad/s: 1.35, 4.6e-2, 1.5e-4,
-3.3e-9 at H = 16 ... 128, ρ = 0.034, 3.3e-3: predicted 7e-11 at 128 from H = 32, kept.
+not solved, and the caller takes the periodic response by shooting (fkev_slepc/periodic/response.py).
+Undamped Bahgat–Willmert (1 element per link) at 500 rad/s: estimates 3.0, 0.67, 1.0 at H = 16, 32,
+64, abandoned at 64 (doubled on, it reached 1.8e-7 at H = 256, the last level: 3.2 s against 0.17 s
+for the levels to 64, a session script on an idle machine); Turcic–Midha at 60 rad/s: 1.35, 4.6e-2,
+1.5e-4, 3.3e-9 at H = 16 ... 128, ρ = 0.034, 3.3e-3: predicted 7e-11 at 128 from H = 32, kept.
 
 Generic interface (no linkage in here): ``coefficients(theta)`` -> (M, C, K), dense stacks
 (k, n, n) at the angles theta (k,) in the time form (units of the equation in t);

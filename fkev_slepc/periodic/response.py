@@ -188,7 +188,7 @@ def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
             break
         B, k = both, 2 * k
     forcing = TrigInterpolant(0.0, B[:, :, None], drop=0.1 * settings.interp_tol)  # as the generator's
-    rho = float(np.max(np.abs(np.linalg.eigvals(interp.generator.S[0]))))  # Floquet's first level, h·ρ(A) = START_H_RHO
+    rho = float(np.max(np.abs(np.linalg.eigvals(interp.generator.S[0]))))  # first level as Floquet's
     return periodic_shot(interp.generator, lambda tau: forcing(tau)[:, :, 0], omega, tol=tol,
                          min_steps=int(np.ceil(2.0 * np.pi * rho / START_H_RHO)), dof_scale=system.dof_scaling,
                          sign=float(np.sign(omega)), start=system.start)

@@ -216,5 +216,5 @@ def periodic_shot(generator, forcing, omega: float, *, tol: float, order: int = 
                             max_steps=max_steps, measure=(_state_spectrum, _state_change))
     n = mono.phi.shape[0] - 1
     x0, _, rcond = _periodic_state(mono.phi[:n, :n], mono.phi[:n, n], mono.multipliers, omega)
-    return PeriodicShot(x0, mono.multipliers, float(mono.second_error), float(mono.error), rcond, mono.steps, generator, forcing,
-                        order, **placement)
+    return PeriodicShot(x0, mono.multipliers, float(mono.second_error), float(mono.error), rcond, mono.steps,
+                        generator, forcing, order, **placement)
