@@ -77,7 +77,8 @@ def test_an_exact_resonance_is_flagged_never_filled():
         periodic_response(s, 1.0, tol=1e-8)
 
 
-def test_the_speed_scan_prints_and_carries_its_truncation_per_speed(capsys):
+def test_the_speed_scan_prints_and_carries_its_truncation_per_speed(capsys, tmp_path):
+    """In process and archived (the archive keeps all but the levels and the link truncation)."""
     args = [str(BW), "--elements", "1", "--speeds", "100,200", "--harmonics", "8", "--station", "coupler:0.15"]
     assert main(["response", *args, "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
@@ -89,3 +90,7 @@ def test_the_speed_scan_prints_and_carries_its_truncation_per_speed(capsys):
     assert main(["response", *args]) == 0
     rows = [line for line in capsys.readouterr().out.splitlines() if "HB H=8" in line]
     assert len(rows) == 2 and all(line.split("HB H=8")[1].split()[1] == "NO" for line in rows)
+    assert main(["response", *args, "--json", "-o", str(tmp_path / "scan.h5")]) == 0  # a fixed H: not a failure
+    archived = json.loads(capsys.readouterr().out)["solution"]
+    for sol, kept in zip(d["solution"], archived):
+        assert kept == {k: v for k, v in sol.items() if k not in ("levels", "truncation")}

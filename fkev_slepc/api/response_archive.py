@@ -202,7 +202,7 @@ def read_response(path, orders: int = 6):
 
 def _solutions(f, g) -> tuple[dict, ...]:
     """Per speed what the archive keeps of :meth:`~fkev_slepc.api.response.ResponseResult.solution`: ``method``,
-    ``response_error``, ``tol``, ``converged`` (status not not_converged), ``harmonics``,
+    ``response_error``, ``tol``, ``converged`` (solved, and the error ≤ tol), ``harmonics``,
     ``harmonic_balance_error``, ``shooting_steps`` (an archive written before these: those it has)."""
     def column(var, default):
         return f[var.path][:, 0] if var.path in f else np.full(f[P.R_STATUS.path].shape[0], default)
@@ -212,7 +212,7 @@ def _solutions(f, g) -> tuple[dict, ...]:
     hb, harm, st = f[P.R_HB_ERROR.path][:, 0], f[P.R_HARMONICS.path][:, 0], f[P.R_STATUS.path][:, 0]
     none = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731
     return tuple({"method": "harmonic balance" if s == 0 else "shooting", "response_error": none(e), "tol": none(tol),
-                  "converged": bool(c == Status.OK.code or c == Status.UNSTABLE.code), "harmonics": int(h),
+                  "converged": bool(c in (Status.OK.code, Status.UNSTABLE.code) and e <= tol), "harmonics": int(h),
                   "harmonic_balance_error": none(b), "shooting_steps": int(s)}
                  for s, e, b, h, c in zip(steps, err, hb, harm, st))
 
