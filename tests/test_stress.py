@@ -338,8 +338,8 @@ def test_near_a_toggle_both_engines_find_the_same_divergence(campaigns):
         real = reported(sol.eigenvalues, 3)[1] & (sol.eigenvalues.real > 0)
         # to 2e-7: one-ulp changes of the matrices alone give these pairs a pair error of 2e-7
         np.testing.assert_allclose(sol.eigenvalues[real].real.min(), smallest, rtol=2e-7)
-        lam = sols["slepc"].eigenvalues
-        np.testing.assert_allclose(lam[(lam.imag == 0) & (lam.real > 0)].real.min(), smallest, rtol=2e-7)
+        lam = sols["slepc"].eigenvalues  # real as the engine reports it (Im can be round-off: BLAS threads)
+        np.testing.assert_allclose(lam[reported(lam, 3)[1] & (lam.real > 0)].real.min(), smallest, rtol=2e-7)
         i = np.flatnonzero(real)[np.argmin(sol.eigenvalues[real].real)]
         assert sol.errors[i] <= 10 * pair_error_floor(q, sol.eigenvalues[i], sol.vectors[:, i])[0]  # was 0.17, 0.79
 
