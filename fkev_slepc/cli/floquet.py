@@ -12,6 +12,7 @@ import sys
 import numpy as np
 from pathlib import Path
 
+from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_elements_argument, add_speeds_arguments, load_checked, preflight
@@ -42,7 +43,8 @@ def add_parser(sub) -> None:
     p.add_argument("--tol", type=float, default=None, help="max|μ| - 1 above which (and above 10x the multiplier "
                    "error estimate) a speed is unstable (default 1e-6)")
     p.add_argument("--rtol", type=float, default=None, help="relative accuracy of the band edges (default 1e-6)")
-    p.add_argument("--monodromy-tol", type=float, default=None, help="error of the multipliers' moduli asked of the monodromy, relative to max(1, max|mu|) (default 1e-8)")
+    p.add_argument("--monodromy-tol", type=float, default=None, help="error of the multipliers' moduli asked of the monodromy, relative to max(1, max|mu|) "
+                   f"(default {DEFAULTS.monodromy_tol:g})")
     p.add_argument("--resonance-order", type=int, default=None, metavar="N",
                    help="list the resonance candidates 2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of order n <= N that lie between two stable "
                    "grid speeds, where a band narrower than the spacing would not be seen (default 3; 0: none)")
