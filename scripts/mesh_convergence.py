@@ -176,7 +176,8 @@ def band_edge(scene, elements: int, modes: int, bracket, *, case: str = "full", 
               rtol: float = 1e-4):
     """(edge rad/s, evaluations, max|μ| at the bracket's ends) of the band edge in ``bracket``
     at ``elements`` per link and ``modes`` per link (NaN edge when the ends agree in verdict)."""
-    from fkev_slepc.periodic.bands import SpeedPoint, brackets, refine_edges
+    from fkev_slepc.periodic.bands import SpeedPoint, brackets
+    from fkev_slepc.periodic.edges import refine_edges
     from fkev_slepc.periodic.components import link_components
     from fkev_slepc.periodic.floquet import floquet_multipliers
 

@@ -14,9 +14,9 @@ from scipy.special import mathieu_a, mathieu_b
 
 from fkev_slepc.periodic.magnus import monodromy
 from fkev_slepc.periodic.bands import (
-    DEFAULT_TOL, EDGE_RTOL, Band, SpeedPoint, bands_from, brackets, label, margin, nearest_resonance, refine_edges,
-    resonance_speeds,
+    DEFAULT_TOL, EDGE_RTOL, Band, SpeedPoint, bands_from, brackets, label, margin, nearest_resonance, resonance_speeds,
 )
+from fkev_slepc.periodic.edges import refine_edges
 
 
 def find_bands(speeds, evaluate, tol=DEFAULT_TOL, rtol=EDGE_RTOL, points=None):

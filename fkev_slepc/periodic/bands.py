@@ -13,11 +13,12 @@ into the band. The margin is therefore a continuous function with a sign change 
 1. the margin on a speed grid (the caller's evaluations, e.g. spread over MPI ranks:
    fkev_slepc/sweep/floquet_run.py);
 2. :func:`brackets`: consecutive grid speeds whose margins differ in sign bracket an edge;
-3. :func:`edge`: bisection on the sign of the margin inside a bracket, to ``rtol`` relative
-   (the edge is where max|μ| - 1 reaches tol + SAFETY·error, inside the band by about
+3. :func:`fkev_slepc.periodic.edges.edge`: the sign change of the margin inside a bracket, to
+   ``rtol`` relative, by interpolation of an indicator linear through the edge, safeguarded by
+   bisection (the edge is where max|μ| - 1 reaches tol + SAFETY·error, inside the band by about
    ((tol + SAFETY·error)/c)² for max|μ| - 1 ≈ c·√(relative distance): 1e-12 relative for
-   tol = 1e-6, c = 1); :func:`refine_edges` refines every bracket at once, in rounds of one
-   speed per bracket, replaying the bisection on the speeds already known (resumable);
+   tol = 1e-6, c = 1); :func:`fkev_slepc.periodic.edges.refine_edges` refines every bracket at
+   once, in rounds, from the speeds already known (resumable);
 4. :func:`bands_from`: runs of unstable grid speeds between refined edges; a band reaching the end
    of the grid is open there (``lower_open``/``upper_open``). A band is known unstable at its own
    grid speeds only: between two of them nothing is sampled, and stable speeds can lie there.
@@ -38,7 +39,7 @@ edges against scipy.special.mathieu_a/b).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -142,69 +143,6 @@ def brackets(points: Sequence[SpeedPoint], tol: float = DEFAULT_TOL) -> list[tup
     ok = np.isfinite(m[:-1]) & np.isfinite(m[1:])
     hit = np.flatnonzero(ok & ((m[:-1] > 0) != (m[1:] > 0)))
     return [(int(i), int(i) + 1) for i in hit]
-
-
-class NeedSpeed(Exception):
-    """Raised by :func:`edge` when its next evaluation is not among the speeds known."""
-
-    def __init__(self, speed: float):
-        super().__init__(speed)
-        self.speed = float(speed)
-
-
-def edge(lo: SpeedPoint, hi: SpeedPoint, known: Mapping[float, SpeedPoint], tol: float = DEFAULT_TOL,
-         rtol: float = EDGE_RTOL) -> float:
-    """The speed in [lo, hi] (lo.speed < hi.speed) where the margin changes sign, by bisection to
-    ``rtol`` relative (the midpoint of the last bracket, narrower than 2·rtol·lo.speed), from the
-    points ``known`` by speed; raises :class:`NeedSpeed` with the next midpoint when it is not
-    known. NaN if a point inside did not converge.
-
-    Bisection, not Brent: on the stable side the margin is a constant -(tol + SAFETY·error), on
-    the unstable side it grows like √(distance), and secant or inverse-quadratic steps from the
-    flat side crawl (Brent needed about twice bisection's evaluations). Its iterates depend only on
-    the signs met, not on ``rtol``: replaying it on the points of an interrupted refinement asks for
-    the same speeds again, so :func:`refine_edges` resumes where it stopped (also to a smaller
-    ``rtol``) and gives the uninterrupted result exactly."""
-    a, b = lo, hi
-    unstable_a = margin(a, tol) > 0
-    while b.speed - a.speed > 2.0 * rtol * abs(lo.speed):
-        w = 0.5 * (a.speed + b.speed)
-        if w in (a.speed, b.speed):  # adjacent floats: as narrow as the speed can be
-            break
-        p = known.get(w)
-        if p is None:
-            raise NeedSpeed(w)
-        m = margin(p, tol)
-        if not np.isfinite(m):
-            return float("nan")
-        if (m > 0) == unstable_a:
-            a = p
-        else:
-            b = p
-    return 0.5 * (a.speed + b.speed)
-
-
-def refine_edges(points: Sequence[SpeedPoint], pairs: Sequence[tuple[int, int]],
-                 evaluate_many: Callable[[list[float]], Sequence[SpeedPoint]], known: dict[float, SpeedPoint],
-                 tol: float = DEFAULT_TOL, rtol: float = EDGE_RTOL) -> dict[tuple[int, int], float]:
-    """The edge in every bracket ``pairs`` of ``points``, all brackets refined together in rounds:
-    each round asks ``evaluate_many`` for the next speed of every bracket not yet converged (one
-    list, e.g. dealt to the MPI ranks and archived) and adds the points to ``known`` (updated in
-    place; points already there, e.g. from an interrupted run, are not evaluated again)."""
-    edges: dict[tuple[int, int], float] = {}
-    todo = list(pairs)
-    while todo:
-        need = {}
-        for pair in todo:
-            try:
-                edges[pair] = edge(points[pair[0]], points[pair[1]], known, tol, rtol)
-            except NeedSpeed as n:
-                need[pair] = n.speed
-        todo = list(need)
-        if need:
-            speeds = list(dict.fromkeys(need.values()))
-            known.update(zip(speeds, evaluate_many(speeds)))
-    return edges
 
 
 def bands_from(points: Sequence[SpeedPoint], edges: dict[tuple[int, int], float],

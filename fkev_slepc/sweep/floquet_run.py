@@ -37,8 +37,9 @@ from fkev_slepc.archive.products_floquet import REDUCTION_ROWS
 from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.periodic.bands import (
-    Band, Gap, SpeedPoint, brackets, bands_from, label, margin, refine_edges, unsampled,
+    Band, Gap, SpeedPoint, brackets, bands_from, label, margin, unsampled,
 )
+from fkev_slepc.periodic.edges import refine_edges
 from fkev_slepc.periodic.results import FloquetResults
 from fkev_slepc.periodic.settings import DEFAULTS, SAFETY, PeriodicSettings, resolve_reduce
 from fkev_slepc.status import Status
@@ -233,7 +234,7 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
             notify(f"floquet: {len(probes)} resonance probe(s), {len(pairs)} band edge(s) to refine "
                    f"({sampler.resumed} speed(s) beside the grid already archived)")
         edges = refine_edges(points, pairs, lambda ws: sampler(ws, "edge"), sampler.known, ps.verdict_tol,
-                             ps.edge_rtol)
+                             ps.edge_rtol, ranks=comm.size)
     bands = bands_from(points, edges, ps.verdict_tol)
     if comm.rank == 0:
         bands = label(bands, mean)
