@@ -23,7 +23,7 @@ prediction from the two meshes before it: "pred" is f∞ + (f₂ - f∞)(n₂/n�
 f∞ = f₂ + (f₂ - f₁)/((n₂/n₁)⁴ - 1).
 
 ``--edge LO:HI`` also locates, at each mesh of ``--edge-elements``, the band edge in [LO, HI]
-(one stable and one unstable end) by the engine's bisection (fkev_slepc/periodic/bands.py,
+(one stable and one unstable end) by the engine's edge search (fkev_slepc/periodic/edges.py,
 ``refine_edges``, to ``--edge-rtol``) with the same fixed modes per link.
 
     PYTHONPATH=$PWD .venv/bin/python scripts/mesh_convergence.py --scene bw --speed 500 \\

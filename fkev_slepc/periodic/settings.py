@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 SAFETY = 10.0  # the verdict rule: the multiplier error estimate counts this many times against an apparent growth
-# fields a --resume may change: every archived monodromy stays valid and the band edges are bisected further
+# fields a --resume may change: every archived monodromy stays valid and the band edges are refined further
 REFINEMENTS = ("edge_rtol",)
 # fields added after the first archived settings, as module constants until then with today's defaults as
 # values: an archive without one was computed with its default, which from_attrs fills in
@@ -67,7 +67,7 @@ class PeriodicSettings:
                                       "need 1/links_step_ratio of the full model's steps or fewer, else auto")
     # the verdict and the bands (fkev_slepc/periodic/bands.py, fkev_slepc/sweep/floquet_run.py)
     verdict_tol: float = _f(1e-6, "unstable where max|μ| - 1 > verdict_tol + 10 (SAFETY) x multiplier error")
-    edge_rtol: float = _f(1e-6, "relative accuracy of the band edges (bisection)")
+    edge_rtol: float = _f(1e-6, "relative accuracy of the band edges")
     resonance_order: int = _f(3, "resonance candidates of order n <= this between stable grid speeds (0: none)")
     probe: bool = _f(False, "one more monodromy at each of those candidates")
     # the steady periodic response (fkev_slepc/periodic/response.py, steady.py)

@@ -15,8 +15,9 @@ One archive holds both verdicts of the same speeds (docs/stability.md, "Frozen-t
    (ω̄ⱼ ± ω̄ₖ)/n) that fall between two stable grid speeds, where a band narrower than the spacing
    would go unseen (:func:`~fkev_slepc.periodic.bands.unsampled`); with ``probe`` one more
    monodromy at each, added to the grid's points for the bands.
-4. **Bands** (:mod:`fkev_slepc.periodic.bands`): every bracket refined by bisection, all
-   brackets together in rounds whose speeds are dealt to the ranks; probes and refinement speeds
+4. **Bands** (:mod:`fkev_slepc.periodic.bands`): every bracket refined by the safeguarded
+   interpolation of :mod:`fkev_slepc.periodic.edges`, all brackets together in rounds whose speeds
+   are dealt to the ranks (two per bracket when fewer brackets than ranks are left); probes and refinement speeds
    are archived as they are solved (``/floquet/samples``, :mod:`fkev_slepc.sweep.floquet_samples`),
    so an interrupted refinement resumes where it stopped. The bands are labelled on rank 0 from ω̄ₖ
    interpolated to the band's centre, written to ``/floquet/bands``; then the archive is finalised.

@@ -1,14 +1,14 @@
 """The monodromies ``fkev floquet`` solves beside its speed grid, archived as they are solved.
 
-Band-edge refinement (bisection, :func:`fkev_slepc.periodic.bands.refine_edges`) and
+Band-edge refinement (:func:`fkev_slepc.periodic.edges.refine_edges`) and
 resonance probes (:func:`fkev_slepc.periodic.bands.unsampled`) ask for speeds that are not
 on the grid. :class:`Sampler` solves each round of them over the MPI ranks (dealt cyclically),
 appends them on rank 0 to ``/floquet/samples`` (docs/archive.md; the status column last, so a
 row cut short by a kill stays pending and is solved again), and then stops cleanly if a rank
 was sent Ctrl-C/SIGTERM (:mod:`fkev_slepc.sweep.interrupt`: every rank leaves after the same
-sync, the ``.part`` resumable). A resumed run reads the archived samples back: the bisection, replayed
-on them, asks for the same speeds and finds them, so an interrupted refinement continues where
-it stopped and ends with the uninterrupted edges. ``FKEV_PAUSE_AFTER=K`` pauses at the first
+sync, the ``.part`` resumable). A resumed run reads the archived samples back: the edge search,
+a function of the points known, asks from them for the speeds the uninterrupted run asked next, so
+an interrupted refinement continues where it stopped and ends with the uninterrupted edges. ``FKEV_PAUSE_AFTER=K`` pauses at the first
 round after which K samples are archived (counted beside the grid, the resumed ones included; a
 grid phase that paused and went on, SIGUSR2, pauses here again).
 """
