@@ -33,9 +33,11 @@ interrupted refinement, replayed on its archived points, asks for the same speed
 uninterrupted edges exactly; a resume with a smaller ``rtol`` starts from every point archived (any
 point tightens the bracket). From the known points:
 
-1. the **bracket** is the first sign change of the margin counted from lo (every point before it has
-   lo's sign, so the brackets nest, and a refinement archived by bisection is read back as the
-   bisection's own last bracket); a point inside it that did not converge makes the edge NaN;
+1. the **bracket** is the sign change of the margin nearest the grid bracket's unstable end (every
+   point between them unstable, so the brackets nest; the edge is that of the band holding the
+   unstable grid speed, as far as the points show; bisection's points have one sign change, so a
+   refinement archived by bisection is read back as its own last bracket); a point inside it that
+   did not converge makes the edge NaN;
 2. the **estimate** x* is the zero of the inverse quadratic interpolation of h through the three
    known points nearest the bracket (its two ends first), its **error** ε the distance to the zero
    of the line through the two nearest (regula falsi: inside the bracket when both ends have an
@@ -133,10 +135,13 @@ def edge(lo: SpeedPoint, hi: SpeedPoint, known: Mapping[float, SpeedPoint], tol:
     inside = sorted(w for w in known if lo.speed < w < hi.speed)
     pts = [lo] + [known[w] for w in inside] + [hi]
     m = np.array([margin(p, tol) for p in pts])
-    sign0 = m[0] > 0
-    differ = np.flatnonzero(np.isfinite(m) & ((m > 0) != sign0))
-    ib = int(differ[0])  # hi's sign differs: a first one exists
-    ia = int(np.flatnonzero(np.isfinite(m[:ib]))[-1])
+    finite = np.isfinite(m)
+    if m[0] > 0:  # the sign change nearest the unstable end: lo's, or hi's
+        ib = int(np.flatnonzero(finite & (m <= 0))[0])
+        ia = int(np.flatnonzero(finite[:ib])[-1])
+    else:
+        ia = int(np.flatnonzero(finite & (m <= 0))[-1])
+        ib = ia + 1 + int(np.flatnonzero(finite[ia + 1:])[0])
     if ib - ia > 1:  # a point between the bracket's ends did not converge
         return float("nan")
     a, b = pts[ia].speed, pts[ib].speed
