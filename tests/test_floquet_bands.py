@@ -173,8 +173,8 @@ def test_edges_by_interpolation_agree_with_bisection_in_under_half_the_monodromi
     and by bisection (``interpolate=False``): all within 1e-6 of the closed form, the two methods
     within rtol·speed of each other (the same sign change, narrower brackets), the interpolation in
     at most half of bisection's monodromies (19 against 54 measured); with two speeds per bracket per
-    round (eight ranks: the ranks would idle) in fewer rounds still (5 against 6 and 14), with
-    more monodromies than one per round but fewer than bisection (30)."""
+    round (eight ranks: the ranks would idle) in fewer rounds still (4 against 6 and 14), with
+    more monodromies than one per round but fewer than bisection (28)."""
     pts, pairs = _grid()
     exact = sorted(exact_edges(1) + exact_edges(2))
     runs = {}

@@ -61,9 +61,9 @@ the edge, and each round shrinks the bracket to about 4ε.
 
 Measured (``interpolate=False`` is bisection; tests/test_floquet_bands.py): the four edges of the
 first two Mathieu tongues (ε = 0.2) on the grid 0.8:2.6:0.02 rad/s to rtol 1e-6 take 19 monodromies
-in 6 rounds on one rank against bisection's 54 in 14 (30 in 5 rounds with two per bracket, eight
-ranks); 24 against 58 on a 0.05 rad/s grid; 19 against 54 damped (ζ = 0.01). The Bahgat–Willmert
-thesis mesh, speeds 300:700:10 rad/s: 110 edge-refinement speeds for 14 edges against 190, the
+in 6 rounds on one rank against bisection's 54 in 14 (28 in 4 rounds with two per bracket, eight
+ranks); 23 against 58 on a 0.05 rad/s grid; 19 against 54 damped (ζ = 0.01). The Bahgat–Willmert
+thesis mesh, speeds 300:700:10 rad/s: 103 edge-refinement speeds for 14 edges against 190, the
 early steps (to a bracket as narrow as the region where h is linear) being bisection-like there
 (docs/stability.md, "How the edges are refined").
 """
@@ -76,6 +76,10 @@ import numpy as np
 
 from fkev_slepc.periodic.bands import DEFAULT_TOL, EDGE_RTOL, SpeedPoint, margin
 from fkev_slepc.periodic.settings import SAFETY
+
+CLOSE = 2.0  # the closing step, in estimated errors ε of the estimate
+CROWD = 1.0  # two known points within this many bracket widths of one side: the estimates stagnate
+LAG = 2  # the bracket may lag this many evaluations behind half of bisection's rate
 
 
 class NeedSpeed(Exception):
@@ -153,10 +157,10 @@ def edge(lo: SpeedPoint, hi: SpeedPoint, known: Mapping[float, SpeedPoint], tol:
         return 0.5 * (a + b)
     n = int(np.sum(np.isfinite(m[1:-1])))
     speeds = np.array([p.speed for p in pts])
-    crowd = max(np.sum((speeds >= a - 2.0 * width) & (speeds < a)),
-                np.sum((speeds > b) & (speeds <= b + 2.0 * width)))
+    crowd = max(np.sum((speeds >= a - CROWD * width) & (speeds < a)),
+                np.sum((speeds > b) & (speeds <= b + CROWD * width)))
     x_star, eps = float("nan"), float("nan")
-    if interpolate and crowd < 2 and width <= (hi.speed - lo.speed) * 2.0 ** (-max(n - 2, 0) / 2.0):
+    if interpolate and crowd < 2 and width <= (hi.speed - lo.speed) * 2.0 ** (-max(n - LAG, 0) / 2.0):
         unstable = pts[ia] if m[ia] > 0 else pts[ib]
         toward = unstable.multipliers[0] / abs(unstable.multipliers[0])
         h = np.array([indicator(p, tol, toward) for p in pts])
@@ -165,7 +169,7 @@ def edge(lo: SpeedPoint, hi: SpeedPoint, known: Mapping[float, SpeedPoint], tol:
     if not a < x_star < b:
         ws = a + width * np.arange(1, per_round + 1) / (per_round + 1)  # bisection (k-section)
     else:
-        step = 2.0 * eps if np.isfinite(eps) else 0.0
+        step = CLOSE * eps if np.isfinite(eps) else 0.0
         if per_round == 1:
             ws = [x_star + (step if b - x_star > x_star - a else -step)]
         else:
