@@ -32,7 +32,7 @@ BW, BW_DAMPED = RUNS / "bahgat-willmert-1976.toml", RUNS / "bahgat-willmert-damp
 
 def _random_hamiltonian(rng, k: int, n: int) -> np.ndarray:
     E, F, G = rng.standard_normal((3, k, n, n))
-    return ham.assemble(np.stack([E, F + np.swapaxes(F, 1, 2), G + np.swapaxes(G, 1, 2)], axis=1))
+    return ham.assemble(np.stack([E, F + np.swapaxes(F, 1, 2), G + np.swapaxes(G, 1, 2)]))
 
 
 def _phi_rel(a, b) -> float:
@@ -52,7 +52,7 @@ def test_pack_unpack_round_trips_and_the_structured_commutator_is_the_commutator
     assert ham.hamiltonian_residual(C) == 0.0  # sp(2n) is closed: the blocks are Hamiltonian by construction
     # the order-4 and order-6 Ω: the same formula with either commutator
     nodes = np.stack([_random_hamiltonian(rng, 2, 4) for _ in range(3)], axis=1)  # (steps, nodes, 2n, 2n)
-    blocks = ham.unpack(ham.pack(nodes.reshape(6, 8, 8)), 4).reshape(2, 3, 3, 4, 4)
+    blocks = np.moveaxis(ham.unpack(ham.pack(nodes.reshape(6, 8, 8)), 4).reshape(3, 2, 3, 4, 4), 2, 1)  # (3, nodes, steps, n, n)
     for order in (4, 6):
         generic = magnus_generators(nodes, 0.1, order)
         structured = ham.assemble(magnus_generators(blocks, 0.1, order, commutator=ham.commutator))

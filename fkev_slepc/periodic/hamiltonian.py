@@ -18,8 +18,9 @@ assembled only for the step's exponential.
 
 ``hamiltonian_residual(A) -> float``: max |JA - (JA)ᵀ| / max|A| over a stack (k, 2n, 2n).
 ``is_hamiltonian(A, tol=HAMILTONIAN_TOL) -> bool``: that residual <= ``tol``.
-``pack(A) -> P (k, n² + n(n+1))`` and ``unpack(P, n) -> B (k, 3, n, n)`` (the blocks E, F, G;
-F and G from the symmetric parts), ``assemble(B) -> A (k, 2n, 2n)``, ``commutator(B₁, B₂) -> B``.
+``pack(A) -> P (k, n² + n(n+1))`` and ``unpack(P, n) -> B (3, k, n, n)`` (the blocks E, F, G,
+block-major; F and G from the symmetric parts), ``assemble(B) -> A (k, 2n, 2n)``,
+``commutator(B₁, B₂) -> B``.
 ``HamiltonianInterpolant(start, samples, drop)``: the trigonometric interpolant of Hamiltonian
 samples over their packed entries (callable θ -> A like :class:`TrigInterpolant`, ``S`` the full
 samples), whose ``magnus_step(theta, h, order)`` gives the steps' Ω by the structured commutators
@@ -84,30 +85,30 @@ def pack(A) -> np.ndarray:
 
 
 def unpack(P, n: int) -> np.ndarray:
-    """B (k, 3, n, n): the blocks E, F, G of packed entries ``P`` (k, n² + n(n+1))."""
+    """B (3, k, n, n): the blocks E, F, G of packed entries ``P`` (k, n² + n(n+1)), block-major
+    (each block a contiguous stack: batched products of strided stacks are 3× slower)."""
     P = np.asarray(P, dtype=float)
-    return np.take(P, _layout(n), axis=-1).reshape(P.shape[:-1] + (3, n, n))
+    return np.ascontiguousarray(np.moveaxis(np.take(P, _layout(n), axis=-1).reshape(-1, 3, n, n), 1, 0))
 
 
 def assemble(B) -> np.ndarray:
-    """A (k, 2n, 2n) = [[E, F], [G, -Eᵀ]] from blocks ``B`` (k, 3, n, n)."""
-    k, _, n, _ = B.shape
+    """A (k, 2n, 2n) = [[E, F], [G, -Eᵀ]] from blocks ``B`` (3, k, n, n)."""
+    _, k, n, _ = B.shape
     A = np.empty((k, 2 * n, 2 * n))
-    A[:, :n, :n], A[:, :n, n:], A[:, n:, :n] = B[:, 0], B[:, 1], B[:, 2]
-    A[:, n:, n:] = -np.swapaxes(B[:, 0], 1, 2)
+    A[:, :n, :n], A[:, :n, n:], A[:, n:, :n] = B
+    A[:, n:, n:] = -np.swapaxes(B[0], 1, 2)
     return A
 
 
 def commutator(B1, B2) -> np.ndarray:
-    """[A₁, A₂] of Hamiltonian matrices by blocks (s, 3, n, n): 8 products of n × n (module docstring)."""
-    E1, F1, G1 = B1[:, 0], B1[:, 1], B1[:, 2]
-    E2, F2, G2 = B2[:, 0], B2[:, 1], B2[:, 2]
-    out = np.empty_like(B1)
-    out[:, 0] = E1 @ E2 - E2 @ E1 + F1 @ G2 - F2 @ G1
+    """[A₁, A₂] of Hamiltonian matrices by blocks (3, s, n, n): 8 products of n × n (module docstring)."""
+    (E1, F1, G1), (E2, F2, G2) = B1, B2
+    out = np.empty(B1.shape)
+    out[0] = E1 @ E2 - E2 @ E1 + F1 @ G2 - F2 @ G1
     X = E1 @ F2 - E2 @ F1
     Y = G1 @ E2 - G2 @ E1
-    out[:, 1] = X + np.swapaxes(X, 1, 2)
-    out[:, 2] = Y + np.swapaxes(Y, 1, 2)
+    np.add(X, np.swapaxes(X, 1, 2), out=out[1])
+    np.add(Y, np.swapaxes(Y, 1, 2), out=out[2])
     return out
 
 
@@ -121,16 +122,17 @@ class HamiltonianInterpolant:
         self.harmonics, self.k = self.packed.harmonics, self.packed.k
 
     def blocks(self, theta) -> np.ndarray:
-        """B (len(θ), 3, n, n): the interpolant's blocks E, F, G at ``theta``."""
+        """B (3, len(θ), n, n): the interpolant's blocks E, F, G at ``theta``."""
         return unpack(self.packed(theta), self.n)
 
     def __call__(self, theta) -> np.ndarray:
         return assemble(self.blocks(theta))
 
     def magnus_step(self, theta, h: float, order: int) -> np.ndarray:
-        """Ω (s, 2n, 2n) of the Magnus steps whose Gauss nodes are ``theta`` (s, nodes)."""
+        """Ω (s, 2n, 2n) of the Magnus steps whose Gauss nodes are ``theta`` (s, nodes): the node
+        blocks (3, nodes, s, n, n), whose axis 1 :func:`magnus_generators` reads as the nodes."""
         s, c = theta.shape
-        B = self.blocks(theta.ravel()).reshape(s, c, 3, self.n, self.n)
+        B = self.blocks(theta.T.ravel()).reshape(3, c, s, self.n, self.n)
         return assemble(magnus_generators(B, h, order, commutator=commutator))
 
 

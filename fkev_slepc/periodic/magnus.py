@@ -73,7 +73,7 @@ _BLOCK_DOUBLES = 2**19
 
 def magnus_generators(A: np.ndarray, h: float, order: int, commutator=lambda a, b: a @ b - b @ a) -> np.ndarray:
     """Ω of each step from the generator at the step's Gauss nodes: A (s, nodes, n, n) -> (s, n, n)
-    (or any stack of Lie-algebra elements with its ``commutator``: periodic/hamiltonian.py's blocks).
+    (or any stack, axis 1 the nodes, of Lie-algebra elements with its ``commutator``: hamiltonian.py's).
 
     Order 4: Ω = h/2 (A₁ + A₂) + √3 h²/12 [A₂, A₁]. Order 6 (Blanes, Casas, Oteo & Ros, Phys.
     Rep. 470 (2009), §5.2): with a₁ = h A₂, a₂ = √15 h/3 (A₃ - A₁), a₃ = 10 h/3 (A₃ - 2A₂ + A₁),
