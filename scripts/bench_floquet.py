@@ -29,7 +29,11 @@ Side by side (``--table``): per row SCENE:ELEMENTS:SPEED the frozen 360-angle sw
 monodromy (models up to ``--table-full-max`` DOFs), the frozen-mode reduction (``reduce="auto"``)
 and the link-frame component modes (``reduce="links"``, fkev_slepc/periodic/components.py), timed
 alternately, medians over ``--repeats``; ratios to the sweep and max|μ| differences from the full
-model, as a markdown table.
+model, as a markdown table. ``--table-structure``: each method by the generic and by the structured
+Hamiltonian Magnus steps (fkev_slepc/periodic/hamiltonian.py), timed alternately, with the ratio of
+their medians and the relative difference of their monodromies.
+
+    .venv/bin/python scripts/bench_floquet.py --table bw:4:500,sc:0:150 --table-methods full --table-structure
 """
 
 from __future__ import annotations
@@ -62,6 +66,8 @@ def parse_args(argv=None):
                     "a path; ELEMENTS 0: the scene's mesh): frozen sweep, full, frozen-mode auto, link components")
     ap.add_argument("--table-methods", default="full,auto,links", help="which monodromies the table times")
     ap.add_argument("--table-full-max", type=int, default=400, help="largest model (DOFs) whose full monodromy is timed")
+    ap.add_argument("--table-structure", action="store_true", help="time each table method twice, alternately: "
+                    "generic Magnus steps and the structured Hamiltonian ones (fkev_slepc/periodic/hamiltonian.py)")
     ap.add_argument("--table-steps", action="store_true", help="instead of timing: the least Magnus step count "
                     "2·2π·ρ(A) of the full model and of the link-component levels (1, 2, 4, 8, 16 modes per link)")
     return benchlib.parse(ap, argv)[0]
@@ -207,37 +213,54 @@ def level_steps(args) -> None:
 def side_by_side(args) -> None:
     """One row per SCENE:ELEMENTS:SPEED: the frozen 360-angle sweep and each monodromy of
     ``--table-methods`` timed alternately (medians over ``--repeats``), their ratios to the sweep,
-    max|μ| and its difference from the full model (where the full model is timed)."""
+    max|μ| and its difference from the full model (where the full model is timed). With
+    ``--table-structure`` each method twice, alternately: the generic steps and the structured
+    Hamiltonian ones (PeriodicSystem.hamiltonian_steps), the ratio of their medians and the relative
+    difference of their Φ."""
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.system import PeriodicSystem
 
     methods = [m.strip() for m in args.table_methods.split(",") if m.strip()]
+    runs = [(f"{m} {k}", m, k == "Hamiltonian") for m in methods for k in ("generic", "Hamiltonian")] \
+        if args.table_structure else [(m, m, True) for m in methods]
     print("| scene | el/link | DOFs | rad/s | sweep s | " + " | ".join(
-        f"{m} s (×sweep) | {m} max|μ| (basis)" for m in methods) + " |")
-    print("|" + "---|" * (5 + 2 * len(methods)))
+        f"{r} s (×sweep) | {r} max|μ| (basis)" for r, _, _ in runs) + " |"
+        + "".join(f" {m} Hamiltonian / generic, Φ rel. diff |" for m in methods if args.table_structure))
+    print("|" + "---|" * (5 + 2 * len(runs) + (len(methods) if args.table_structure else 0)))
     for name, elements, speed, scene, model in _table_models(args):
-        todo = [m for m in methods if m != "full" or model.n_free <= args.table_full_max]
+        todo = [r for r in runs if r[1] != "full" or model.n_free <= args.table_full_max]
         sweep = frozen_sweep(scene, model, speed, args.case, args.angles, args.modes)
-        times = {m: [] for m in ["sweep"] + todo}
+        times = {r: [] for r in ["sweep"] + [r[0] for r in todo]}
         res = {}
         for _ in range(args.repeats):
             times["sweep"].append(sweep())
-            for m in todo:
+            for label, m, structured in todo:
+                PeriodicSystem.hamiltonian_steps = structured
                 t0 = time.perf_counter()
-                res[m] = floquet_multipliers(model, speed, args.case, tol=args.tol, reduce=TABLE_REDUCE[m])
-                times[m].append(time.perf_counter() - t0)
+                res[label] = floquet_multipliers(model, speed, args.case, tol=args.tol, reduce=TABLE_REDUCE[m])
+                times[label].append(time.perf_counter() - t0)
+        PeriodicSystem.hamiltonian_steps = True
         ts = float(np.median(times["sweep"]))
+        full = next((res[r] for r, m, _ in runs if m == "full" and r in res), None)
         cells = []
-        for m in methods:
-            if m not in res:
+        for label, m, _ in runs:
+            if label not in res:
                 cells += ["not run", "-"]
                 continue
-            r, tm = res[m], float(np.median(times[m]))
-            diff = f", Δ {abs(r.max_abs - res['full'].max_abs):.1e}" if "full" in res and m != "full" else ""
+            r, tm = res[label], float(np.median(times[label]))
+            diff = f", Δ {abs(r.max_abs - full.max_abs):.1e}" if full is not None and m != "full" else ""
             extra = "" if r.basis is None else f" ({r.basis}{'' if r.truncation.converged else ' NOT converged'})"
             cells += [f"{tm:.2f} ({tm / ts:.2f}×)", f"{r.max_abs:.9f}{diff}{extra}, {r.monodromy.steps} steps"]
+        for m in methods if args.table_structure else ():
+            g, h = f"{m} generic", f"{m} Hamiltonian"
+            if g not in res:
+                cells.append("-")
+                continue
+            a, b = res[g].monodromy.phi, res[h].monodromy.phi
+            rel = np.linalg.norm(a - b) / np.linalg.norm(a) if a.shape == b.shape else float("nan")
+            cells.append(f"{np.median(times[h]) / np.median(times[g]):.3f}, {rel:.1e}")
         print(f"| {name} | {elements} | {model.n_free} | {speed:g} | {ts:.2f} | " + " | ".join(cells)
               + f" | load {os.getloadavg()[0]:.1f}", flush=True)
-
 
 if __name__ == "__main__":
     main()

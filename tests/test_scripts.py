@@ -75,13 +75,16 @@ def test_bench_floquet_compares_the_monodromy_with_the_frozen_sweep():
 def test_bench_floquet_table_runs():
     """``--table-steps``: at 1 element per link every level from 2 modes per link is the whole space,
     whose least step count is the full model's; ``--table``: the link components beside the full model
-    (whole space again: the same max|μ| to 1e-8)."""
+    (whole space again: the same max|μ| to 1e-8); ``--table-structure``: each by the generic and the
+    structured Hamiltonian steps, whose monodromies agree to round-off (1e-12)."""
     out = run_script("bench_floquet.py", "--table", "bw:1:500", "--table-steps")
     cells = [c.strip() for c in out.strip().splitlines()[-1].strip("|").split("|")]
     full = int(cells[4].replace(",", ""))
     last = int(cells[-1].split(":")[1].split("(")[0].replace(",", ""))
     assert cells[2] == "9" and cells[-1].startswith("9:") and abs(last - full) <= 0.01 * full
     out = run_script("bench_floquet.py", "--table", "bw:1:500", "--table-methods", "full,links", "--repeats", "1",
-                     "--angles", "36")
+                     "--angles", "36", "--table-structure")
     delta = float(re.search(rf"Δ ({FLOAT}) \(9\)", out).group(1))
     assert delta < 1e-8
+    cells = [c.strip() for c in out.strip().splitlines()[-1].strip("|").split("|")]
+    assert all(float(c.split(", ")[1]) <= 1e-12 for c in cells[-3:-1])  # full, links: Φ of both steps

@@ -14,7 +14,9 @@ How:
    for the coefficients, whatever the model.
 2. Lagrangian cases (``LAGRANGIAN_CASES``) are integrated in canonical coordinates (q, p),
    p = M q̇ + Ω N₁ q, where A is Hamiltonian when undamped: each Magnus step is then exactly
-   symplectic, so |μ| = 1 holds to round-off wherever the exact system is stable, and det Φ = 1.
+   symplectic, so |μ| = 1 holds to round-off wherever the exact system is stable, and det Φ = 1;
+   their steps use the structure (:mod:`fkev_slepc.periodic.hamiltonian`: the interpolant holds
+   about half the entries, a commutator takes half the products).
    A lone rotating link is integrated in its own frame, where the generator is constant
    (:meth:`PeriodicSystem.link_frame`); wherever the samples agree to round-off the monodromy is
    one exponential, exp(2π A) (two Magnus steps and one for the error estimate: exact).

@@ -31,7 +31,8 @@ radians of crank angle for a linkage; exponents in 1/[θ])
 
 ``monodromy(generator, period=2π, *, forcing=None, order=6, steps=None, tol=1e-10, mu_tol=None,
 start=0.0, max_steps=2**16, comm=None, measure=...) -> Monodromy`` (``comm``: steps over MPI ranks)
-    ``generator(theta)``: theta (k,) -> A (k, n, n), vectorised over θ.
+    ``generator(theta)``: theta (k,) -> A (k, n, n), vectorised over θ; without a forcing, its
+    ``magnus_step(theta (s, nodes), h, order) -> Ω (s, n, n)`` if it has one (periodic/hamiltonian.py).
     ``forcing(theta)``: theta (k,) -> b (k, n) or (k, n, m) for m load cases; optional.
 ``Monodromy`` (frozen dataclass)
     ``phi`` (n, n) Φ = x(start + P) for x(start) = I; ``multipliers`` (n,) complex, sorted by
@@ -70,27 +71,24 @@ _NODES = {
 _BLOCK_DOUBLES = 2**19
 
 
-def _comm(a, b):
-    return a @ b - b @ a
-
-
-def magnus_generators(A: np.ndarray, h: float, order: int) -> np.ndarray:
-    """Ω of each step from the generator at the step's Gauss nodes: A (s, nodes, n, n) -> (s, n, n).
+def magnus_generators(A: np.ndarray, h: float, order: int, commutator=lambda a, b: a @ b - b @ a) -> np.ndarray:
+    """Ω of each step from the generator at the step's Gauss nodes: A (s, nodes, n, n) -> (s, n, n)
+    (or any stack, axis 1 the nodes, of Lie-algebra elements with its ``commutator``: hamiltonian.py's).
 
     Order 4: Ω = h/2 (A₁ + A₂) + √3 h²/12 [A₂, A₁]. Order 6 (Blanes, Casas, Oteo & Ros, Phys.
     Rep. 470 (2009), §5.2): with a₁ = h A₂, a₂ = √15 h/3 (A₃ - A₁), a₃ = 10 h/3 (A₃ - 2A₂ + A₁),
     c₁ = [a₁, a₂], c₂ = -[a₁, 2a₃ + c₁]/60, Ω = a₁ + a₃/12 + [-20a₁ - a₃ + c₁, a₂ + c₂]/240."""
     if order == 4:
         A1, A2 = A[:, 0], A[:, 1]
-        return 0.5 * h * (A1 + A2) + (np.sqrt(3.0) * h * h / 12.0) * _comm(A2, A1)
+        return 0.5 * h * (A1 + A2) + (np.sqrt(3.0) * h * h / 12.0) * commutator(A2, A1)
     if order == 6:
         A1, A2, A3 = A[:, 0], A[:, 1], A[:, 2]
         a1 = h * A2
         a2 = (np.sqrt(15.0) * h / 3.0) * (A3 - A1)
         a3 = (10.0 * h / 3.0) * (A3 - 2.0 * A2 + A1)
-        c1 = _comm(a1, a2)
-        c2 = -_comm(a1, 2.0 * a3 + c1) / 60.0
-        return a1 + a3 / 12.0 + _comm(-20.0 * a1 - a3 + c1, a2 + c2) / 240.0
+        c1 = commutator(a1, a2)
+        c2 = -commutator(a1, 2.0 * a3 + c1) / 60.0
+        return a1 + a3 / 12.0 + commutator(-20.0 * a1 - a3 + c1, a2 + c2) / 240.0
     raise ValueError(f"order: the Magnus integrator has orders 4 and 6, not {order!r}")
 
 
@@ -126,9 +124,9 @@ def step_exponentials(generator, a: float, b: float, steps: int, *, forcing=None
     for s0 in range(0, steps, block):
         s = np.arange(s0, min(steps, s0 + block))
         theta = (a + h * (s[:, None] + c[None, :])).ravel()
-        G, _ = _augmented(generator, forcing, theta)
-        Om = magnus_generators(G.reshape(s.size, c.size, size, size), h, order)
-        yield s0, la.expm(Om)
+        own = getattr(generator, "magnus_step", None) if forcing is None else None  # a structured Ω (hamiltonian.py)
+        yield s0, la.expm(own(theta.reshape(s.size, c.size), h, order) if own else magnus_generators(
+            _augmented(generator, forcing, theta)[0].reshape(s.size, c.size, size, size), h, order))
 
 
 def _product(generator, a, b, steps, forcing, order, comm=None, progress=None):

@@ -29,6 +29,8 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
     measured value (the midpoints then join the samples). It is evaluated as its Fourier series
     without the harmonics whose summed amplitudes are below 0.1·``tol``·max|A| (``TrigInterpolant``'s
     ``drop``: the Magnus steps' node values then cost fewer weights, and ``error`` is measured on it).
+    Hamiltonian samples (the undamped Lagrangian cases, full or reduced) take the packed interpolant
+    and structured Magnus steps of :mod:`fkev_slepc.periodic.hamiltonian` (``hamiltonian_steps``).
 
 ``forcing(τ) -> b̂ (len(τ), 2n)``
     the load in the generator's scaled state (1/rad): x̂' = A x̂ + b̂ is M q̈ + C q̇ + K q = f
@@ -55,6 +57,7 @@ import numpy as np
 
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.model.process_loads import process_load_vectors
+from fkev_slepc.periodic import hamiltonian
 from fkev_slepc.periodic.magnus import state_matrix
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.model.kinematics import solve_kinematics
@@ -85,7 +88,7 @@ class Interpolated:
     """The generator's trigonometric interpolant (callable τ -> A), its measured relative error
     at the last midpoints, and the number of samples it holds."""
 
-    generator: TrigInterpolant
+    generator: TrigInterpolant | hamiltonian.HamiltonianInterpolant
     error: float
     samples: int
 
@@ -97,6 +100,8 @@ class Interpolated:
 
 class PeriodicSystem:
     """The periodic system of ``model`` at crank speed ``omega`` (rad/s) for ``case``."""
+
+    hamiltonian_steps = True  # Hamiltonian samples take the structured interpolant and steps (False: generic; a benchmark's switch)
 
     def __init__(self, model, omega: float, case: str = "full", *, damping: bool = True,
                  gravity=(0.0, 0.0), basis: np.ndarray | None = None, start: float = 0.0):
@@ -215,7 +220,8 @@ class PeriodicSystem:
                 # the interpolant used holds the midpoints too: its own error, at points between all
                 # its samples (every 4th gap), is what enters the multipliers' error bound
                 check = TWO_PI * (np.arange(0, k, 4) + 0.25) / k
-                interp = TrigInterpolant(0.0, S, drop=0.1 * tol)  # its negligible harmonics left out
+                # its negligible harmonics left out; Hamiltonian samples (undamped Lagrangian): packed, structured steps
+                interp = (hamiltonian.interpolant if self.hamiltonian_steps else TrigInterpolant)(0.0, S, drop=0.1 * tol)
                 final = float(np.max(np.abs(interp(check) - self.generator(check))) / np.max(np.abs(S)))
                 return Interpolated(interp, final, k)
 
