@@ -48,8 +48,8 @@ point tightens the bracket). From the known points:
    (fewer brackets left than ranks: :func:`refine_edges`) x* - 2ε and x* + 2ε (x* ± W/8 without
    ε), closing from both sides in one round;
 4. the **safeguard**: the midpoint (with two per round the thirds) instead, when there is no
-   estimate inside the bracket, when two known points crowd one side within twice the bracket's
-   width W of it (the estimates have been landing on one side: regula falsi's stagnation), or when
+   estimate inside the bracket, when two known points crowd one side within the bracket's width W
+   of it (CROWD; the estimates have been landing on one side: regula falsi's stagnation), or when
    W > W₀·2^(-(n-2)/2) after n points inside the grid bracket of width W₀ (slower than half of
    bisection's rate). A margin that jumps (an indicator of no use) still converges, in at most
    about twice bisection's evaluations.
