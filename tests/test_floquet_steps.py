@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from fkev_slepc.model.operators import Model
-from fkev_slepc.periodic.floquet import FREQUENCY_TOL_SHARE, floquet_multipliers, full_min_steps
-from fkev_slepc.periodic.magnus import step_doubling_error
+from fkev_slepc.periodic.floquet import FREQUENCY_TOL_SHARE, floquet_multipliers, full_min_steps, matched_tolerance
+from fkev_slepc.periodic.magnus import match_multipliers, step_doubling_error
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.periodic.truncation import frequency_change
 from fkev_slepc.scene import load_scene, with_elements
@@ -80,3 +80,19 @@ def test_a_reduced_level_asks_its_low_frequencies_to_a_thousandth_of_reduce_tol(
     assert res.monodromy.second_error <= FREQUENCY_TOL_SHARE * DEFAULTS.reduce_tol
     ref = floquet_multipliers(model, 500.0, "full", basis=basis, steps=2 * res.monodromy.steps)
     assert frequency_change(ref.exponents, res.exponents, 500.0, 4) <= res.monodromy.second_error
+
+
+def test_two_coarse_stable_levels_do_not_hide_a_band():
+    """Bahgat–Willmert thesis mesh at 582.7007 rad/s, inside the band labelled (ω̄2-ω̄1)/4: at 256
+    and 512 steps the coarse steps misplace the band and both levels are stable, |μ| = 1 on both
+    (symplectic steps), so their moduli agree to 1e-14; from 1,024 steps on max|μ| - 1 = 3.5e-3.
+    The count is also decided on every multiplier matched, to a quarter of the smallest distance
+    between two multipliers (no collision hides in the error; at least 2π·edge_rtol): the verdict
+    is the fixed-step one, and the stated matched error bounds the true one."""
+    model = Model(load_scene(RUNS / "bahgat-willmert-1976.toml"), ("full",))
+    res = floquet_multipliers(model, 582.7007, "full")
+    ref = floquet_multipliers(model, 582.7007, "full", steps=2 * res.monodromy.steps)
+    assert res.max_abs - 1.0 > 3e-3 and abs(res.max_abs - ref.max_abs) <= 1e-8
+    assert res.monodromy.matched_error <= matched_tolerance(DEFAULTS.edge_rtol)(res.multipliers)
+    i, j = match_multipliers(res.multipliers, ref.multipliers)
+    assert float(np.max(np.abs(res.multipliers[i] - ref.multipliers[j]))) <= res.monodromy.matched_error

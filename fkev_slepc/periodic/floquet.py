@@ -58,7 +58,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as la
 
-from fkev_slepc.periodic.magnus import Monodromy, exponential_monodromy, monodromy
+from fkev_slepc.periodic.magnus import Monodromy, exponential_monodromy, monodromy, multiplier_change
 from fkev_slepc.periodic.components import link_components
 from fkev_slepc.periodic.reduce import compress, frozen_pool
 from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings
@@ -74,6 +74,22 @@ START_H_RHO = 4.0  # h·ρ(A) of the first Magnus level (docs/engine.md "Step co
 # truncation tolerance whose frequency measure compares them (``reduce_tol``, relative); the full
 # model's frequencies enter no result and are not asked (``Monodromy.second_error`` states them)
 FREQUENCY_TOL_SHARE = 1e-3
+# every multiplier, matched (phases too), to GAP_SHARE of the smallest distance between two multipliers
+# (at least 2π·edge_rtol): two levels whose coarse steps both misplace a narrow band agree on the moduli
+# (|μ| = 1 on both, symplectic steps) and would call an unstable speed stable (Bahgat–Willmert thesis
+# mesh at 582.7007 rad/s: 256 and 512 steps stable, max|μ| - 1 = 3.5e-3 from 1,024 on). An instability
+# begins where two multipliers collide: with every multiplier within a quarter of the smallest gap no
+# collision hides in the error, so the verdict is the converged one (docs/engine.md "Step count")
+GAP_SHARE = 0.25
+PHASE_TOL_PER_RTOL = TWO_PI
+
+
+def matched_tolerance(edge_rtol: float):
+    """μ -> the matched multipliers' step tolerance: max(2π·edge_rtol, GAP_SHARE·min |μᵢ - μⱼ|)."""
+    def tol(mu):
+        gap = np.abs(mu[:, None] - mu[None, :])[np.triu_indices(mu.size, 1)]
+        return max(PHASE_TOL_PER_RTOL * edge_rtol, GAP_SHARE * float(np.min(gap, initial=np.inf)))
+    return tol
 __all__ = ["LinkageFloquet", "TrigInterpolant", "floquet_multipliers", "full_min_steps", "to_dense"]
 
 
@@ -125,11 +141,12 @@ def _unwrapped_exponents(mu, X, c: Coefficients, d, omega: float) -> np.ndarray:
 
 def _step_measure(c: Coefficients, d, omega: float, retained: int):
     """The (spectrum, change) pair that the Magnus step count is decided on (``monodromy``'s
-    ``measure``; docs/engine.md "Step count"): what the results use, not the phases of the stiff
-    modes. The multipliers' moduli, compared sorted (the growth factors the verdict reads: the
-    largest difference between the two levels' sorted |μ|, absolute), and the ``retained`` lowest
-    Floquet frequencies (relative, :func:`~fkev_slepc.periodic.truncation.frequency_change`: the
-    frequencies the truncation measures compare)."""
+    ``measure``; docs/engine.md "Step count"): what the results use. The multipliers' moduli,
+    compared sorted (the growth factors the verdict reads: the largest difference between the two
+    levels' sorted |μ|, absolute), the ``retained`` lowest Floquet frequencies (relative,
+    :func:`~fkev_slepc.periodic.truncation.frequency_change`: the frequencies the truncation
+    measures compare), and every multiplier matched (absolute: the phases place the bands;
+    :func:`matched_tolerance`)."""
 
     def spectrum(phi):
         mu, X = la.eig(phi)
@@ -138,7 +155,7 @@ def _step_measure(c: Coefficients, d, omega: float, retained: int):
 
     def change(fine, coarse):
         moduli = float(np.max(np.abs(np.sort(np.abs(fine[0])) - np.sort(np.abs(coarse[0])))))
-        return moduli, frequency_change(coarse[1], fine[1], omega, retained)
+        return moduli, frequency_change(coarse[1], fine[1], omega, retained), multiplier_change(fine, coarse)[0]
 
     return spectrum, change
 
@@ -254,6 +271,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
                          max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
                          comm=comm, progress=progress,  # frequencies: compared by the truncation only
                          second_tol=np.inf if basis is None else FREQUENCY_TOL_SHARE * st.reduce_tol,
+                         matched_tol=matched_tolerance(st.edge_rtol),
                          measure=_step_measure(c, system.dof_scaling, omega, min(st.auto_modes, model.n_free)))
         mu, X = la.eig(mono.phi)
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)

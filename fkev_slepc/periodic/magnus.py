@@ -200,6 +200,7 @@ class Monodromy:
     particular: np.ndarray | None = None
     particular_error: float | None = None
     second_error: float = 0.0  # the step-doubling estimate of the ``measure``'s second (relative) change
+    matched_error: float = 0.0  # ... of its third (absolute; the linkage Floquet: every multiplier matched)
 
     @property
     def exponents(self) -> np.ndarray:
@@ -235,7 +236,8 @@ def step_doubling_error(d: float, d_before: float | None, order: int) -> float:
 def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: int = 6,
               steps: int | None = None, tol: float = 1e-10, mu_tol: float | None = None, start: float = 0.0,
               max_steps: int = 2**16, min_steps: int = 16, comm=None, progress=None,
-              measure=(multiplier_spectrum, multiplier_change), second_tol: float | None = None) -> Monodromy:
+              measure=(multiplier_spectrum, multiplier_change), second_tol: float | None = None,
+              matched_tol=np.inf) -> Monodromy:
     """Monodromy of x' = A(θ) x (+ b(θ)) over [start, start + period] (see the module docstring).
 
     ``steps`` fixes the number of uniform steps (even; the estimate then uses steps/2 as well);
@@ -248,21 +250,19 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
     ``comm``: an MPI communicator whose ranks share the steps of every product (collective: every
     rank calls with the same arguments and gets the same result; see ``_product``).
     ``progress(steps done, steps)``: called after each block of step exponentials of every run.
-    ``measure`` = (spectrum(Φ) -> (μ, extra), change(fine, coarse) -> (d_μ, d_2)): what ``mu_tol``
+    ``measure`` = (spectrum(Φ) -> (μ, extra), change(fine, coarse) -> (d_μ, d_2[, d_3])): what ``mu_tol``
     compares between levels: d_μ absolute (estimate ``error``, against ``mu_tol``·max(1, max|μ|)),
-    d_2 relative (``second_error``, against ``second_tol``, default ``mu_tol``); default every
-    multiplier matched, no d_2 (the linkage Floquet: the moduli and low frequencies, floquet.py)."""
+    d_2 relative (``second_error``, against ``second_tol``, default ``mu_tol``), d_3 absolute
+    (``matched_error``, against ``matched_tol``, or ``matched_tol(μ)``); default every multiplier matched, no d_2 (the
+    linkage Floquet: the moduli, the low frequencies and every multiplier matched, floquet.py)."""
     if not np.isfinite(period) or period <= 0.0:
         raise ValueError(f"period: must be a positive finite number, got {period!r}")
     if steps is not None and (int(steps) != steps or steps < 2 or steps % 2):
         raise ValueError(f"steps: must be an even integer >= 2, got {steps!r}")
     a, b = float(start), float(start) + float(period)
-    probe = np.asarray(generator(np.array([a])))
-    n = probe.shape[-1]
-    m = 0
-    if forcing is not None:
-        fb = np.asarray(forcing(np.array([a])))
-        m = 1 if fb.ndim == 2 else fb.shape[2]
+    n = np.asarray(generator(np.array([a]))).shape[-1]
+    fb = None if forcing is None else np.asarray(forcing(np.array([a])))
+    m = 0 if fb is None else (1 if fb.ndim == 2 else fb.shape[2])
 
     spectrum, change = measure
     scale = 2.0**order - 1.0
@@ -273,31 +273,34 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
             phi, part = _split(_product(generator, a, b, n_steps, forcing, order, comm, progress), n, m)
         return phi, part, (spectrum(phi) if np.all(np.isfinite(phi)) else None)
 
-    inf2, before = (np.inf, np.inf), (None, None)
+    inf2, before = (np.inf,) * 3, (None,) * 3
     guard = mu_tol is not None and steps is None and N >= 8  # the N/4 level, for the rate check, when needed
     tol2 = mu_tol if second_tol is None else second_tol
     coarse = level(N // 2)
 
-    def judged(d, before, mu):  # (err, err2, ok) of a level's change d given the change before it
-        err, err2 = (step_doubling_error(x, x_before, order) for x, x_before in zip(d, before))
-        return err, err2, (phi_err <= tol if mu_tol is None
-                           else err <= mu_tol * max(1.0, float(np.max(np.abs(mu)))) and err2 <= tol2)
+    def judged(d, before, mu):  # ((err, err2, err3), ok) of a level's change d given the change before it
+        errs = tuple(step_doubling_error(x, x_before, order) for x, x_before in zip(d, before))
+        lim = (np.inf if mu_tol is None else mu_tol * max(1.0, float(np.max(np.abs(mu)))), tol2,
+               matched_tol(mu) if callable(matched_tol) else matched_tol)
+        return errs, (phi_err <= tol if mu_tol is None else all(e <= t for e, t in zip(errs, lim)))
+
+    def change3(f, c):  # the measure's changes, three (d_3 = 0 where it has two)
+        return (tuple(change(f[2], c[2])) + (0.0,))[:3] if f[2] is not None and c[2] is not None else inf2
 
     while True:
         fine = level(N)
         phi_err = float(np.linalg.norm(fine[0] - coarse[0])
                         / (scale * max(np.linalg.norm(fine[0]), 1e-300)))
         finite = fine[2] is not None and coarse[2] is not None
-        d = change(fine[2], coarse[2]) if finite else inf2
+        d = change3(fine, coarse)
         mu = fine[2][0] if finite else np.full(n, np.nan)
         if guard:  # the first level: undivided, a bound, needs no N/4; the rate only if it would decide
-            guard, (err, err2, ok) = False, judged(d, inf2, mu)
-            if not ok and judged(d, (None, None), mu)[2]:
-                older = level(N // 4)
-                before = change(coarse[2], older[2]) if coarse[2] is not None and older[2] is not None else inf2
-                err, err2, ok = judged(d, before, mu)
+            guard, (errs, ok) = False, judged(d, inf2, mu)
+            if not ok and judged(d, (None,) * 3, mu)[1]:
+                before = change3(coarse, level(N // 4))
+                errs, ok = judged(d, before, mu)
         else:
-            err, err2, ok = judged(d, before, mu)
+            errs, ok = judged(d, before, mu)
         if steps is not None or ok or 2 * N > max_steps:
             break
         coarse, N, before = fine, 2 * N, d
@@ -305,15 +308,13 @@ def monodromy(generator, period: float = 2.0 * np.pi, *, forcing=None, order: in
         raise ValueError(f"steps: {N} steps (and {N // 2} for the error estimate) do not resolve "
                          f"the generator over the period: use more steps (or steps=None)")
     phi, part = fine[0], fine[1]
-    part_err = None
-    if part is not None:
-        part_err = float(np.linalg.norm(part - coarse[1])
-                         / (scale * max(np.linalg.norm(part), 1e-300)))
+    part_err = None if part is None else float(np.linalg.norm(part - coarse[1])
+                                               / (scale * max(np.linalg.norm(part), 1e-300)))
     order_ = np.argsort(-np.abs(mu), kind="stable")
     return Monodromy(phi=phi, multipliers=mu[order_], period=float(period), start=a, steps=N,
-                     order=order, error=err, phi_error=phi_err,
+                     order=order, error=errs[0], phi_error=phi_err,
                      converged=bool(steps is not None or ok), particular=part,
-                     particular_error=part_err, second_error=err2)
+                     particular_error=part_err, second_error=errs[1], matched_error=errs[2])
 
 
 def exponential_monodromy(A: np.ndarray, period: float = 2.0 * np.pi, start: float = 0.0):
