@@ -23,10 +23,9 @@ its partner at the same angle; on the stable side the two multipliers nearest in
 the bracket's unstable end has its largest one (without that end: the two closest in ln μ). A
 point whose indicator disagrees in sign with its margin is left out of the interpolation. Only a
 2 x 2 system has one pair to choose: on a linkage of many modes the stable side's nearest pair is
-not always the colliding one, and its margin can jump (582.7005 rad/s of the thesis mesh has
-max|μ| - 1 = 3.8e-3, 582.7007 is stable; their monodromies took 0.75 s and 0.10 s, so apparently
-another step count), so the indicator is an accelerator, never the bracket: the bracket is the
-margin's sign.
+not always the colliding one, and a margin can jump (slivers; and 582.7007 rad/s of the thesis mesh
+was once called stable beside an unstable 582.7005 by a step count since fixed: docs/engine.md
+"Step count"), so the indicator is an accelerator, never the bracket: the bracket is the margin's sign.
 
 **The search** (:func:`edge`) is stateless: the speeds it asks next are a function of the points
 known inside the bracket only (archived values, the ``rtol`` asked and the speeds per round), so an
