@@ -213,7 +213,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
     ``tol``: the error of the multipliers' moduli asked of the integrator, relative to
     max(1, max|μ|) (the steps double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling
     estimate, pre-asymptotic levels guarded, is below it, and on a reduced basis that of the lowest
-    four Floquet frequencies below ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative: :func:`_step_measure`,
+    four Floquet frequencies below ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative, and every
+    multiplier matched within :func:`matched_tolerance` of the gaps between them: :func:`_step_measure`,
     :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
     verdict's 10 × error a tenth of its 1e-6 (docs/engine.md "Step count"; the default is
     ``PeriodicSettings.monodromy_tol``)."""
