@@ -34,6 +34,12 @@ Hamiltonian Magnus steps (fkev_slepc/periodic/hamiltonian.py), timed alternately
 their medians and the relative difference of their monodromies.
 
     .venv/bin/python scripts/bench_floquet.py --table bw:4:500,sc:0:150 --table-methods full --table-structure
+
+``--table-floor``: per row the least a step-doubling run of the full model at its accepted step
+count N can cost (the bare products of N and N/2 step maps, nothing else), beside the sweep and the
+whole Floquet: what no step-count rule of this integrator can go below.
+
+    .venv/bin/python scripts/bench_floquet.py --table tm:0:60,tm:0:100,bw:4:500 --table-floor --repeats 3
 """
 
 from __future__ import annotations
@@ -68,6 +74,9 @@ def parse_args(argv=None):
     ap.add_argument("--table-full-max", type=int, default=400, help="largest model (DOFs) whose full monodromy is timed")
     ap.add_argument("--table-structure", action="store_true", help="time each table method twice, alternately: "
                     "generic Magnus steps and the structured Hamiltonian ones (fkev_slepc/periodic/hamiltonian.py)")
+    ap.add_argument("--table-floor", action="store_true", help="instead: the least any step-doubling run of the "
+                    "full model's accepted step count N can cost (the bare products of N and N/2 step maps) beside "
+                    "the sweep and the whole Floquet")
     ap.add_argument("--table-steps", action="store_true", help="instead of timing: the least Magnus step count "
                     "2·2π·ρ(A) of the full model and of the link-component levels (1, 2, 4, 8, 16 modes per link)")
     return benchlib.parse(ap, argv)[0]
@@ -103,7 +112,7 @@ def main(argv=None) -> None:
     from fkev_slepc.periodic.floquet import floquet_multipliers
 
     if args.table:
-        (level_steps if args.table_steps else side_by_side)(args)
+        (level_steps if args.table_steps else floor if args.table_floor else side_by_side)(args)
         return
     scene = load_scene(benchlib.ROOT / args.scene)
     model = Model(scene, cases=(args.case,))
@@ -208,6 +217,38 @@ def level_steps(args) -> None:
             cells.append(f"{basis.shape[1]}: {steps:,} ({basis.covered_rad_s:.3g} rad/s)")
         print(f"| {name} | {elements} | {model.n_free} | {speed:g} | {full if isinstance(full, str) else f'{full:,}'} | "
               + " | ".join(cells) + " |", flush=True)
+
+
+def floor(args) -> None:
+    """Per row: the full model's Floquet (``floquet_multipliers``, its accepted step count N), then,
+    timed alternately with the frozen sweep and medians over ``--repeats``: the bare ordered product
+    of the N step maps of its interpolated generator (periodic/magnus.py ``_product``: the step
+    exponentials and their products, nothing else) and of N/2, whose change certifies N. Their sum
+    is the least a run of this integrator at N steps costs, whatever its step-count rule."""
+    from fkev_slepc.periodic import magnus
+    from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.system import PeriodicSystem
+
+    print("| scene | el/link | DOFs | rad/s | steps N | sweep s | Floquet s (×sweep) | product N s (×sweep) "
+          "| products N + N/2 s (×sweep) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, elements, speed, scene, model in _table_models(args):
+        sweep = frozen_sweep(scene, model, speed, args.case, args.angles, args.modes)
+        gen = PeriodicSystem(model, speed, args.case).interpolant().generator
+        t = {k: [] for k in ("sweep", "floquet", "N", "N/2")}
+        for _ in range(args.repeats):
+            t["sweep"].append(sweep())
+            t0 = time.perf_counter()
+            steps = floquet_multipliers(model, speed, args.case, tol=args.tol).monodromy.steps
+            t["floquet"].append(time.perf_counter() - t0)
+            for key, n in (("N", steps), ("N/2", steps // 2)):
+                t0 = time.perf_counter()
+                magnus._product(gen, 0.0, 2.0 * np.pi, n, None, 6)
+                t[key].append(time.perf_counter() - t0)
+        ts, tf, tn, th = (float(np.median(t[k])) for k in ("sweep", "floquet", "N", "N/2"))
+        print(f"| {name} | {elements} | {model.n_free} | {speed:g} | {steps:,} | {ts:.2f} | {tf:.2f} ({tf / ts:.2f}×) | "
+              f"{tn:.2f} ({tn / ts:.2f}×) | {tn + th:.2f} ({(tn + th) / ts:.2f}×) | load {os.getloadavg()[0]:.1f}",
+              flush=True)
 
 
 def side_by_side(args) -> None:

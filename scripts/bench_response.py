@@ -14,6 +14,9 @@ thread.
 
     .venv/bin/python scripts/bench_response.py
     .venv/bin/python scripts/bench_response.py --rows bw:1:500,sc:0:150 --repeats 1
+
+``--floor``: where the response shot, also the least its shooting could cost at the step count N it
+needed (the bare products of N and N/2 homogeneous step maps, timed beside), over the Floquet.
 """
 
 from __future__ import annotations
@@ -27,6 +30,8 @@ import argparse  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
+
+import numpy as np  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,6 +46,8 @@ def main(argv=None) -> None:
     ap.add_argument("--rows", default=ROWS, help=f"SCENE:ELEMENTS:SPEED,... (default {ROWS})")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--tol", type=float, default=1e-8, help="harmonic-balance tolerance (fkev response's default)")
+    ap.add_argument("--floor", action="store_true", help="also the least the response's shooting could cost at its "
+                    "step count N: the bare products of N and N/2 step maps of the homogeneous generator, over the Floquet")
     ap.add_argument("--reduce", default=None, help="the response's --reduce (default: its default)")
     args = ap.parse_args(argv)
 
@@ -49,8 +56,9 @@ def main(argv=None) -> None:
     from fkev_slepc.periodic.steady import steady_solve
     from fkev_slepc.scene import load_scene, with_elements
 
-    print("| scene | DOFs | Ω (rad/s) | response (s) | method | harmonics | error | reduction | Floquet (s) | ratio |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| scene | DOFs | Ω (rad/s) | response (s) | method | harmonics | error | reduction | Floquet (s) | ratio |"
+          + (" Floquet steps | shooting floor (s) | floor / Floquet |" if args.floor else ""))
+    print("|---|---|---|---|---|---|---|---|---|---|" + ("---|---|---|" if args.floor else ""))
     for row in args.rows.split(","):
         name, elements, speed = row.split(":")
         scene = load_scene(ROOT / SCENES.get(name, name))
@@ -58,19 +66,38 @@ def main(argv=None) -> None:
             scene = with_elements(scene, int(elements))
         model, w = Model(scene, cases=("full",)), float(speed)
         gravity = scene.analysis.gravity_m_s2
-        t_resp, t_floq = [], []
+        t_resp, t_floq, t_floor = [], [], []
         for _ in range(args.repeats):
             t = time.perf_counter()
             r = steady_solve(model, w, "full", gravity, tol=args.tol, shoot=False, reduce=args.reduce)
             t_resp.append(time.perf_counter() - t)
             t = time.perf_counter()
-            floquet_multipliers(model, w, "full", reduce="default")
+            f = floquet_multipliers(model, w, "full", reduce="default")
             t_floq.append(time.perf_counter() - t)
+            if args.floor and r.periodic is not None:
+                t_floor.append(shooting_floor(model, w, r.periodic.steps))
         tr, tf = statistics.median(t_resp), statistics.median(t_floq)
         red = "none" if r.truncation is None else f"links:{r.truncation.modes_per_link}"
         method = "HB" if r.periodic is None else f"shooting, {r.periodic.steps} steps"
         print(f"| {name} {elements or 'scene'} | {model.n_free} | {w:g} | {tr:.2f} | {method} | "
-              f"{r.hb.harmonics.shape[0] - 1} | {r.error:.1e} | {red} | {tf:.2f} | {tr / tf:.2f} |", flush=True)
+              f"{r.hb.harmonics.shape[0] - 1} | {r.error:.1e} | {red} | {tf:.2f} | {tr / tf:.2f} |"
+              + ("" if not args.floor else f" {f.monodromy.steps:,} | " + (
+                  "- | - |" if not t_floor else f"{statistics.median(t_floor):.2f} | {statistics.median(t_floor) / tf:.2f} |")),
+              flush=True)
+
+
+def shooting_floor(model, w: float, steps: int) -> float:
+    """Seconds of the bare ordered products of ``steps`` and ``steps``/2 Magnus step maps of the full
+    model's interpolated homogeneous generator (periodic/magnus.py ``_product``): less than any shooting
+    at that step count costs (it also carries the load's columns and solves for the periodic state)."""
+    from fkev_slepc.periodic import magnus
+    from fkev_slepc.periodic.system import PeriodicSystem
+
+    gen = PeriodicSystem(model, w, "full").interpolant().generator
+    t = time.perf_counter()
+    for n in (steps, steps // 2):
+        magnus._product(gen, 0.0, 2.0 * np.pi, n, None, 6)
+    return time.perf_counter() - t
 
 
 if __name__ == "__main__":

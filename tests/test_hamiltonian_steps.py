@@ -116,3 +116,36 @@ def test_damped_or_non_lagrangian_generators_keep_the_generic_path(monkeypatch, 
             monkeypatch.setattr(PeriodicSystem, "hamiltonian_steps", structured)
             out[structured] = floquet_multipliers(model, omega, case, steps=256)
         np.testing.assert_array_equal(out[False].monodromy.phi, out[True].monodromy.phi)
+
+
+def test_forced_steps_are_the_augmented_steps():
+    """The response's shooting with a forcing (fkev_slepc/periodic/shooting.py): the structured
+    augmented steps (hamiltonian.forced) give the generic augmented Ω on random Hamiltonian A and
+    columns b (orders 4 and 6, two load columns), and on the thesis mesh at 500 rad/s (the response's
+    generator and load: the gravity and inertia loads of its scene) the same Φ and particular
+    state as the generic steps at 512 steps to 1e-12; a generic (damped) generator gets None."""
+    rng = np.random.default_rng(3)
+    A = _random_hamiltonian(rng, 6, 4).reshape(2, 3, 8, 8)  # (steps, nodes, 2n, 2n)
+    b = rng.standard_normal((2, 3, 8, 2))
+    G = np.zeros((2, 3, 10, 10))
+    G[:, :, :8, :8], G[:, :, :8, 8:] = A, b
+    blocks = np.moveaxis(ham.unpack(ham.pack(A.reshape(6, 8, 8)), 4).reshape(3, 2, 3, 4, 4), 2, 1)
+    for order in (4, 6):
+        generic = magnus_generators(G, 0.1, order)
+        x = magnus_generators(ham._Affine(blocks, np.moveaxis(b, 1, 0)), 0.1, order, commutator=ham._affine_commutator)
+        structured = ham._Forced._assemble(x.B, x.b)
+        assert np.max(np.abs(structured - generic)) <= 1e-14 * np.max(np.abs(generic))
+    model = Model(load_scene(BW), ("full",))
+    system = PeriodicSystem(model, 500.0, gravity=(0.0, -9.81))
+    gen = system.interpolant().generator
+    tau = 2.0 * np.pi * np.arange(64) / 64
+    load = TrigInterpolant(0.0, system.forcing(tau)[:, :, None])
+    forcing = lambda t: load(t)[:, :, 0]  # noqa: E731
+    structured = monodromy(ham.forced(gen, forcing), 2.0 * np.pi, steps=512)
+    generic = monodromy(gen, 2.0 * np.pi, forcing=forcing, steps=512)
+    n = generic.phi.shape[0]
+    phi = structured.phi[:n, :n]  # the augmented [[Φ, x_p], [0, 1]]
+    assert np.linalg.norm(phi - generic.phi) <= 1e-12 * np.linalg.norm(generic.phi)
+    assert np.linalg.norm(structured.phi[:n, n] - generic.particular) <= 1e-12 * np.linalg.norm(generic.particular)
+    damped = PeriodicSystem(Model(load_scene(BW_DAMPED), ("full",)), 1000.0).interpolant().generator
+    assert ham.forced(damped, forcing) is None

@@ -88,3 +88,15 @@ def test_bench_floquet_table_runs():
     assert delta < 1e-8
     cells = [c.strip() for c in out.strip().splitlines()[-1].strip("|").split("|")]
     assert all(float(c.split(", ")[1]) <= 1e-12 for c in cells[-3:-1])  # full, links: Φ of both steps
+
+
+def test_bench_floors_time_the_accepted_step_counts():
+    """``bench_floquet.py --table-floor`` and ``bench_response.py --floor`` on the thesis mesh at
+    500 rad/s: the Floquet's accepted step count (1,024) is the one whose bare products are timed,
+    and the response, which shoots there (4,096 steps: its state needs its phases), gets a floor."""
+    out = run_script("bench_floquet.py", "--table", "bw:1:500", "--table-floor", "--repeats", "1", "--angles", "36")
+    cells = [c.strip() for c in out.strip().splitlines()[-1].strip("|").split("|")]
+    assert cells[4] == "1,024" and all(float(c.split()[0]) > 0 for c in cells[5:9])
+    out = run_script("bench_response.py", "--rows", "bw:1:500", "--repeats", "1", "--floor")
+    cells = [c.strip() for c in out.strip().splitlines()[-1].strip("|").split("|")]
+    assert cells[4] == "shooting, 4096 steps" and cells[10] == "1,024" and float(cells[11]) > 0

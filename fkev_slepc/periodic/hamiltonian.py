@@ -27,6 +27,13 @@ samples), whose ``magnus_step(theta, h, order)`` gives the steps' Ω by the stru
 (the hook of :func:`fkev_slepc.periodic.magnus.step_exponentials`).
 ``interpolant(start, samples, drop) ->`` a :class:`HamiltonianInterpolant` where the samples are
 Hamiltonian to ``HAMILTONIAN_TOL``, else the generic :class:`TrigInterpolant`.
+
+**With a forcing** (the response's shooting, fkev_slepc/periodic/shooting.py) the steps run on the
+augmented generator [[A, b], [0, 0]], whose commutators are [[A₁, b₁], [0, 0]], [[A₂, b₂], [0, 0]] ->
+[[[A₁, A₂], A₁b₂ - A₂b₁], [0, 0]]: the structured commutator of the A parts and four n × n by
+n × m products for the columns (the generic augmented commutator takes 2 products of (2n + m)²).
+``forced(generator, forcing)``: the augmented generator (callable τ -> (k, 2n + m, 2n + m)) with
+those ``magnus_step``s where ``generator`` is a :class:`HamiltonianInterpolant`, else None.
 """
 
 from __future__ import annotations
@@ -142,3 +149,84 @@ def interpolant(start, samples: np.ndarray, drop: float = 0.0):
     if is_hamiltonian(samples):
         return HamiltonianInterpolant(start, samples, drop)
     return TrigInterpolant(start, samples, drop)
+
+
+class _Affine:
+    """[[A, b], [0, 0]] by A's blocks ``B`` (3, [nodes,] s, n, n) and ``b`` ([nodes,] s, 2n, m): the
+    linear combinations, node picks (``x[:, i]``) and :func:`_affine_commutator` that
+    :func:`fkev_slepc.periodic.magnus.magnus_generators` applies."""
+
+    __slots__ = ("B", "b")
+
+    def __init__(self, B, b):
+        self.B, self.b = B, b
+
+    def __getitem__(self, key):
+        return _Affine(self.B[key], self.b[key[1]])
+
+    def __add__(self, o):
+        return _Affine(self.B + o.B, self.b + o.b)
+
+    def __sub__(self, o):
+        return _Affine(self.B - o.B, self.b - o.b)
+
+    def __mul__(self, c):
+        return _Affine(c * self.B, c * self.b)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, c):
+        return _Affine(self.B / c, self.b / c)
+
+    def __neg__(self):
+        return _Affine(-self.B, -self.b)
+
+
+def _apply(B, v) -> np.ndarray:
+    """[[E, F], [G, -Eᵀ]] v for blocks ``B`` (3, s, n, n) and columns ``v`` (s, 2n, m)."""
+    E, F, G = B
+    n = E.shape[-1]
+    v1, v2 = v[:, :n], v[:, n:]
+    return np.concatenate([E @ v1 + F @ v2, G @ v1 - np.swapaxes(E, 1, 2) @ v2], axis=1)
+
+
+def _affine_commutator(x: _Affine, y: _Affine) -> _Affine:
+    return _Affine(commutator(x.B, y.B), _apply(x.B, y.b) - _apply(y.B, x.b))
+
+
+class _Forced:
+    """The augmented generator of a :class:`HamiltonianInterpolant` and a forcing (:func:`forced`)."""
+
+    def __init__(self, generator: HamiltonianInterpolant, forcing):
+        self.generator, self.forcing = generator, forcing
+
+    def _columns(self, theta) -> np.ndarray:
+        b = np.asarray(self.forcing(theta), dtype=float)
+        return b[:, :, None] if b.ndim == 2 else b
+
+    def __call__(self, theta) -> np.ndarray:
+        theta = np.asarray(theta, dtype=float)
+        return self._assemble(self.generator.blocks(theta), self._columns(theta))
+
+    @staticmethod
+    def _assemble(B, b) -> np.ndarray:
+        k, n2, m = b.shape
+        out = np.zeros((k, n2 + m, n2 + m))
+        out[:, :n2, :n2] = assemble(B)
+        out[:, :n2, n2:] = b
+        return out
+
+    def magnus_step(self, theta, h: float, order: int) -> np.ndarray:
+        """Ω (s, 2n + m, 2n + m) of the augmented steps whose Gauss nodes are ``theta`` (s, nodes)."""
+        s, c = theta.shape
+        t = theta.T.ravel()
+        B = self.generator.blocks(t).reshape(3, c, s, self.generator.n, self.generator.n)
+        b = self._columns(t)
+        x = magnus_generators(_Affine(B, b.reshape((c, s) + b.shape[1:])), h, order, commutator=_affine_commutator)
+        return self._assemble(x.B, x.b)
+
+
+def forced(generator, forcing):
+    """The augmented generator [[A, b], [0, 0]] with structured Magnus steps (module docstring) where
+    ``generator`` is a :class:`HamiltonianInterpolant`; None otherwise (the generic steps apply)."""
+    return _Forced(generator, forcing) if isinstance(generator, HamiltonianInterpolant) else None

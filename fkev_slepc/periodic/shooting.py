@@ -11,7 +11,8 @@ resonance: no periodic response, or not a unique one), which is refused.
 **The periodic response where harmonic balance cannot converge** (:func:`periodic_shot`, docs/response.md
 §3): the same x₀ at the step count N that brings its own step-doubling estimate below ``tol``. The
 monodromy runs on the augmented state (x, 1), whose Φ̃ = [[Φ, x_p], [0, 1]] carries the particular
-state, and its levels N/2, N are compared on x₀ = (I − Φ)⁻¹x_p itself (``measure`` of
+state (on a Hamiltonian generator by the structured augmented steps of
+:func:`fkev_slepc.periodic.hamiltonian.forced`), and its levels N/2, N are compared on x₀ = (I − Φ)⁻¹x_p itself (``measure`` of
 :func:`fkev_slepc.periodic.magnus.monodromy`): ``error`` is the change of x₀ between the two, the
 larger over the state's two halves (displacements, and velocities or momenta), each relative to its
 own largest component, divided by 2⁶ − 1 where the level before shows the integrator's rate (the
@@ -32,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as la
 
-from fkev_slepc.periodic import magnus
+from fkev_slepc.periodic import hamiltonian, magnus
 from fkev_slepc.periodic.settings import DEFAULTS
 
 # (I − Φ) is singular to working precision when its smallest singular value is below this
@@ -212,6 +213,7 @@ def periodic_shot(generator, forcing, omega: float, *, tol: float, order: int = 
     def augmented(tau):
         return magnus._augmented(generator, forcing, tau)[0]
 
+    augmented = hamiltonian.forced(generator, forcing) or augmented  # structured steps (Hamiltonian A)
     mono = magnus.monodromy(augmented, 2.0 * np.pi, order=order, mu_tol=np.inf, second_tol=tol, min_steps=min_steps,
                             max_steps=max_steps, measure=(_state_spectrum, _state_change))
     n = mono.phi.shape[0] - 1
