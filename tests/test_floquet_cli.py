@@ -361,5 +361,7 @@ def test_one_speed_on_two_ranks_splits_its_monodromy(tmp_path):
     assert "1 of 1 speed(s) to solve, each monodromy split over 2 ranks" in par.stderr
     a, b = read_floquet(tmp_path / "s.h5"), read_floquet(tmp_path / "p.h5")
     assert list(a.status) == list(b.status) and len(a.bands) == len(b.bands) == 1  # (w2-w1)/5 at 650 rad/s
+    # the scene's title names its own 5 elements; the report and figure say the mesh analysed
+    assert a.title.endswith("5 elements [re-meshed: 3 el (1+1+1)]") and a.title in serial.stdout
     mu_a, mu_b = (np.sort_complex(m[np.isfinite(m)]) for m in (a.multipliers[0], b.multipliers[0]))  # |μ| ties
     np.testing.assert_allclose(mu_b, mu_a, rtol=0, atol=1e-12 * np.nanmax(np.abs(mu_a)))

@@ -455,3 +455,15 @@ def test_a_dropped_link_defaults_header_gives_one_line_per_key_not_per_link():
     assert "links[0, 1, 2].area_m2: missing required key (set it here or in [link_defaults])" in got
     assert sum("belongs in [link_defaults]" in p for p in got) == 4
     # one link's problem keeps its own path: tests/data/bad_missing_field.toml (BAD above)
+
+
+def test_a_re_meshed_scene_names_its_mesh_in_its_title():
+    """--elements re-meshes the links; the title, which heads every report, figure and archive,
+    then names the mesh analysed (the Bahgat-Willmert file's own title names its 5 elements), with
+    one tag however often re-meshed, and none where the mesh is the file's."""
+    scene = load_scene(RUNS / "bahgat-willmert-1976.toml")
+    four = with_elements(scene, 4)
+    assert four.title == f"{scene.title} [re-meshed: 12 el (4+4+4)]"
+    assert with_elements(four, (2, 3, 4)).title == f"{scene.title} [re-meshed: 9 el (2+3+4)]"
+    same = tuple(lk.elements for lk in scene.links)
+    assert with_elements(scene, same).title == scene.title

@@ -260,7 +260,8 @@ ROOT_ATTRS = (
     Attr("format_version", "", f"{FORMAT_VERSION}"),
     Attr("created", "", "ISO 8601, UTC"),
     Attr("complete", "", "1 once every point was attempted and the file renamed into place, else 0"),
-    Attr("title", "", "the scene's title (figure and report headings)"),
+    Attr("title", "", "the scene's title (figure and report headings), ending in the mesh tag "
+         "\"[re-meshed: 12 el (4+4+4)]\" for a run with --elements"),
     Attr("scene_toml", "", "the scene file, verbatim"),
     Attr("scene_source", "", "its path"),
     Attr("command_line", "", "of the run that created the file"),

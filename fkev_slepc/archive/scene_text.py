@@ -1,10 +1,13 @@
 """What an archive's stored scene text (root attribute ``scene_toml``) declares: its title and
-the elements per link it asked for (read with tomllib, so archives of any fkev version work)."""
+the elements per link it asked for (read with tomllib, so archives of any fkev version work), and
+the heading that names a re-meshed run's mesh (:func:`heading`)."""
 
 from __future__ import annotations
 
 import tomllib
 from pathlib import Path
+
+from fkev_slepc.scene.model import REMESHED, mesh_tag
 
 
 def scene_title(scene_toml: str, fallback: str) -> str:
@@ -44,3 +47,16 @@ def _declared(link: dict, default):
         return own
     counts = [s.get("elements", own) if isinstance(s, dict) else None for s in segments]
     return sum(counts) if all(isinstance(n, int) for n in counts) else None
+
+
+
+def heading(title: str, elements, scene_toml: str) -> str:
+    """An archive's ``title`` followed by the :func:`~fkev_slepc.scene.model.mesh_tag` of the mesh
+    analysed where its elements per link (the ``elements`` attribute) differ from what its scene
+    text declares (a run with ``--elements``) and the title does not say so already (archives
+    written before re-meshed titles carried the tag)."""
+    el = tuple(int(n) for n in elements)
+    declared = declared_elements(scene_toml)
+    if el and declared is not None and tuple(declared) != el and not REMESHED.search(title):
+        return f"{title} {mesh_tag(el)}"
+    return title

@@ -16,7 +16,7 @@ from matplotlib.figure import Figure
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 from fkev_slepc.scene.cases import CASE_NAMES
 from fkev_slepc.archive.reader import ArchiveError, NodeDofMap, SweepResults
-from fkev_slepc.archive.scene_text import declared_elements
+from fkev_slepc.archive.scene_text import heading
 
 SIMPLIFIED = ("no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal")
 PREFERRED_ANGLE_DEG = 10.0  # the thesis's detailed-study position (Figs 3.10-3.13, 3.22-3.25)
@@ -139,10 +139,7 @@ def elements_tag(res: SweepResults) -> str:
 def scene_heading(res: SweepResults) -> str:
     """The scene's title, plus the mesh when the run re-meshed the scene (``--elements``),
     and a warning when the archive is still being written (or was killed: ``--resume``)."""
-    head = res.title
-    el, declared = res.elements_per_link(), declared_elements(res.scene_toml)
-    if el and declared is not None and tuple(declared) != tuple(el):
-        head += f" [re-meshed: {elements_tag(res)}]"
+    head = heading(res.title, res.elements_per_link(), res.scene_toml)
     if int(res.attrs.get("complete", 1)) == 0:
         head += " [incomplete archive]"
     return head

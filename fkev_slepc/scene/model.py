@@ -230,7 +230,8 @@ class Scene:
 
 
 def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
-    """Return ``scene`` with its links re-meshed (``--elements N`` or ``n1,n2,...``)."""
+    """Return ``scene`` with its links re-meshed (``--elements N`` or ``n1,n2,...``), its title
+    followed by the :func:`mesh_tag` of the new mesh."""
     if isinstance(elements, int):
         elements = (elements,) * len(scene.links)
     if len(elements) != len(scene.links):
@@ -242,7 +243,21 @@ def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
     if bad:
         raise SceneError(scene.source, bad)
     links = tuple(_remesh(lk, int(n)) for lk, n in zip(scene.links, elements))
-    return replace(scene, links=links)
+    new = [lk.elements for lk in links]
+    if new == [lk.elements for lk in scene.links]:
+        return replace(scene, links=links)
+    base = REMESHED.sub("", scene.title)  # re-meshed again: one tag, the last mesh's
+    # the title heads every report, figure and archive: it names the mesh analysed, not the file's
+    return replace(scene, links=links, title=f"{base} {mesh_tag(new)}")
+
+
+REMESHED = re.compile(r" \[re-meshed: [^\]]*\]$")  # a title's mesh tag (:func:`mesh_tag`)
+
+
+def mesh_tag(elements) -> str:
+    """``[re-meshed: 12 el (4+4+4)]``: the mesh of a re-meshed scene, after its title."""
+    el = [int(n) for n in elements]
+    return f"[re-meshed: {sum(el)} el ({'+'.join(map(str, el))})]"
 
 
 def _remesh(link: Link, n: int) -> Link:

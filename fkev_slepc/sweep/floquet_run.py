@@ -35,6 +35,7 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.products_floquet import REDUCTION_ROWS
+from fkev_slepc.archive.scene_text import heading
 from fkev_slepc.archive.store import text as _text
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.periodic.bands import (
@@ -318,7 +319,9 @@ def read_floquet(path) -> FloquetResults:
         st = np.asarray(f[P.STATUS_VAR.path][:, :, 0], dtype=np.uint8)
         frozen = np.mean(np.isin(st, [Status.UNSTABLE.code, Status.DIVERGENT.code]), axis=0)
         tol, order = float(g.attrs["tol"]), int(g.attrs.get("resonance_order", RESONANCE_ORDER))
-        res = FloquetResults(path, _text(f.attrs.get("title", path.stem)), _text(g.attrs["analysed_case"]), f[P.SPEED][()],
+        title = heading(_text(f.attrs.get("title", path.stem)), np.atleast_1d(f.attrs.get("elements", ())),
+                        _text(f.attrs.get("scene_toml", "")))  # the mesh analysed, where re-meshed
+        res = FloquetResults(path, title, _text(g.attrs["analysed_case"]), f[P.SPEED][()],
                              f[P.MULTIPLIER.path][:, 0, :], f[P.MAX_ABS_MULTIPLIER.path][:, 0],
                              f[P.MULTIPLIER_ERROR.path][:, 0], np.asarray(f[P.F_STATUS.path][:, 0], np.uint8), bands,
                              tol, float(g.attrs["rtol"]), frozen, resonance_order=order,
