@@ -49,7 +49,6 @@ def _declared(link: dict, default):
     return sum(counts) if all(isinstance(n, int) for n in counts) else None
 
 
-
 def heading(title: str, elements, scene_toml: str) -> str:
     """An archive's ``title`` followed by the :func:`~fkev_slepc.scene.model.mesh_tag` of the mesh
     analysed where its elements per link (the ``elements`` attribute) differ from what its scene

@@ -210,10 +210,10 @@ def periodic_shot(generator, forcing, omega: float, *, tol: float, order: int = 
     ResonanceError
         (I − Φ) singular to working precision (a multiplier at 1): the response is not filled.
     """
-    def augmented(tau):
+    def generic(tau):
         return magnus._augmented(generator, forcing, tau)[0]
 
-    augmented = hamiltonian.forced(generator, forcing) or augmented  # structured steps (Hamiltonian A)
+    augmented = hamiltonian.forced(generator, forcing) or generic  # structured steps where A is Hamiltonian
     mono = magnus.monodromy(augmented, 2.0 * np.pi, order=order, mu_tol=np.inf, second_tol=tol, min_steps=min_steps,
                             max_steps=max_steps, measure=(_state_spectrum, _state_change))
     n = mono.phi.shape[0] - 1

@@ -17,6 +17,7 @@ from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 from fkev_slepc.scene.cases import CASE_NAMES
 from fkev_slepc.archive.reader import ArchiveError, NodeDofMap, SweepResults
 from fkev_slepc.archive.scene_text import heading
+from fkev_slepc.scene.model import mesh_label
 
 SIMPLIFIED = ("no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal")
 PREFERRED_ANGLE_DEG = 10.0  # the thesis's detailed-study position (Figs 3.10-3.13, 3.22-3.25)
@@ -133,7 +134,7 @@ def case_label(name: str) -> str:
 def elements_tag(res: SweepResults) -> str:
     """``9 el (3+3+3)``: the mesh of an archive."""
     el = res.elements_per_link()
-    return f"{sum(el)} el ({'+'.join(map(str, el))})" if el else res.path.stem
+    return mesh_label(el) if el else res.path.stem
 
 
 def scene_heading(res: SweepResults) -> str:

@@ -254,10 +254,15 @@ def with_elements(scene: Scene, elements: tuple[int, ...] | int) -> Scene:
 REMESHED = re.compile(r" \[re-meshed: [^\]]*\]$")  # a title's mesh tag (:func:`mesh_tag`)
 
 
+def mesh_label(elements) -> str:
+    """``12 el (4+4+4)``: a mesh by its elements per link."""
+    el = [int(n) for n in elements]
+    return f"{sum(el)} el ({'+'.join(map(str, el))})"
+
+
 def mesh_tag(elements) -> str:
     """``[re-meshed: 12 el (4+4+4)]``: the mesh of a re-meshed scene, after its title."""
-    el = [int(n) for n in elements]
-    return f"[re-meshed: {sum(el)} el ({'+'.join(map(str, el))})]"
+    return f"[re-meshed: {mesh_label(elements)}]"
 
 
 def _remesh(link: Link, n: int) -> Link:
