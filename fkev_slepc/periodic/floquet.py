@@ -90,6 +90,8 @@ def matched_tolerance(edge_rtol: float):
         gap = np.abs(mu[:, None] - mu[None, :])[np.triu_indices(mu.size, 1)]
         return max(PHASE_TOL_PER_RTOL * edge_rtol, GAP_SHARE * float(np.min(gap, initial=np.inf)))
     return tol
+
+
 __all__ = ["LinkageFloquet", "TrigInterpolant", "floquet_multipliers", "full_min_steps", "to_dense"]
 
 

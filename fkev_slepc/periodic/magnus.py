@@ -121,10 +121,10 @@ def step_exponentials(generator, a: float, b: float, steps: int, *, forcing=None
     probe, m = _augmented(generator, forcing, np.array([a]))
     size = probe.shape[1]
     block = max(1, min(steps, _BLOCK_DOUBLES // (c.size * size * size)))
+    own = getattr(generator, "magnus_step", None) if forcing is None else None  # a structured Ω (hamiltonian.py)
     for s0 in range(0, steps, block):
         s = np.arange(s0, min(steps, s0 + block))
         theta = (a + h * (s[:, None] + c[None, :])).ravel()
-        own = getattr(generator, "magnus_step", None) if forcing is None else None  # a structured Ω (hamiltonian.py)
         yield s0, la.expm(own(theta.reshape(s.size, c.size), h, order) if own else magnus_generators(
             _augmented(generator, forcing, theta)[0].reshape(s.size, c.size, size, size), h, order))
 
