@@ -16,9 +16,10 @@ from fkev_slepc.scene import Problem, SceneError
 API_NAMES = {"speeds": "speeds_rad_s", "speeds_rpm": "speeds_rpm", "angles": "angles_deg", "cases": "case",
              "modes": "modes", "element": "element", "rel_error": "rel_error", "tol": "tol", "rtol": "rtol",
              "monodromy_tol": "monodromy_tol", "output": "output", "resonance_order": "resonance_order", "reduce": "reduce",
-             "plane": "plane"}
+             "plane": "plane", "zeta_floor": "zeta_floor"}
 SETTING_NAMES = {"verdict_tol": "tol", "edge_rtol": "rtol", "monodromy_tol": "monodromy_tol",
-                 "resonance_order": "resonance_order", "reduce": "reduce"}  # settings field -> key of ``names``
+                 "resonance_order": "resonance_order", "reduce": "reduce",
+                 "zeta_floor": "zeta_floor"}  # settings field -> key of ``names``
 MAX_MAGNUS_STEPS = DEFAULTS.max_steps  # full-model Magnus steps of one monodromy (docs/engine.md, "Work limits")
 
 
@@ -62,7 +63,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
                   monodromy_tol: float | None = None, resonance_order: int | None = None, probe: bool | None = None,
                   solver: str | None = None, comm=None, critical: bool = True, names: dict = API_NAMES,
                   command_line: str = "", notify=None, progress: bool = False, reduce=None, plane: str = "in",
-                  settings=None):
+                  settings=None, zeta_floor: float | None = None):
     """The body of :meth:`fkev_slepc.api.study.Study.floquet` (see there); ``names`` says how
     messages name the arguments (the CLI passes its flags); ``speeds_rpm`` the speeds in rev/min
     instead of ``speeds_rad_s``. ``reduce``: the reduction of each
@@ -73,7 +74,8 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     ``settings``: every periodic tolerance (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`, default
     its defaults, ``reduce`` "default"); ``tol``, ``rtol``, ``monodromy_tol``, ``resonance_order``, ``probe``
     and ``reduce``, when given, override its verdict_tol, edge_rtol, monodromy_tol, resonance_order, probe
-    and reduce. The result is archived whole (``/floquet/settings``) and compared whole on ``resume``."""
+    and reduce; ``zeta_floor`` its zeta_floor (an undamped scene's bands listed as surviving real damping
+    where their ζ* exceeds it; docs/stability.md). The result is archived whole (``/floquet/settings``) and compared whole on ``resume``."""
     from fkev_slepc.api.loads import full_turn_problem
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.periodic.settings import checked_settings
@@ -96,7 +98,8 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     if turn is not None:
         bad.append(turn)
     st = checked_settings(sc.source, settings, dict(verdict_tol=tol, edge_rtol=rtol, monodromy_tol=monodromy_tol,
-                                             resonance_order=resonance_order, probe=probe, reduce=reduce),
+                                             resonance_order=resonance_order, probe=probe, reduce=reduce,
+                                             zeta_floor=zeta_floor),
                           {field: names[key] for field, key in SETTING_NAMES.items() if key in names}, bad)
     reduce = resolve_reduce(st.reduce)
     if plane != "in":

@@ -20,7 +20,8 @@ from .common import add_elements_argument, add_speeds_arguments, load_checked, p
 NAMES = {"speeds": "--speeds", "speeds_rpm": "--speeds-rpm", "angles": "--angles", "cases": "--case",
          "modes": "--modes", "element": "--element", "rel_error": "--rel-error", "tol": "--tol", "rtol": "--rtol",
          "monodromy_tol": "--monodromy-tol", "output": "-o", "resonance_order": "--resonance-order",
-         "reduce": "--reduce", "plane": "--plane"}
+         "reduce": "--reduce", "plane": "--plane",
+         "zeta_floor": "--zeta-floor"}
 
 
 GAPS_LISTED = 12  # resonance gaps listed in the text report
@@ -45,6 +46,10 @@ def add_parser(sub) -> None:
     p.add_argument("--rtol", type=float, default=None, help="relative accuracy of the band edges (default 1e-6)")
     p.add_argument("--monodromy-tol", type=float, default=None, help="error of the multipliers' moduli asked of the monodromy, relative to max(1, max|mu|) "
                    f"(default {DEFAULTS.monodromy_tol:g})")
+    p.add_argument("--zeta-floor", type=float, default=None, metavar="ZETA",
+                   help="undamped scene: list a band as surviving real damping only where the modal damping "
+                   f"ratio that closes it, ζ*, exceeds ZETA (default {DEFAULTS.zeta_floor:g}; 0: every band); a damped "
+                   "scene's verdicts answer for its own damping (docs/stability.md)")
     p.add_argument("--resonance-order", type=int, default=None, metavar="N",
                    help="list the resonance candidates 2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of order n <= N that lie between two stable "
                    "grid speeds, where a band narrower than the spacing would not be seen (default 3; 0: none)")
@@ -85,7 +90,8 @@ def run(args) -> int:
         preflight(study.scene, args, periodic=True)  # figure path, mesh size, damping; speeds: study_floquet
         settings = checked_settings(study.scene.source, None, dict(  # the defaults, with the flags given
             verdict_tol=args.tol, edge_rtol=args.rtol, monodromy_tol=args.monodromy_tol,
-            resonance_order=args.resonance_order, probe=args.probe_resonances or None, reduce=args.reduce),
+            resonance_order=args.resonance_order, probe=args.probe_resonances or None, reduce=args.reduce,
+            zeta_floor=args.zeta_floor),
             {field: NAMES[key] for field, key in SETTING_NAMES.items()})
         res = study_floquet(study, args.speeds, args.case, args.output, speeds_rpm=args.speeds_rpm,
                             angles_deg=args.angles, resume=args.resume, force=args.force, settings=settings,
@@ -139,7 +145,10 @@ def lines(o: dict) -> list[str]:
     for b in o["bands"]:
         res = f"{b['resonance']} = {b['predicted_rad_s']:.6g} rad/s" if b["resonance"] else "no resonance in range"
         out.append(f"    {_edges(b, o['edge_rtol'])}{_unstable_at(b)}: {res}; max|μ| {b['peak_max_abs_multiplier']:.6g} "
-                   f"at {b['peak_rad_s']:g} rad/s{_damping_needed(b)}")
+                   f"at {b['peak_rad_s']:g} rad/s{_damping_needed(b)}"
+                   + (f" [ζ* below the floor {o['damping']['zeta_floor']:g}: closed by real damping]"
+                      if b.get("survives_damping") is False else ""))
+    out += _damping_lines(o)
     out += _reduction_lines(o) + _resolution_lines(o) + _gap_lines(o)
     crit = o.get("frozen_time_critical")
     if crit:
@@ -150,6 +159,23 @@ def lines(o: dict) -> list[str]:
                    f"{show(crit['divergence_speed_rad_s'], crit['divergence_angle_deg'])}, flutter "
                    f"{show(crit['flutter_speed_rad_s'], crit['flutter_angle_deg'])}")
     return out
+
+
+def _damping_lines(o: dict) -> list[str]:
+    """The damping the verdicts answer for: the scene's own, or an undamped scene's reporting floor
+    with how many bands need more damping than it to close."""
+    d = o.get("damping")
+    if not d:
+        return []
+    if d["zeta_floor"] is None:
+        z = (f" (modal ζ {_span([100 * d['modal_zeta_min'], 100 * d['modal_zeta_max']], '.2g')} % of the frozen modes)"
+             if d["modal_zeta_min"] is not None else "")
+        return [f"  damping: the verdicts include the scene's Rayleigh damping α = {d['mass_proportional_1_s']:g} 1/s, "
+                f"β = {d['stiffness_proportional_s']:g} s{z}"]
+    n, k = len(o["bands"]), o["bands_surviving_damping"]
+    return [f"  damping: none in the scene; the bands held against the floor ζ = {d['zeta_floor']:g} (--zeta-floor): "
+            f"{k} of {n} unstable {_plural(n, 'run')} survive it (ζ* above it, or not estimated), {n - k} close under any "
+            "damping at or above it"]
 
 
 def _damping_needed(b: dict) -> str:

@@ -136,6 +136,18 @@ def suppressing_damping(rate: float, modes: Sequence[int], mean_freq: Sequence[f
     return float(2.0 * rate / (w[0] + w[1]))
 
 
+def survives_damping(band: Band, scene_damped: bool, zeta_floor: float) -> bool | None:
+    """The one rule of which bands a real, damped machine keeps (docs/stability.md, "The damping a
+    verdict answers for"): a damped scene's monodromies include its damping, so every band found
+    survives it (True); an undamped scene's band survives the reporting floor ``zeta_floor`` where the
+    damping that closes it, ζ* (:func:`suppressing_damping`), exceeds the floor; None where ζ* is not
+    known (an unlabelled band: counted as surviving, never dropped)."""
+    if scene_damped:
+        return True
+    zeta = band.suppressing_damping
+    return None if not np.isfinite(zeta) else bool(zeta > zeta_floor)
+
+
 def brackets(points: Sequence[SpeedPoint], tol: float = DEFAULT_TOL) -> list[tuple[int, int]]:
     """Index pairs (i, i+1) of neighbouring grid speeds (sorted) whose margins differ in sign;
     a speed that did not converge breaks the grid (no bracket across it)."""

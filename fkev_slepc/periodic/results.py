@@ -8,7 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fkev_slepc.periodic.bands import Band, Gap
+from fkev_slepc.periodic.bands import Band, Gap, survives_damping
+from fkev_slepc.periodic.settings import DEFAULTS
+from fkev_slepc.scene.model import Damping
 from fkev_slepc.status import Status
 
 INTEGER_ROWS = ("basis_size", "truncation_converged")  # reduction rows given as integers in the JSON
@@ -35,6 +37,23 @@ class FloquetResults:
     gaps: tuple[Gap, ...] = ()  # resonance candidates between stable grid speeds (probed or not)
     samples: dict = field(default_factory=dict)  # purpose -> monodromies archived beside the grid
     reduction: dict = field(default_factory=dict)  # /floquet/basis_size, truncation_* name -> per-speed values
+    damping: Damping = field(default_factory=Damping)  # the scene's Rayleigh damping, which the monodromies include
+    zeta_floor: float = DEFAULTS.zeta_floor  # an undamped scene's reporting floor (PeriodicSettings.zeta_floor)
+    modal_zeta: tuple = ()  # (min, max) of the scene damping's ζ(ω̄ₖ) over the frozen modes and grid speeds
+
+    def survives(self, band: Band) -> bool | None:
+        """Whether ``band`` stays open under the damping this run answers for (:func:`survives_damping`)."""
+        return survives_damping(band, self.damping.active, self.zeta_floor)
+
+    def damping_dict(self) -> dict:
+        """What damping the verdicts answer for: the scene's own (with its modal ζ range) or, undamped,
+        the reporting floor that the bands' ζ* are held against."""
+        damped = self.damping.active
+        z = [float(v) for v in self.modal_zeta] if damped and len(self.modal_zeta) == 2 else [None, None]
+        return {"answers_for": "scene damping" if damped else "undamped scene, reporting floor",
+                "mass_proportional_1_s": self.damping.mass_proportional,
+                "stiffness_proportional_s": self.damping.stiffness_proportional,
+                "zeta_floor": None if damped else self.zeta_floor, "modal_zeta_min": z[0], "modal_zeta_max": z[1]}
 
     def grid_inside(self, band: Band) -> list[float]:
         """The grid speeds in ``band``, rad/s: all unstable (a band is a run of consecutive unstable
@@ -57,8 +76,10 @@ class FloquetResults:
             "max_abs_multiplier": [num(v) for v in self.max_abs],
             "multiplier_error": [num(v) for v in self.error],
             "status": [Status.from_code(c).value for c in self.status],
-            "bands": [{**b.as_dict(), "grid_speeds_inside": self.inside(b), "unstable_grid_speeds_rad_s": self.grid_inside(b)}
-                      for b in self.bands],
+            "bands": [{**b.as_dict(), "grid_speeds_inside": self.inside(b), "unstable_grid_speeds_rad_s": self.grid_inside(b),
+                       "survives_damping": self.survives(b)} for b in self.bands],
+            "damping": self.damping_dict(),
+            "bands_surviving_damping": sum(self.survives(b) is not False for b in self.bands),
             "tol": self.tol, "edge_rtol": self.rtol,
             "frozen_time_unstable_fraction": [num(v) for v in self.frozen_unstable_fraction],
             "resonance_order": self.resonance_order, "resonance_gaps": [g.as_dict() for g in self.gaps],

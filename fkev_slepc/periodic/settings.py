@@ -23,10 +23,11 @@ import numpy as np
 
 SAFETY = 10.0  # the verdict rule: the multiplier error estimate counts this many times against an apparent growth
 # fields a --resume may change: every archived monodromy stays valid and the band edges are refined further
-REFINEMENTS = ("edge_rtol",)
+REFINEMENTS = ("edge_rtol", "zeta_floor")
 # fields added after the first archived settings, as module constants until then with today's defaults as
 # values: an archive without one was computed with its default, which from_attrs fills in
-LATER = ("auto_modes", "link_modes", "auto_min_steps", "links_step_ratio", "full_max_dofs", "attract_tol")
+LATER = ("auto_modes", "link_modes", "auto_min_steps", "links_step_ratio", "full_max_dofs", "attract_tol",
+         "zeta_floor")
 
 
 def _f(default, doc: str):
@@ -68,6 +69,8 @@ class PeriodicSettings:
     # the verdict and the bands (fkev_slepc/periodic/bands.py, fkev_slepc/sweep/floquet_run.py)
     verdict_tol: float = _f(1e-6, "unstable where max|μ| - 1 > verdict_tol + 10 (SAFETY) x multiplier error")
     edge_rtol: float = _f(1e-6, "relative accuracy of the band edges")
+    zeta_floor: float = _f(1e-4, "undamped scene: the modal damping ratio a band must need (ζ*) to be listed as "
+                                 "surviving real damping (0: every band survives); a damped scene answers for its own")
     resonance_order: int = _f(3, "resonance candidates of order n <= this between stable grid speeds (0: none)")
     probe: bool = _f(False, "one more monodromy at each of those candidates")
     # the steady periodic response (fkev_slepc/periodic/response.py, steady.py)
@@ -151,6 +154,13 @@ def _fraction(name, v):
     return float(v)
 
 
+def _floor(name, v):
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not (
+            np.isfinite(v) and 0.0 <= v < 1.0):
+        raise SettingsError(name, v, "must be in [0, 1)")
+    return float(v)
+
+
 def _positive(name, v):
     if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not (
             np.isfinite(v) and v > 0.0):
@@ -226,6 +236,7 @@ _CHECKS = {
     "edge_rtol": _fraction, "resonance_order": _int(0), "probe": _flag, "harmonics": _harmonics,
     "harmonic_tol": _fraction, "shoot": _flag, "shooting_tol": _fraction, "response_angles_deg": _angles,
     "full_max_dofs": _int(0), "attract_tol": _fraction,
+    "zeta_floor": _floor,
 }
 
 DEFAULTS = PeriodicSettings()

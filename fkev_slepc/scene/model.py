@@ -12,6 +12,8 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 END_NAMES = ("root", "tip")
 # Element types (model/element_types.py): the thesis frame element (linear axial) and the
 # frame element with cubic axial interpolation (docs/accuracy.md §1).
@@ -201,6 +203,12 @@ class Damping:
     @property
     def active(self) -> bool:
         return self.mass_proportional > 0.0 or self.stiffness_proportional > 0.0
+
+    def ratio(self, omega):
+        """The modal damping ratio ζ(ω) = α/(2ω) + βω/2 of an undamped mode of ω rad/s (ω > 0; arrays too)."""
+        w = np.asarray(omega, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self.mass_proportional / (2.0 * w) + self.stiffness_proportional * w / 2.0
 
 
 @dataclass(frozen=True)

@@ -108,7 +108,7 @@ def damping_warnings(scene: Scene, rows: list[LinkSummary]) -> list[str]:
     out = []
     for s in rows:
         w = 2.0 * math.pi * s.pinned_frequency_hz
-        zeta = alpha / (2.0 * w) + beta * w / 2.0 if w > 0 and math.isfinite(w) else math.inf
+        zeta = float(scene.damping.ratio(w)) if w > 0 and math.isfinite(w) else math.inf
         if not zeta <= MAX_ZETA:
             out.append(f"damping: mass_proportional_1_s = {alpha:g} 1/s, stiffness_proportional_s = {beta:g} s give "
                        f"ζ = {zeta:.3g} at the first bending frequency {s.pinned_frequency_hz:.4g} Hz of link "

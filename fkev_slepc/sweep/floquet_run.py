@@ -44,6 +44,7 @@ from fkev_slepc.periodic.bands import (
 from fkev_slepc.periodic.edges import refine_edges
 from fkev_slepc.periodic.results import FloquetResults
 from fkev_slepc.periodic.settings import DEFAULTS, SAFETY, PeriodicSettings, resolve_reduce
+from fkev_slepc.scene.model import Damping
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples
 from fkev_slepc.sweep.parallel import local
@@ -326,11 +327,25 @@ def read_floquet(path) -> FloquetResults:
                              f[P.MULTIPLIER_ERROR.path][:, 0], np.asarray(f[P.F_STATUS.path][:, 0], np.uint8), bands,
                              tol, float(g.attrs["rtol"]), frozen, resonance_order=order,
                              reduction={v.path.rsplit("/", 1)[1]: np.asarray(f[v.path][:, 0], float)
-                                        for v in REDUCTION_ROWS if v.path in f})
+                                        for v in REDUCTION_ROWS if v.path in f},
+                             damping=Damping(float(f.attrs.get("damping_alpha", 0.0)),
+                                             float(f.attrs.get("damping_beta", 0.0))),
+                             zeta_floor=float(g["settings"].attrs.get("zeta_floor", DEFAULTS.zeta_floor))
+                             if "settings" in g else DEFAULTS.zeta_floor)
     samples = read_samples(path)
-    gaps = unsampled(_read_grid(path, res.speed_rad_s), _mean_frequencies(path), order, tol)
+    mean = _mean_frequencies(path)
+    gaps = unsampled(_read_grid(path, res.speed_rad_s), mean, order, tol)
     return replace(res, gaps=tuple(_probed(gap, samples.get(gap.resonance.speed), tol) for gap in gaps),
-                   samples={k: sum(p == k for _s, p in samples.values()) for k in PURPOSES})
+                   samples={k: sum(p == k for _s, p in samples.values()) for k in PURPOSES},
+                   modal_zeta=_modal_zeta(res.damping, [mean(w) for w in res.speed_rad_s]))
+
+
+def _modal_zeta(damping: Damping, mean_frequencies: list) -> tuple:
+    """(min, max) of the scene damping's modal ζ(ω̄ₖ) over the cycle-mean frozen frequencies of
+    every grid speed; () undamped or without frequencies."""
+    w = np.concatenate([np.asarray(m, dtype=float) for m in mean_frequencies]) if mean_frequencies else np.empty(0)
+    z = damping.ratio(w[np.isfinite(w) & (w > 0)]) if damping.active else np.empty(0)
+    return (float(z.min()), float(z.max())) if z.size else ()
 
 
 def _probed(gap: Gap, sample, tol: float) -> Gap:
