@@ -21,7 +21,7 @@ and the forced resonances of ``fkev response --speeds``.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as la
+from fkev_slepc.solve.dense import all_eigenvalues
 
 
 def angle_weights(angles, period: float = 360.0) -> tuple[np.ndarray, np.ndarray]:
@@ -61,14 +61,8 @@ def frozen_frequencies(model, theta, omega: float, case: str, n_modes: int) -> n
     theta = np.atleast_1d(np.asarray(theta, dtype=float))
     stack = model.piece_stack(theta)
     qeps = [model.qep(model.pieces_at(stack, i), omega, case) for i in range(theta.size)]
-    n = model.n_free
-    Z, I = np.zeros((n, n)), np.eye(n)
-
-    def eig(q):  # [[0, I], [-K, -C]] x = λ [[I, 0], [0, M]] x (LAPACK ggev: the same digits on any thread count)
-        C = q.damping.toarray() if q.damping is not None else Z
-        return la.eigvals(np.block([[Z, I], [-q.stiffness.toarray(), -C]]), np.block([[I, Z], [Z, q.mass.toarray()]]))
-
-    lam = np.stack([eig(q) for q in qeps])
+    # solve/'s scaled, balanced dense path (solve/dense.py: the unscaled companion form loses the low modes' digits)
+    lam = np.stack([all_eigenvalues(q) for q in qeps])
     lam = np.where(np.isfinite(lam), lam, 0.0)
     im = np.where(lam.imag > 1e-9 * np.abs(lam).max(axis=1, keepdims=True), lam.imag, np.inf)
     w = np.sort(im, axis=1)[:, :n_modes]
