@@ -265,3 +265,31 @@ def test_cited_files_exist():
 def test_links_to_headings_resolve():
     broken = _broken_anchors(ROOT)
     assert not broken, "links to headings that do not exist:\n" + "\n".join(broken)
+
+
+# the speed-weighted pieces of the periodic coefficients (model/periodic.py, PeriodicPieces): summed into
+# the coefficients at a speed in one place, PeriodicPieces.at_speed, which PeriodicSystem calls
+SPEED_PIECES = {"gyro", "speed_stiffness", "potential", "coupling", "damping_stiffness"}
+OMEGA_SUM_HOME = PKG / "model" / "periodic.py"
+
+
+def _piece_reads(tree: ast.AST) -> list[tuple[int, str]]:
+    return [(n.lineno, n.attr) for n in ast.walk(tree) if isinstance(n, ast.Attribute) and n.attr in SPEED_PIECES]
+
+
+def test_periodic_coefficients_are_summed_in_one_place():
+    """No module but model/periodic.py reads a speed-weighted piece of the periodic coefficients:
+    every Ω-sum goes through PeriodicPieces.at_speed (issue 34: three copies before)."""
+    found = {str(p.relative_to(ROOT)): hits for p in sorted(PKG.rglob("*.py")) if p != OMEGA_SUM_HOME
+             for hits in [_piece_reads(ast.parse(p.read_text()))] if hits}
+    assert found == {}
+    home = ast.parse(OMEGA_SUM_HOME.read_text())
+    methods = {f.name for c in ast.walk(home) if isinstance(c, ast.ClassDef) and c.name == "PeriodicPieces"
+               for f in c.body if isinstance(f, ast.FunctionDef)
+               and any(_piece_reads(b) for b in ast.walk(f) if isinstance(b, ast.BinOp))}
+    assert methods == {"at_speed"}  # within its home, one method does arithmetic on them
+
+
+def test_the_one_sum_check_sees_a_second_sum():
+    bad = ast.parse("def coefficients(p, w):\n    return p.stiffness + w * w * p.speed_stiffness\n")
+    assert _piece_reads(bad) == [(2, "speed_stiffness")]

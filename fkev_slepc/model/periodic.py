@@ -37,6 +37,8 @@ node's rotation pair (θ_X, θ_Y), which the out-of-plane DOF order puts where t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
+
 import numpy as np
 
 from fkev_slepc.model import elements as el
@@ -64,15 +66,40 @@ class PeriodicPieces:
     def lagrangian(self) -> bool:
         return self.coupling is not None
 
-    def coefficients(self, omega: float):
-        """(M, C, K) CSR data stacks at crank speed ``omega`` (rad/s)."""
+    def at_speed(self, omega: float, damping: bool = True) -> SpeedCoefficients:
+        """The one Ω-sum of the periodic coefficients: CSR data stacks at crank speed ``omega``
+        (rad/s), with the structural damping where ``damping`` and the model has it
+        (``tests/test_layout.py`` fails on a sum of these pieces anywhere else)."""
         w = float(omega)
+        damped = damping and self.damping is not None
         C = w * self.gyro
         K = self.stiffness + w * w * self.speed_stiffness
-        if self.damping is not None:
+        N = V = Cd = Kd = None
+        if damped:
             C = C + self.damping
             K = K + w * self.damping_stiffness
-        return self.mass, C, K
+            Cd, Kd = self.damping, w * self.damping_stiffness
+        if self.lagrangian:
+            N, V = w * self.coupling, self.stiffness + w * w * self.potential
+        return SpeedCoefficients(self.mass, C, K, N, V, Cd, Kd)
+
+    def coefficients(self, omega: float):
+        """(M, C, K) CSR data stacks at crank speed ``omega`` (rad/s), damping included."""
+        return self.at_speed(omega)[:3]
+
+
+class SpeedCoefficients(NamedTuple):
+    """The periodic coefficients at one crank speed, CSR data stacks (n_θ, nnz): M q̈ + C q̇ + K q,
+    and of the Lagrangian form the coupling N, the potential V (None in other cases) and the structural
+    damping's C_d, K_d (None undamped)."""
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    N: np.ndarray | None
+    V: np.ndarray | None
+    Cd: np.ndarray | None
+    Kd: np.ndarray | None
 
 
 def frame_rate(n_dof: int) -> np.ndarray:

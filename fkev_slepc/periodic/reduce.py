@@ -87,14 +87,14 @@ def frozen_pool(model, omega, case, r, angles, start=0.0):
     """(n, r·angles): the lowest r undamped frozen modes at ``angles`` equispaced angles from
     ``start``, each unit-normalised and co-rotated (q̂ = Qᵀq), in angle-major order."""
     th = start + TWO_PI * np.arange(angles) / angles
-    p = periodic_pieces(model, th, case)
+    c = periodic_pieces(model, th, case).at_speed(omega, damping=False)
     kin = solve_kinematics(model.mechanism, th)
     pairs = corotated_pairs(model.mechanism)
     pat, cols = model.pattern, []
-    stiff = p.potential if p.lagrangian else p.speed_stiffness
+    stiff = c.K if c.V is None else c.V  # the undamped static stiffness (the Lagrangian form's potential)
     for i in range(angles):
-        K = pat.matrix(p.stiffness[i] + omega * omega * stiff[i])
-        _, x = spla.eigsh(0.5 * (K + K.T), k=min(r, model.n_free - 1), M=pat.matrix(p.mass[i]),
+        K = pat.matrix(stiff[i])
+        _, x = spla.eigsh(0.5 * (K + K.T), k=min(r, model.n_free - 1), M=pat.matrix(c.M[i]),
                           sigma=0.0, which="LM")
         x = x / np.linalg.norm(x, axis=0)
         cols.append(rotate_rows(x, pairs, kin.phi[i, pairs[2]], sign=-1.0))
@@ -123,36 +123,33 @@ class CorotatedBasis:
         return basis_derivatives(self.Vhat, self.pairs, phi, dphi, ddphi)
 
 
-def reduced_coefficients(model, p, thetas, omega, damping, basis):
-    """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring) on ``basis``: a
-    co-rotated V̂ (n, R), or any object whose ``at(φ, φ', φ'')`` gives (W, W', W'') at one crank
-    angle from the link angles and rates (:class:`CorotatedBasis`, or the link-frame component
-    modes of fkev_slepc/periodic/components.py)."""
+def reduced_coefficients(model, c, thetas, omega, basis):
+    """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring) of the full model's
+    coefficients ``c`` at crank speed ``omega`` (:meth:`PeriodicPieces.at_speed
+    <fkev_slepc.model.periodic.PeriodicPieces.at_speed>`) on ``basis``: a co-rotated V̂ (n, R), or any
+    object whose ``at(φ, φ', φ'')`` gives (W, W', W'') at one crank angle from the link angles and rates
+    (:class:`CorotatedBasis`, or the link-frame component modes of fkev_slepc/periodic/components.py)."""
     kin = solve_kinematics(model.mechanism, thetas)
     if isinstance(basis, np.ndarray):
         basis = CorotatedBasis(basis, corotated_pairs(model.mechanism))
-    pat = model.pattern
+    mat = model.pattern.matrix
     w = float(omega)
-    lag, damped = p.lagrangian, damping and p.damping is not None
     out = {k: [] for k in "M C K N V Cd Kd".split()}
     for i in range(len(thetas)):
         W, W1, W2 = basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])
-        mat = lambda data: pat.matrix(data)
-        Mm = mat(p.mass[i])
+        Mm = mat(c.M[i])
         MW, MW1 = Mm @ W, Mm @ W1
-        Cm = mat(w * p.gyro[i] + (p.damping[i] if damped else 0.0))
-        Km = mat(p.stiffness[i] + w * w * p.speed_stiffness[i] + (w * p.damping_stiffness[i] if damped else 0.0))
+        Cm, Km = mat(c.C[i]), mat(c.K[i])
         out["M"].append(W.T @ MW)
         out["C"].append(2 * w * W.T @ MW1 + W.T @ (Cm @ W))
         out["K"].append(w * w * W.T @ (Mm @ W2) + w * W.T @ (Cm @ W1) + W.T @ (Km @ W))
-        if lag:
-            NW = mat(w * p.coupling[i]) @ W
+        if c.N is not None:
+            NW = mat(c.N[i]) @ W
             X = W1.T @ NW
             out["N"].append(w * W.T @ MW1 + W.T @ NW)
-            out["V"].append(W.T @ (mat(p.stiffness[i] + w * w * p.potential[i]) @ W)
-                            - w * w * W1.T @ MW1 - w * (X + X.T))
-        if damped:
-            Cd = mat(p.damping[i])
+            out["V"].append(W.T @ (mat(c.V[i]) @ W) - w * w * W1.T @ MW1 - w * (X + X.T))
+        if c.Cd is not None:
+            Cd = mat(c.Cd[i])
             out["Cd"].append(W.T @ (Cd @ W))
-            out["Kd"].append(w * W.T @ (Cd @ W1) + W.T @ (mat(w * p.damping_stiffness[i]) @ W))
+            out["Kd"].append(w * W.T @ (Cd @ W1) + W.T @ (mat(c.Kd[i]) @ W))
     return tuple(np.stack(v) if v else None for v in out.values())

@@ -117,19 +117,11 @@ class PeriodicSystem:
     def coefficients(self, theta) -> Coefficients:
         """Dense coefficients at the crank angles ``theta`` (rad)."""
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
-        p = periodic_pieces(self.model, theta, self.case)
-        w = self.omega
-        damped = self.damping and p.damping is not None
+        c = periodic_pieces(self.model, theta, self.case).at_speed(self.omega, self.damping)
         if self.basis is not None:
-            return Coefficients(*reduced_coefficients(self.model, p, theta, w, self.damping, self.basis))
-        M, C, K = p.coefficients(w) if damped else (p.mass, w * p.gyro, p.stiffness + w * w * p.speed_stiffness)
-        N = V = Cd = Kd = None
-        if p.lagrangian:
-            N, V = w * p.coupling, p.stiffness + w * w * p.potential
-        if damped:
-            Cd, Kd = p.damping, w * p.damping_stiffness
+            return Coefficients(*reduced_coefficients(self.model, c, theta, self.omega, self.basis))
         pat = self.model.pattern
-        return Coefficients(*(None if x is None else to_dense(pat, x) for x in (M, C, K, N, V, Cd, Kd)))
+        return Coefficients(*(None if x is None else to_dense(pat, x) for x in c))
 
     def mck(self, theta):
         """(M, C, K) dense stacks at ``theta`` (rad): the response solvers' interface."""
