@@ -62,6 +62,8 @@ def test_an_undamped_band_is_listed_against_the_floor_and_a_resume_re_reports_it
     [band] = o["bands"]
     assert 1e-3 < band["suppressing_damping_ratio"] < 1.2e-3
     assert band["survives_damping"] is False and o["bands_surviving_damping"] == 0
+    # the full model at every speed: no truncation, so no "not converged" 0 (issue 36: it said 0)
+    assert o["basis_size"] == [0, 0, 0] and o["truncation_converged"] == [None] * 3
     r = fkev(*args[:-2], "--resume", "--zeta-floor", "0.001")  # a floor is a refinement: the resume is allowed
     assert r.returncode == 0, r.stderr
     assert "held against the floor ζ = 0.001 (--zeta-floor): 1 of 1 unstable run survive it" in r.stdout

@@ -45,6 +45,17 @@ class FloquetResults:
         """Whether ``band`` stays open under the damping this run answers for (:func:`survives_damping`)."""
         return survives_damping(band, self.damping.active, self.zeta_floor)
 
+    def reduction_dict(self) -> dict:
+        """The per-speed reduction rows; a speed solved on the full model (basis size 0) has no
+        truncation: its ``truncation_*`` entries are null, not 0 ("not converged")."""
+        full = np.asarray(self.reduction.get("basis_size", ()), dtype=float) == 0
+        out = {}
+        for k, col in self.reduction.items():
+            vals = [None if not np.isfinite(v) else (int(v) if k in INTEGER_ROWS else float(v)) for v in col]
+            out[k] = [None if k.startswith("truncation_") and i < full.size and full[i] else v
+                      for i, v in enumerate(vals)]
+        return out
+
     def damping_dict(self) -> dict:
         """What damping the verdicts answer for: the scene's own (with its modal ζ range) or, undamped,
         the reporting floor that the bands' ζ* are held against."""
@@ -84,7 +95,6 @@ class FloquetResults:
             "frozen_time_unstable_fraction": [num(v) for v in self.frozen_unstable_fraction],
             "resonance_order": self.resonance_order, "resonance_gaps": [g.as_dict() for g in self.gaps],
             "samples_beside_grid": dict(self.samples),
-            **{k: [None if not np.isfinite(v) else (int(v) if k in INTEGER_ROWS else float(v)) for v in col]
-               for k, col in self.reduction.items()},
+            **self.reduction_dict(),
             **self.extras,
         }
