@@ -60,12 +60,13 @@ import scipy.linalg as la
 
 from fkev_slepc.periodic.magnus import Monodromy, exponential_monodromy, monodromy, multiplier_change
 from fkev_slepc.periodic.components import link_components
+from fkev_slepc.periodic.moving import moving_pool
 from fkev_slepc.periodic.reduce import compress, frozen_pool
 from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings
 from fkev_slepc.periodic.system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.periodic.truncation import (
-    Truncation, between, converge, frequency_change, link_modes, resolve_reduce,
+    Truncation, between, converge, frequency_change, link_modes, moving_modes, resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -244,6 +245,20 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         if isinstance(reduce, str) and reduce.startswith("links"):  # link-frame component modes
             comp = link_components(model)
             pool, squeeze, first = comp.basis, lambda P, tau: P, st.link_modes  # noqa: E731
+        if isinstance(reduce, str) and reduce.startswith("moving"):  # the moving frozen-mode basis
+            pool, squeeze, first = moving_pool(model, omega, case, st.moving_angles), lambda P, tau: P, st.moving_modes  # noqa: E731
+            if reduce == "moving":
+                res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol, max_basis=max_basis,
+                                      compress=squeeze, retained=min(st.auto_modes, n - 1), confirm=False,
+                                      max_modes=n - 1)
+                return replace(res, truncation=trunc)
+            r = min(moving_modes(reduce), n - 1)
+            res = solve(pool(r))
+            if not check_truncation:
+                return res
+            ref = solve(pool(min(2 * r, n - 1)))
+            return replace(res, truncation=between(ref, res, r, reduce_tol, [
+                (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
         if reduce in ("auto", "links"):
             res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol,
                                   max_basis=max_basis, compress=squeeze, retained=min(st.auto_modes, n - 1))

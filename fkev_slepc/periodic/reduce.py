@@ -128,15 +128,18 @@ def reduced_coefficients(model, c, thetas, omega, basis):
     coefficients ``c`` at crank speed ``omega`` (:meth:`PeriodicPieces.at_speed
     <fkev_slepc.model.periodic.PeriodicPieces.at_speed>`) on ``basis``: a co-rotated V̂ (n, R), or any
     object whose ``at(φ, φ', φ'')`` gives (W, W', W'') at one crank angle from the link angles and rates
-    (:class:`CorotatedBasis`, or the link-frame component modes of fkev_slepc/periodic/components.py)."""
+    (:class:`CorotatedBasis`, or the link-frame component modes of fkev_slepc/periodic/components.py),
+    or whose ``at_angle(θ)`` gives them from the crank angle (the moving frozen-mode basis of
+    fkev_slepc/periodic/moving.py)."""
     kin = solve_kinematics(model.mechanism, thetas)
     if isinstance(basis, np.ndarray):
         basis = CorotatedBasis(basis, corotated_pairs(model.mechanism))
     mat = model.pattern.matrix
     w = float(omega)
     out = {k: [] for k in "M C K N V Cd Kd".split()}
+    moving = hasattr(basis, "at_angle")  # a basis given in the crank angle (periodic/moving.py)
     for i in range(len(thetas)):
-        W, W1, W2 = basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])
+        W, W1, W2 = basis.at_angle(thetas[i]) if moving else basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])
         Mm = mat(c.M[i])
         MW, MW1 = Mm @ W, Mm @ W1
         Cm, Km = mat(c.C[i]), mat(c.K[i])

@@ -27,7 +27,7 @@ REFINEMENTS = ("edge_rtol", "zeta_floor")
 # fields added after the first archived settings, as module constants until then with today's defaults as
 # values: an archive without one was computed with its default, which from_attrs fills in
 LATER = ("auto_modes", "link_modes", "auto_min_steps", "links_step_ratio", "full_max_dofs", "attract_tol",
-         "zeta_floor")
+         "zeta_floor", "moving_modes", "moving_angles")
 
 
 def _f(default, doc: str):
@@ -56,13 +56,15 @@ class PeriodicSettings:
     interp_tol: float = _f(1e-12, "relative midpoint error of the interpolant at which the samples stop doubling")
     max_samples: int = _f(1024, "the samples' cap (beyond interp_tol there: its bound enters the error)")
     # the reduction (fkev_slepc/periodic/truncation.py, reduce.py, components.py)
-    reduce: str = _f("default", "none, default, auto, N (frozen modes per angle), links, links:N")
+    reduce: str = _f("default", "none, default, auto, N (frozen modes per angle), links, links:N, moving, moving:R")
     basis_angles: int = _f(8, "crank angles of the frozen-mode pool over a revolution")
     threshold: float = _f(1e-10, "relative singular value at which a fixed frozen-mode basis is compressed")
     reduce_tol: float = _f(1e-3, "|Δ max|μ|| and relative frequency change that end the basis sequence")
     max_basis: int = _f(0, "largest basis of reduce=auto/links (0: no cap but the model's DOFs)")
     auto_modes: int = _f(4, "frozen modes per angle of reduce=auto's first pool; the Floquet frequencies compared")
     link_modes: int = _f(2, "fixed-interface modes per link of the first level of reduce=links (then doubled)")
+    moving_modes: int = _f(8, "frozen modes of the first level of reduce=moving (then doubled)")
+    moving_angles: int = _f(64, "crank angles at which reduce=moving samples the frozen modes")
     auto_min_steps: int = _f(60_000, "reduce=default: the full model below this many full-model Magnus steps")
     links_step_ratio: float = _f(4.0, "reduce=default above auto_min_steps: links where 4 x link_modes per link "
                                       "need 1/links_step_ratio of the full model's steps or fewer, else auto")
@@ -202,20 +204,23 @@ def resolve_reduce(value):
     most 1/``links_step_ratio`` of them, else "auto": fields of :class:`PeriodicSettings`; docs/engine.md
     measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
     link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled until
-    converged) or "links:N" (N >= 0 fixed-interface modes per link). ValueError otherwise."""
+    converged), "links:N" (N >= 0 fixed-interface modes per link), "moving" (the moving frozen-mode basis of
+    fkev_slepc/periodic/moving.py, its cutoff doubled until converged) or "moving:R" (R modes). ValueError otherwise."""
     if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
         return None
     if isinstance(value, str):
         v = value.strip().lower()
-        if v in ("default", "auto", "links"):
+        if v in ("default", "auto", "links", "moving"):
             return v
         if v.startswith("links:") and v[6:].isdigit():
             return f"links:{int(v[6:])}"
+        if v.startswith("moving:") and v[7:].isdigit() and int(v[7:]) >= 1:
+            return f"moving:{int(v[7:])}"
         value = int(v) if v.isdigit() else value
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
         return int(value)
-    raise ValueError("must be auto, none, default, links, links:N (modes per link >= 0) or a number of "
-                     f"modes per angle >= 1 (got {value!r})")
+    raise ValueError("must be auto, none, default, links, links:N (modes per link >= 0), moving, moving:R "
+                     f"(R >= 1 frozen modes) or a number of modes per angle >= 1 (got {value!r})")
 
 
 def _angles(name, v):
@@ -236,7 +241,7 @@ _CHECKS = {
     "edge_rtol": _fraction, "resonance_order": _int(0), "probe": _flag, "harmonics": _harmonics,
     "harmonic_tol": _fraction, "shoot": _flag, "shooting_tol": _fraction, "response_angles_deg": _angles,
     "full_max_dofs": _int(0), "attract_tol": _fraction,
-    "zeta_floor": _floor,
+    "zeta_floor": _floor, "moving_modes": _int(1), "moving_angles": _int(8),
 }
 
 DEFAULTS = PeriodicSettings()

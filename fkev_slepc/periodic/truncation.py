@@ -83,6 +83,11 @@ def link_modes(reduce) -> int | None:
     return int(reduce[6:]) if isinstance(reduce, str) and reduce.startswith("links:") else None
 
 
+def moving_modes(reduce) -> int | None:
+    """R of a resolved ``"moving:R"``, None for any other value."""
+    return int(reduce[7:]) if isinstance(reduce, str) and reduce.startswith("moving:") else None
+
+
 def retained_frequencies(exponents: np.ndarray, retained: int) -> np.ndarray:
     """The ``retained`` lowest Floquet frequencies |Im s| (one per conjugate pair), rad/s."""
     return np.sort(np.abs(np.asarray(exponents).imag))[::2][:retained]
@@ -128,14 +133,18 @@ def between(coarse, fine, retained: int, tol: float, levels=(), before: Truncati
 
 
 def converge(solve, pool, n_dof: int, *, modes: int = AUTO_MODES, tol: float = REDUCE_TOL,
-             max_basis: int | None = None, compress=None, retained: int | None = None):
+             max_basis: int | None = None, compress=None, retained: int | None = None, confirm: bool = True,
+             max_modes: int | None = None):
     """(result, :class:`Truncation`) by the basis rule of the module docstring.
 
     ``solve(V̂)`` -> a reduced Floquet result on the basis V̂ (n, R); ``pool(r)`` -> the (n, k)
     pool of r modes per angle; ``compress(pool, τ)`` -> V̂; ``retained``: the Floquet
     frequencies compared (default ``modes``). The link-frame component modes
     (fkev_slepc/periodic/components.py) use the same rule with ``pool(r)`` the basis of r modes per
-    link and ``compress`` the identity: the modes per link double level by level."""
+    link and ``compress`` the identity: the modes per link double level by level. ``confirm`` False:
+    the first level pair within ``tol`` ends the sequence (the moving basis, whose error falls by an
+    order or more per doubling, fkev_slepc/periodic/moving.py), not two in a row; ``max_modes``: the
+    largest r that ``pool`` takes (default n_dof − 1)."""
     if compress is None:
         from fkev_slepc.periodic.reduce import compress
     retained = modes if retained is None else int(retained)
@@ -155,14 +164,15 @@ def converge(solve, pool, n_dof: int, *, modes: int = AUTO_MODES, tol: float = R
             if size == n_dof:  # the whole space: the full model's multipliers
                 return res, Truncation(0.0, 0.0, 0.0, True, tol, tuple(levels))
             if prev is not None:
-                report = between(prev, res, retained, tol, levels, before=pair)
-                if pair is not None and report.converged:
+                report = between(prev, res, retained, tol, levels, before=pair if confirm else None)
+                if (pair is not None or not confirm) and report.converged:
                     return res, report
                 pair = between(prev, res, retained, tol)
             prev = res
         else:
-            if r < n_dof - 1 and (prev is None or prev.basis < cap):
-                r = min(2 * r, n_dof - 1)
+            top = n_dof - 1 if max_modes is None else int(max_modes)
+            if r < top and (prev is None or prev.basis < cap):
+                r = min(2 * r, top)
                 continue
         break
     if prev is None:
