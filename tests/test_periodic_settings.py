@@ -24,7 +24,7 @@ BAD = {"magnus_order": 5, "monodromy_tol": 0.0, "steps": -1, "max_steps": 0, "sa
        "max_basis": 2.5, "verdict_tol": 2.0, "edge_rtol": float("inf"), "resonance_order": -1, "probe": "yes",
        "harmonics": 1, "harmonic_tol": "1e-8", "shoot": 1, "shooting_tol": 0.0, "response_angles_deg": [0.0, np.nan],
        "auto_modes": 0, "link_modes": 1.5, "auto_min_steps": -1, "links_step_ratio": 0.0, "full_max_dofs": True,
-       "attract_tol": 1e-8j, "zeta_floor": -1e-4}
+       "attract_tol": 1e-8j, "zeta_floor": -1e-4, "moving_modes": 0, "moving_angles": 4}
 
 
 def test_round_trip_through_hdf5_attributes_is_exact(tmp_path):
@@ -159,7 +159,8 @@ def test_response_takes_its_tolerances_from_the_settings():
 
 
 REDUCTION = {"auto_modes": 6, "link_modes": 3, "auto_min_steps": 1000, "links_step_ratio": 2.5,
-             "full_max_dofs": 12, "attract_tol": 1e-5, "zeta_floor": 2e-3}  # the fields of LATER, each off its default
+             "full_max_dofs": 12, "attract_tol": 1e-5, "zeta_floor": 2e-3,
+             "moving_modes": 6, "moving_angles": 96}  # the fields of LATER, each off its default
 
 
 def test_later_fields_round_trip_and_an_archive_without_them_reads_as_the_defaults(tmp_path):
