@@ -84,3 +84,14 @@ def test_moving_basis_converges_to_the_full_models_band_at_500_rad_s(bw4):
     r16 = floquet_multipliers(bw4, 500.0, "full", reduce="moving:16")
     assert r16.basis == 16 and abs(r16.max_abs - 1.0 - full) / full < 1e-3
     assert r16.truncation.max_abs == pytest.approx(abs(r16.max_abs - red.max_abs) / red.max_abs, rel=0.2)
+
+
+def test_the_sample_angles_double_until_the_subspace_is_resolved(bw4):
+    """r = 16 at 32 angles: the interpolated basis leaves the frozen subspace by 3.4e-2 (M-norm) at the
+    midpoints, so the angles double until it is within SUBSPACE_TOL; r = 8 needs no doubling."""
+    from fkev_slepc.periodic.moving import SUBSPACE_TOL
+
+    B = MovingBasis.frozen(bw4, 500.0, "full", 16, 32)
+    assert B.samples.shape[0] >= 128 and B.subspace_error <= SUBSPACE_TOL
+    B8 = MovingBasis.frozen(bw4, 500.0, "full", 8, 64)
+    assert B8.samples.shape[0] == 64 and B8.subspace_error <= SUBSPACE_TOL

@@ -69,6 +69,7 @@ class MovingBasis:
     def __init__(self, samples: np.ndarray, frequencies: np.ndarray | None = None):
         self.samples = np.asarray(samples, dtype=float)
         self.frequencies = frequencies  # (angles, r+1) frozen ω at the samples, rad/s
+        self.subspace_error = float("nan")  # measured by MovingBasis.frozen at the midpoints
         m = self.samples.shape[0]
         self._coef = np.fft.rfft(self.samples, axis=0) / m  # (m//2+1, n, r)
         self._k = np.arange(self._coef.shape[0], dtype=float)
@@ -105,24 +106,58 @@ class MovingBasis:
 
     @classmethod
     def frozen(cls, model, omega: float, case: str, r: int, angles: int = 64) -> MovingBasis:
-        """The lowest ``r`` frozen modes at ``angles`` equispaced crank angles, aligned and closed."""
+        """The lowest ``r`` frozen modes at ``angles`` equispaced crank angles, aligned and closed;
+        the angles doubled (at most ``MAX_ANGLE_DOUBLINGS`` times) until the interpolant between them
+        stays in the frozen subspace within :data:`SUBSPACE_TOL` at the midpoints (:func:`subspace_error`)."""
         n = int(model.n_free)
         if not 1 <= r < n:
             raise ValueError(f"r: a moving basis needs 1 <= r < {n} (the model's DOFs) (got {r})")
-        theta = TWO_PI * np.arange(angles) / angles
-        W, w = _frozen_modes(model, omega, case, r, theta)
-        mass = periodic_pieces(model, theta, case).mass
-        M = [model.pattern.matrix(mass[i]) for i in range(angles)]
-        W, R = _aligned(W, M)  # the transport ends on W₀·R, not on W₀: R is the holonomy
+        m = int(angles)
+        W, w = _frozen_modes(model, omega, case, r, TWO_PI * np.arange(m) / m)
+        for _ in range(MAX_ANGLE_DOUBLINGS + 1):
+            basis = cls._closed(model, case, r, W, w)
+            mid = TWO_PI * (np.arange(m) + 0.5) / m
+            Wm, wm = _frozen_modes(model, omega, case, r, mid)
+            basis.subspace_error = subspace_error(model, case, basis, mid, Wm)
+            if basis.subspace_error <= SUBSPACE_TOL:
+                return basis
+            W, w, m = np.stack([W, Wm], axis=1).reshape(2 * m, *W.shape[1:]), \
+                np.stack([w, wm], axis=1).reshape(2 * m, -1), 2 * m
+        raise BasisError(f"r = {r}: the subspace of the lowest {r} frozen modes moves faster than {m // 2} angles "
+                         f"resolve (midpoint error {basis.subspace_error:.2g} > {SUBSPACE_TOL:g}): the cutoff sits "
+                         "at a veering; change r")
+
+    @classmethod
+    def _closed(cls, model, case: str, r: int, W: np.ndarray, w: np.ndarray) -> MovingBasis:
+        """The samples ``W`` (m, n, r) at equispaced angles aligned and closed (module docstring)."""
+        m = W.shape[0]
+        mass = periodic_pieces(model, TWO_PI * np.arange(m) / m, case).mass
+        W, R = _aligned(W, [model.pattern.matrix(mass[i]) for i in range(m)])  # the transport ends on W₀·R
         if np.linalg.det(R) < 0:
             raise BasisError(f"r = {r}: a frozen mode returns with its sign flipped over the revolution "
                              "(holonomy of determinant -1): change r")
         L = np.real(la.logm(R.T))
         L = 0.5 * (L - L.T)  # the generator of a rotation: skew
-        for k in range(1, angles):
-            W[k] = W[k] @ la.expm((k / angles) * L)
+        for k in range(1, m):
+            W[k] = W[k] @ la.expm((k / m) * L)
         return cls(W, w)
 
+
+SUBSPACE_TOL = 1e-3  # largest M-norm distance of the interpolated basis from the frozen subspace at the midpoints
+MAX_ANGLE_DOUBLINGS = 3  # the sample angles double at most this often (64 -> 512)
+
+
+def subspace_error(model, case: str, basis: MovingBasis, theta: np.ndarray, frozen: np.ndarray) -> float:
+    """max over ``theta`` of the M-norm of the part of the interpolated W(θ) (unit M-norm columns)
+    outside the span of ``frozen`` (len(θ), n, r), the M-orthonormal frozen modes there: the
+    interpolation error of the subspace, whatever its alignment."""
+    mass = periodic_pieces(model, theta, case).mass
+    err = 0.0
+    for j, t in enumerate(theta):
+        M, W, F = model.pattern.matrix(mass[j]), basis.at_angle(t)[0], frozen[j]
+        R = W - F @ (F.T @ (M @ W))
+        err = max(err, float(np.sqrt(max(np.linalg.eigvalsh(R.T @ (M @ R)).max(), 0.0))))
+    return err
 
 SIGN_FLIP_TRIES = 3  # a cutoff whose holonomy flips a mode's sign moves up by one mode, at most this often
 
