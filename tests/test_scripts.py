@@ -100,3 +100,14 @@ def test_bench_floors_time_the_accepted_step_counts():
     out = run_script("bench_response.py", "--rows", "bw:1:500", "--repeats", "1", "--floor")
     cells = [c.strip() for c in out.strip().splitlines()[-1].strip("|").split("|")]
     assert cells[4] == "shooting, 4096 steps" and cells[10] == "1,024" and float(cells[11]) > 0
+
+
+def test_bench_moving_prints_the_converged_moving_basis_beside_the_full_model():
+    r = subprocess.run([sys.executable, str(ROOT / "scripts" / "bench_moving.py"), "--elements", "1",
+                        "--full-max", "9"], capture_output=True, text=True, timeout=600,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.returncode == 0, r.stderr
+    row = r.stdout.strip().splitlines()[-1].split("|")
+    assert row[1].strip() == "1" and row[2].strip() == "9"
+    moving, full = float(row[4]), float(row[7].split(",")[0])
+    assert moving == pytest.approx(full, rel=1e-3, abs=1e-9)

@@ -165,7 +165,8 @@ SIGN_FLIP_TRIES = 3  # a cutoff whose holonomy flips a mode's sign moves up by o
 def moving_pool(model, omega: float, case: str, angles: int):
     """``pool(r)`` -> the :class:`MovingBasis` of r frozen modes (the truncation sequence's levels,
     fkev_slepc/periodic/truncation.py), or of the next r' <= r + SIGN_FLIP_TRIES - 1 whose holonomy
-    is a rotation (det +1); :class:`BasisError` when none is."""
+    is a rotation (det +1) and whose angles resolve it; the whole space (the identity, exact) when
+    those tries reach the model's size; :class:`BasisError` when none is below it."""
     def pool(r: int) -> MovingBasis:
         errors = []
         for k in range(int(r), min(int(r) + SIGN_FLIP_TRIES, int(model.n_free))):
@@ -173,6 +174,8 @@ def moving_pool(model, omega: float, case: str, angles: int):
                 return MovingBasis.frozen(model, omega, case, k, angles)
             except BasisError as err:
                 errors.append(str(err))
+        if int(r) + SIGN_FLIP_TRIES >= int(model.n_free):  # no smooth cutoff left below the whole space: take it
+            return np.eye(int(model.n_free))  # (exact: the full model's multipliers)
         raise BasisError("; ".join(errors) or f"r = {r}: no moving basis below the model's {model.n_free} DOFs")
 
     return pool
