@@ -354,15 +354,20 @@ def test_near_a_toggle_both_engines_find_the_same_divergence(campaigns):
         res = {name: postprocess(sol, 3) for name, sol in sols.items()}
         assert {r.status.value for r in res.values()} == {"divergent"}, {k: r.message for k, r in res.items()}
         sol = sols["dense"]
-        real = reported(sol.eigenvalues, 3)[1] & (sol.eigenvalues.real > 0)
-        i = np.flatnonzero(real)[np.argmin(sol.eigenvalues[real].real)]
         rtol = 10 * one_ulp_change(q, smallest)
+        # real to its conditioning: with OPENBLAS_CORETYPE=Haswell on one thread QZ gives this root
+        # Im λ = 2.8e-9 |λ|, above imag_tol 1e-9 but 160x below κ·ε (so not in the engine's list of
+        # divergent roots there; the status is divergent from the others)
+        real = (np.abs(sol.eigenvalues.imag) <= rtol * np.abs(sol.eigenvalues)) & (sol.eigenvalues.real > 0)
+        i = np.flatnonzero(real)[np.argmin(sol.eigenvalues[real].real)]
         assert 1e-7 < rtol < 1e-4  # far above round-off (ε = 2.2e-16), far below the 9.7 % gap
         others = np.abs(np.delete(sol.eigenvalues, i) / smallest - 1)
-        assert others.min() > 1000 * rtol  # a wrong root would fail
+        others = others[others > rtol]  # the same root again (its conjugate partner: some BLAS kernels)
+        assert others.min() > 1000 * rtol  # no other root near it: a wrong root would fail
         np.testing.assert_allclose(sol.eigenvalues[i].real, smallest, rtol=rtol)
         lam = sols["slepc"].eigenvalues  # real as the engine reports it (Im can be round-off: BLAS threads)
-        np.testing.assert_allclose(lam[reported(lam, 3)[1] & (lam.real > 0)].real.min(), smallest, rtol=rtol)
+        real = (np.abs(lam.imag) <= rtol * np.abs(lam)) & (lam.real > 0)
+        np.testing.assert_allclose(lam[real].real.min(), smallest, rtol=rtol)
         assert sol.errors[i] <= 10 * pair_error_floor(q, sol.eigenvalues[i], sol.vectors[:, i])[0]  # was 0.17, 0.79
 
 
