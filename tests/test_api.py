@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import fkev_slepc as fk
+from numtext import same_text
 from fkev_slepc.cli import main
 from fkev_slepc.archive.reader import ArchiveError
 from fkev_slepc.scene import SceneError
@@ -33,12 +34,34 @@ DOCTEST_MODULES = sorted(
 
 
 # ----------------------------------------------------------------------------- doctests
+class NumericChecker(doctest.OutputChecker):
+    """Doctest output with the same text and numbers to their printed digits (tests/numtext.py):
+    integers exactly, a decimal number within one unit of its last digit (a rounded value at a
+    tie) plus 1e-9 of its value (a full-precision repr of a solver result, e.g. ``to_csv``'s
+    228.6885738113997, whose last bits move with the CPU; the solvers' pair-error acceptance is
+    1e-8, so a wrong eigenvalue is far outside). The exact check is tried first."""
+
+    def check_output(self, want, got, optionflags):
+        return super().check_output(want, got, optionflags) or same_text(want, got, units=1, rtol=1e-9)
+
+
+def test_numeric_checker_catches_a_wrong_number():
+    c, flags = NumericChecker(), doctest.NORMALIZE_WHITESPACE
+    assert c.check_output("0.0,0.0,structure,1,228.6885738113997,0.0,ok\n", "0.0,0.0,structure,1,228.68857381140312,0.0,ok\n", flags)
+    assert not c.check_output("0.0,0.0,structure,1,228.6885738113997,0.0,ok\n", "0.0,0.0,structure,1,228.6886,0.0,ok\n", flags)
+    assert c.check_output("array([ 362.71,  652.08])\n", "array([362.72, 652.08])\n", flags)
+    assert not c.check_output("array([ 362.71,  652.08])\n", "array([362.73, 652.08])\n", flags)
+    assert not c.check_output("('thesis', 7, (7, 7, 7), True)\n", "('thesis', 8, (7, 7, 7), True)\n", flags)
+    assert not c.check_output("(66.6916, 10.0)\n", "(66.6916, 10.0, 1)\n", flags)
+
+
 @pytest.mark.parametrize("name", DOCTEST_MODULES)
 def test_docstring_examples(name):
-    """numpydoc Examples run as doctests (``RUNS`` is the repository's runs/ folder)."""
+    """numpydoc Examples run as doctests (``RUNS`` is the repository's runs/ folder), numbers
+    compared to their printed digits (:class:`NumericChecker`)."""
     mod = importlib.import_module(name)
     finder = doctest.DocTestFinder()
-    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    runner = doctest.DocTestRunner(checker=NumericChecker(), optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     for t in finder.find(mod, name, globs={**vars(mod), "RUNS": RUNS}):
         runner.run(t)
     result = runner.summarize(verbose=False)

@@ -111,9 +111,22 @@ def test_refinement_stops_at_its_budget_and_says_so():
 def test_veering_ambiguity_criterion():
     """Across a veering the MAC of a continuation is cos²(Δφ), Δφ the turn of the shapes."""
     c = 0.02  # shapes exchange within about ±2° of 180°
-    v = {x: two_dof(np.array([x]), c)[1].astype(complex) for x in (170.0, 171.0, 179.0, 181.0, 175.0, 185.0)}
+    v = {x: two_dof(np.array([x]), c)[1].astype(complex)
+         for x in (170.0, 171.0, 179.25, 180.75, 178.75, 181.25, 175.0, 185.0)}
+
+    def turn(a, b):  # Δφ = 90° - atan(2c/|2s|) for a link symmetric about the centre (s = ±(b - a)/200)
+        return np.pi / 2 - np.arctan(2 * c / ((b - a) / 100.0))
+
     assert not link_check(v[170.0], v[171.0])[1][0]  # Δφ ≈ 0.3°: clear
-    assert link_check(v[179.0], v[181.0])[1][0]  # Δφ ≈ 27°: MAC 0.79 < 0.8 and margin 0.58
+    # Both sides of MAC_MIN = 0.8, each far from it (not at cos²(26.57°) = 0.8000 itself, where
+    # the last bits of the shapes decided), the margin 2·MAC - 1 above MAC_MARGIN = 0.3 on both,
+    # so the MAC threshold alone decides:
+    for (a, b), mac_expected, ambiguous in (((179.25, 180.75), 0.8767, False),  # Δφ 20.6°: 0.08 above
+                                            ((178.75, 181.25), 0.7191, True)):  # Δφ 32.0°: 0.08 below
+        got = np.abs(v[a][0].conj().T @ v[b][0]) ** 2  # unit vectors: MAC = |x·y|²
+        assert got[0, 0] == pytest.approx(np.cos(turn(a, b)) ** 2, abs=1e-12) == pytest.approx(mac_expected, abs=1e-4)
+        assert 2 * got[0, 0] - 1 > 0.3 + 0.1
+        assert link_check(v[a], v[b])[1][0] == ambiguous
     perm, amb = link_check(v[175.0], v[185.0])  # Δφ ≈ 68°: looks like a clean crossing...
     assert not amb[0] and perm[0].tolist() == [1, 0]
     _, requests = track_angles(samples([150.0, 175.0, 185.0, 210.0], c))

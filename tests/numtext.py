@@ -1,0 +1,63 @@
+"""Quoted program output compared with what the program prints, numbers to their printed digits.
+
+A quoted number is a computed value rounded to the digits shown; on another CPU (another BLAS
+kernel, another summation order) the same value differs in its last bits, and a value near a
+rounding tie, or a finite-difference quotient, prints one unit off in its last digit (measured:
+the README's sensitivity −66.1246 printed −66.1245 on an AMD EPYC). So the text between the
+numbers must match exactly, integers (counts, mode numbers, crank orders, settings) exactly, and
+a number with a fractional part or an exponent to within ``units`` units of its last printed
+digit plus ``rtol`` of its value. A number off by more than that is a wrong number and fails.
+"""
+
+from __future__ import annotations
+
+import re
+
+NUM = r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?"
+_NUM = re.compile(NUM)
+
+
+def _plain(text: str) -> str:
+    return text.replace("\u2212", "-")  # a typeset minus is a minus
+
+
+def tolerance(quoted: str, units: float, rtol: float) -> float:
+    """How far a printed value may be from ``quoted``: 0 for an integer, else ``units`` units
+    of its last digit plus ``rtol`` of its value."""
+    m = re.fullmatch(r"[-+]?(\d*)(?:\.(\d*))?(?:[eE]([-+]?\d+))?", quoted)
+    if m is None or (m.group(2) is None and m.group(3) is None):
+        return 0.0
+    unit = 10.0 ** (int(m.group(3) or 0) - len(m.group(2) or ""))
+    return units * unit * (1 + 1e-9) + rtol * abs(float(quoted))
+
+
+def close(quoted: str, printed: str, units: float, rtol: float) -> bool:
+    return abs(float(printed) - float(quoted)) <= tolerance(quoted, units, rtol)
+
+
+def line_in(quoted: str, printed_lines: list[str], units: float = 3, rtol: float = 0.0) -> bool:
+    """Whether ``quoted`` (one line, whitespace already normalised) occurs in one of the printed
+    lines with the same text and its numbers within :func:`tolerance`."""
+    quoted = _plain(quoted)
+    parts = _NUM.split(quoted)
+    nums = _NUM.findall(quoted)
+    body = "".join(re.escape(t) + (f"({NUM})" if i < len(nums) else "") for i, t in enumerate(parts))
+    # a line that starts or ends with a number: not a piece of a longer one ("1" in "11")
+    pattern = re.compile(("(?<![\\d.])" if not parts[0] else "") + body + ("(?![\\d.])" if not parts[-1] else ""))
+    for line in map(_plain, printed_lines):
+        pos = 0
+        while (m := pattern.search(line, pos)) is not None:
+            if all(close(q, p, units, rtol) for q, p in zip(nums, m.groups())):
+                return True
+            pos = m.start() + 1
+    return False
+
+
+def same_text(want: str, got: str, units: float, rtol: float) -> bool:
+    """Whether two outputs are the same text (whitespace ignored) with the same numbers, each
+    printed one within :func:`tolerance` of the wanted one."""
+    want, got = _plain(want), _plain(got)
+    wn, gn = _NUM.findall(want), _NUM.findall(got)
+    squash = lambda s: ["".join(t.split()) for t in _NUM.split(s)]  # noqa: E731
+    return (len(wn) == len(gn) and squash(want) == squash(got)
+            and all(close(w, g, units, rtol) for w, g in zip(wn, gn)))
