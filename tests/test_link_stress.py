@@ -32,39 +32,37 @@ def exact_rotating(s):
 
 
 def test_rotating_bar_is_in_tension_on_both_faces():
-    """σ(s) = ρΩ²(L² − s²)/2 on both faces at every element end and angle: exact (1e-10) with the
-    cubic axial element (u is cubic in s) when the centrifugal softening of the axial stiffness is
-    dropped (no_normal); with it (full) within its size ρΩ²L²/E; the thesis element's constant N
-    is the element mean of the exact one (linear bar elements are nodally exact)."""
-    ls = rotating("cubic", "no_normal")
-    exact = exact_rotating(ls.point_s)
-    for face in (0, 1):
-        np.testing.assert_allclose(ls.sigma[..., face], np.broadcast_to(exact, ls.sigma.shape[:2]),
-                                   rtol=1e-10, atol=1e-10 * exact.max())
+    """σ(s) = ρΩ²(L² − s²)/2 on both faces at every element end and angle, exact (1e-10) with both
+    elements when the centrifugal softening of the axial stiffness is dropped (no_normal): the
+    internal forces come from each element's equilibrium under its distributed inertia load ρAΩ²x
+    (docs/theory.md §7.4), not from the thesis element's constant u' (which gave the element mean);
+    with the softening (full) within its size ρΩ²L²/E."""
+    exact = None
+    for element in ("cubic", "thesis"):
+        ls = rotating(element, "no_normal")
+        exact = exact_rotating(ls.point_s)
+        for face in (0, 1):
+            np.testing.assert_allclose(ls.sigma[..., face], np.broadcast_to(exact, ls.sigma.shape[:2]),
+                                       rtol=1e-10, atol=1e-10 * exact.max())
     full = rotating("cubic", "full")
     assert np.abs(full.sigma[..., 0] / exact.max() - exact / exact.max()).max() < RHO * OMEGA**2 * L**2 / E
-    thesis = rotating("thesis", "no_normal")
-    s0 = thesis.point_s[0::2]
-    s1 = thesis.point_s[1::2]
-    mean = RHO * OMEGA**2 * (L**2 - (s1**2 + s1 * s0 + s0**2) / 3) / 2  # (1/l)∫ exact ds
-    for end in (0, 1):
-        np.testing.assert_allclose(thesis.sigma[:, end::2, 0], np.broadcast_to(mean, (2, mean.size)), rtol=1e-10)
-    hi, lo, m, a = thesis.parts()
-    np.testing.assert_allclose(a, 0.0, atol=1e-9 * mean.max())  # steady: nothing alternates
-    assert thesis.peak(0)["s_m"] == 0.0 and thesis.peak(0)["sigma_pa"] > 0
+    hi, lo, m, a = ls.parts()
+    np.testing.assert_allclose(a, 0.0, atol=1e-9 * exact.max())  # steady: nothing alternates
+    assert ls.peak(0)["s_m"] == 0.0 and ls.peak(0)["sigma_pa"] > 0
 
 
 def test_static_cantilever_faces_carry_plus_minus_moment():
     """A cantilever at rest under gravity with a 20 kg tip mass: σ₊ = +M c/I (the face at +c, up,
-    in tension), σ₋ = −M c/I, N = 0; M(s) = m g (L − s) + q (L − s)²/2, less the Hermite element's
-    q l²/12 under the uniform self-weight q (exact for the tip load)."""
+    in tension), σ₋ = −M c/I, N = 0; M(s) = m g (L − s) + q (L − s)²/2 exactly at every element end:
+    the element's equilibrium under the uniform self-weight q (the Hermite element's curvature
+    alone would be q l²/12 off at the ends)."""
     sc = parse_scene(BAR.replace(f"[{OMEGA}]", "[0.0]").replace('cases = ["full"]', 'cases = ["full"]\n'
                      "gravity_m_s2 = [0.0, -9.81]") + '[[masses]]\nlink = "beam"\nposition_m = 0.5\nmass_kg = 20.0\n',
                      "cantilever.toml")
     res = study_response(sc, 0.0, "full", [0.0], shoot=False)
     ls, g = res.link_stress, 9.81
-    q, l = RHO * A * g, L / 4
-    M = 20.0 * g * (L - ls.point_s) + q * (L - ls.point_s) ** 2 / 2 - q * l**2 / 12
+    q = RHO * A * g
+    M = 20.0 * g * (L - ls.point_s) + q * (L - ls.point_s) ** 2 / 2
     scale = M.max() * C / I
     np.testing.assert_allclose(ls.sigma[0, :, 0], M * C / I, rtol=0, atol=1e-10 * scale)
     np.testing.assert_allclose(ls.sigma[0, :, 1], -M * C / I, rtol=0, atol=1e-10 * scale)

@@ -230,8 +230,8 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     theta = np.radians(a)
     q = r.at(theta)
     rigid = joint_loads(mech, theta, float(speed_rad_s), 0.0, gravity).axial_coef
-    st = station_response(model, theta, q, chosen, rigid)
-    whole = whole_link_stress(model, a, q)
+    st = station_response(model, theta, q, chosen, rigid, speed=float(speed_rad_s), gravity=gravity)
+    whole = whole_link_stress(model, a, q, speed=float(speed_rad_s), gravity=gravity)
     kin = model.angle_state(theta, with_loads=False).kinematics
     pos = point_local(kin, mech.node_link, mech.node_local)[0]
     disp = _node_displacement(mech, q)

@@ -189,7 +189,7 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
                                             settings=ps, model_for=model_for)
     r = steady_solve(model, float(speed_rad_s), case, gravity, harmonics=harmonics, tol=ps.harmonic_tol, shoot=False,
                      names=names, settings=ps)
-    ls = whole_link_stress(model, a, r.at(np.radians(a)))
+    ls = whole_link_stress(model, a, r.at(np.radians(a)), speed=float(speed_rad_s), gravity=gravity)
     mech = model.mechanism
     jl = joint_loads(mech, np.radians(a), float(speed_rad_s), 0.0, gravity)
     links = check_links(scene, mech, ls, jl, criterion)

@@ -98,7 +98,7 @@ def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOption
             except SceneError:  # (I − Φ) singular: an exact resonance at this speed
                 continue
             theta = np.radians(a)
-            ls = whole_link_stress(model, a, r.at(theta))
+            ls = whole_link_stress(model, a, r.at(theta), speed=float(w), gravity=gravity)
             jl = joint_loads(model.mechanism, theta, float(w), 0.0, gravity)
             for lk, c in enumerate(check_links(scene, model.mechanism, ls, jl, options.criterion)):
                 out[P.D_PEAK_STRESS.path][js, jc, lk] = np.nan if c.peak is None else c.peak["stress_pa"]

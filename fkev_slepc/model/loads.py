@@ -64,8 +64,10 @@ class LoadPieces:
         return f + g_x * self.gravity_x if g_x else f
 
 
-def element_loads(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> ElementLoads:
-    """The consistent element loads and the particle loads at the angles of ``state``."""
+def rigid_fields(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> dict[str, np.ndarray]:
+    """Element DOFs (n_θ, n_el, n_dof, element frame) of the rigid acceleration field of every
+    :data:`PARTS` piece: (a_Lu, a_Lv, φ̈, a_Ru, a_Rv, φ̈, 0…), linear along the element; the
+    element's consistent load is -m of it and its distributed load -ρA a(ξ) (docs/theory.md §6)."""
     kin = state.kinematics
     _, d_node, dd_node = point_local(kin, mech.node_link, mech.node_local)
     left, right = mech.elem_nodes[:, 0], mech.elem_nodes[:, 1]
@@ -86,6 +88,13 @@ def element_loads(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> 
         q[..., 0] = q[..., 3] = c * frame[0] + s * frame[1]
         q[..., 1] = q[..., 4] = c * frame[1] - s * frame[0]
         fields[part] = q
+    return fields
+
+
+def element_loads(mech: Mechanism, stacks: ElementStacks, state: AngleState) -> ElementLoads:
+    """The consistent element loads and the particle loads at the angles of ``state``."""
+    kin = state.kinematics
+    fields = rigid_fields(mech, stacks, state)
     T = state.T
     Tt = np.swapaxes(T, -1, -2)
     element = {k: -(Tt @ (stacks.mass @ q[..., None]))[..., 0] for k, q in fields.items()}

@@ -8,6 +8,9 @@ axial strain u' and the curvature v'', hence
 
     N = EA u',   M = EI v'',   σ₊ = N/A − M c/I,   σ₋ = N/A + M c/I,   |σ|max = |N|/A + |M| c/I
 
+with the operating point given (speed, gravity) N, V, M instead by the equilibrium of each element
+under its rigid-body inertia and gravity loads (:func:`element_forces`, docs/theory.md §7.4),
+exact at any station where the shape functions' derivatives are not
 (c the extreme-fibre distance of the section, scene/shapes.py; NaN where the scene does not give
 it). σ₊ and σ₋ are the signed stresses of the faces at +c and −c along the link's left normal:
 with M = EI v'' positive where the link bends concave towards its left normal, the fibre at +c is
@@ -114,9 +117,35 @@ class StationResponse:
     transverse_chord: np.ndarray
 
 
-def station_response(model, theta, q, stations=None, rigid_axial=None) -> StationResponse:
+def element_forces(model, state, e, xi, q_phys, speed: float, gravity=(0.0, 0.0)):
+    """N, V, M (each (n_θ, n_st)) at element coordinates ``xi`` of elements ``e`` by the equilibrium
+    of the free body [0, ξ] of the element (docs/theory.md §7.4): its left-end forces
+    f = k_s q_e − f_e (f_e the consistent load of the rigid-body inertia at crank speed ``speed``
+    and of ``gravity`` (g_x, g_y), m/s²) and the distributed load p = −ρA a(x) from the left end to
+    the station. ``q_phys``: the element DOFs in the element frame (n_θ, n_st, n_dof)."""
+    from fkev_slepc.model.loads import rigid_fields
+
+    mech, stacks = model.mechanism, model.stacks
+    fields = rigid_fields(mech, stacks, state)
+    gx, gy = np.asarray(gravity, float).reshape(2)  # the pieces are of 1 m/s² along -X, -Y
+    a = speed**2 * fields["per_w2"][:, e] - gy * fields["gravity"][:, e] - gx * fields["gravity_x"][:, e]
+    f = np.einsum("sij,asj->asi", stacks.structural[e], q_phys) + np.einsum("sij,asj->asi", stacks.mass[e], a)
+    ra, l = mech.elem_rho_a[e] * mech.elem_length[e], mech.elem_length[e]
+    P_u = -ra * (a[..., 0] * (xi - xi**2 / 2) + a[..., 3] * xi**2 / 2)  # ∫₀ˢ p_u dx
+    P_v = -ra * (a[..., 1] * (xi - xi**2 / 2) + a[..., 4] * xi**2 / 2)
+    PP_v = -ra * l * (a[..., 1] * (xi**2 / 2 - xi**3 / 6) + a[..., 4] * xi**3 / 6)  # ∫₀ˢ ∫₀ˣ p_v
+    N = -f[..., 0] - P_u
+    V = -f[..., 1] - P_v
+    M = -f[..., 2] + f[..., 1] * xi * l + PP_v
+    return N, V, M
+
+
+def station_response(model, theta, q, stations=None, rigid_axial=None, *, speed=None,
+                     gravity=(0.0, 0.0)) -> StationResponse:
     """Station outputs of the global response ``q`` (n_θ, n_free) at crank angles ``theta``;
-    ``rigid_axial`` (n_θ, n_el, 3) the kinetostatic axial-force polynomials at the same angles."""
+    ``rigid_axial`` (n_θ, n_el, 3) the kinetostatic axial-force polynomials at the same angles.
+    With the crank ``speed`` (rad/s) and ``gravity`` (g_x, g_y) of the response, N, V and M come from
+    each element's equilibrium (:func:`element_forces`); without, from the shape functions."""
     mech = model.mechanism
     stations = tuple(default_stations(mech) if stations is None else stations)
     links = sorted({st.link for st in stations})
@@ -133,7 +162,8 @@ def station_response(model, theta, q, stations=None, rigid_axial=None) -> Statio
     T = state.T[:, e]  # (n_θ, n_st, d, d)
     n_dof = T.shape[-1]
     l = mech.elem_length[e]
-    q_loc = np.einsum("asij,asj->asi", T, q_el) * _scale(l, n_dof)[None]
+    q_phys = np.einsum("asij,asj->asi", T, q_el)
+    q_loc = q_phys * _scale(l, n_dof)[None]
 
     def at(fn, deriv):
         rows = np.stack([fn(np.array([x]), n_dof, deriv)[0] for x in xi])  # (n_st, d)
@@ -145,10 +175,13 @@ def station_response(model, theta, q, stations=None, rigid_axial=None) -> Statio
                       - st.s / mech.length[st.link] * v_end[st.link][1] for k, st in enumerate(stations)], axis=1)
     keep = slice(0, n_st)
     u, v, q_loc, l, e, xi = u[:, keep], v[:, keep], q_loc[:, keep], l[keep], e[keep], xi[keep]
-    du, d2v = at(_axial, 1) / l, at(_bending, 2) / l**2
-    d3v = np.einsum("sd,asd->as", np.tile([0, 12, 6, 0, -12, 6, 0, 0][:n_dof], (xi.size, 1)), q_loc) / l**3
-    ea, ei = mech.elem_ea[e], mech.elem_ei[e]
-    N, M, V = ea * du, ei * d2v, -ei * d3v
+    if speed is not None:
+        N, V, M = element_forces(model, state, e, xi, q_phys[:, keep], float(speed), gravity)
+    else:
+        du, d2v = at(_axial, 1) / l, at(_bending, 2) / l**2
+        d3v = np.einsum("sd,asd->as", np.tile([0, 12, 6, 0, -12, 6, 0, 0][:n_dof], (xi.size, 1)), q_loc) / l**3
+        ea, ei = mech.elem_ea[e], mech.elem_ei[e]
+        N, M, V = ea * du, ei * d2v, -ei * d3v
     A, I, c = (x[e] for x in element_sections(mech))
     stress = np.abs(N) / A + np.abs(M) * c / I
     plus, minus = N / A - M * c / I, N / A + M * c / I

@@ -137,13 +137,15 @@ def point_settings(scene: Scene, settings, names=None, **overrides) -> PeriodicS
         return st  # checked_model / checked_point name it
 
 
-def whole_link_stress(model, angles_deg, q):
+def whole_link_stress(model, angles_deg, q, *, speed=None, gravity=(0.0, 0.0)):
     """:class:`~fkev_slepc.periodic.link_stress.LinkStress` of the response ``q`` (n, n_free) at
-    ``angles_deg``: σ₊, σ₋ at both ends of every axis element."""
+    ``angles_deg``: σ₊, σ₋ at both ends of every axis element; with the response's crank ``speed``
+    and ``gravity`` the internal forces by element equilibrium (stations.element_forces)."""
     from fkev_slepc.periodic.link_stress import LinkStress
     from fkev_slepc.periodic.stations import element_end_stations, station_response
 
     mech = model.mechanism
     theta = np.radians(angles_deg)
-    return LinkStress.from_stations(station_response(model, theta, q, element_end_stations(mech)),
+    return LinkStress.from_stations(station_response(model, theta, q, element_end_stations(mech), speed=speed,
+                                                     gravity=gravity),
                                     mech.link_names, angles_deg)
