@@ -83,11 +83,6 @@ class PeriodicResponse:
     def max_abs_multiplier(self) -> float:
         return float("nan") if self.shoot is None else self.shoot.max_abs_multiplier
 
-    def attracting(self, attract_tol: float = DEFAULTS.attract_tol) -> bool | None:
-        """False where the response does not attract (:func:`response_verdict`); None without shooting."""
-        v = response_verdict(self.max_abs_multiplier, np.nan if self.shoot is None else self.shoot.error, attract_tol)
-        return None if v is None else v != DOES_NOT_ATTRACT
-
 
 DOES_NOT_ATTRACT = "does not attract"
 
