@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.model.mechanism import node_displacement
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
 
@@ -234,7 +235,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     whole = whole_link_stress(model, a, q)
     kin = model.angle_state(theta, with_loads=False).kinematics
     pos = point_local(kin, mech.node_link, mech.node_local)[0]
-    disp = _node_displacement(mech, q)
+    disp = node_displacement(mech, q, mech.node_axis)[..., :2]  # (n, n_node, 2): x, y
     sh = r.shoot
     return ResponseResult(
         scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
@@ -261,13 +262,3 @@ def chosen_stations(scene: Scene, mech, stations, names=None):
         except ValueError as err:
             raise SceneError(scene.source, [Problem(name, str(err))]) from None
     return chosen
-
-
-def _node_displacement(mech, q) -> np.ndarray:
-    """Ground-frame (x, y) elastic displacement of every node (n, n_node, 2); a slider node's
-    translations are along/normal to its guide (``node_axis``), the normal one fixed."""
-    qp = np.concatenate([q, np.zeros((q.shape[0], 1))], axis=1)
-    d = np.where(mech.node_dofs >= 0, mech.node_dofs, q.shape[1])
-    a, b = qp[:, d[:, 0]], qp[:, d[:, 1]]
-    ax = mech.node_axis
-    return np.stack([ax[:, 0] * a - ax[:, 1] * b, ax[:, 1] * a + ax[:, 0] * b], axis=-1)
