@@ -11,6 +11,7 @@ import numpy as np
 from fkev_slepc.model.mechanism import node_displacement
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.status import json_number
 
 RESPONSE_FORMAT = "fkev-response"
 
@@ -57,10 +58,10 @@ class ResponseResult:
         ``tol``, ``converged``, the balance's ``harmonics``, ``harmonic_balance_error`` and ``levels``
         ([H, estimate], coarse to fine; abandoned where the method is shooting), ``shooting_steps``,
         and the link-component ``truncation`` (None on the full model)."""
-        return {"method": self.method, "response_error": _none(self.error), "tol": _none(self.tol),
+        return {"method": self.method, "response_error": json_number(self.error), "tol": json_number(self.tol),
                 "converged": self.converged, "harmonics": self.harmonics,
-                "harmonic_balance_error": _none(self.hb_error),
-                "levels": [[int(h), _none(e)] for h, e in self.hb_levels], "shooting_steps": int(self.shooting_steps),
+                "harmonic_balance_error": json_number(self.hb_error),
+                "levels": [[int(h), json_number(e)] for h, e in self.hb_levels], "shooting_steps": int(self.shooting_steps),
                 "truncation": None if self.truncation is None else self.truncation.as_dict()}
 
     def plot(self, kind: str = "deflected", **options):
@@ -122,8 +123,8 @@ class ResponseResult:
                 "axial_force_rigid_n": _list(sr.axial_force_rigid[:, k]), "shear_n": _list(sr.shear[:, k]),
                 "stress_pa": _list(sr.stress[:, k]), "stress_plus_pa": _list(sr.stress_plus[:, k]),
                 "stress_minus_pa": _list(sr.stress_minus[:, k]),
-                "stress_mean_pa": {face: _none(mean[k, f]) for f, face in enumerate(FACES)},
-                "stress_alternating_pa": {face: _none(alternating[k, f]) for f, face in enumerate(FACES)},
+                "stress_mean_pa": {face: json_number(mean[k, f]) for f, face in enumerate(FACES)},
+                "stress_alternating_pa": {face: json_number(alternating[k, f]) for f, face in enumerate(FACES)},
                 "envelope": {key: [float(np.nanmin(x[:, k])), float(np.nanmax(x[:, k]))] for key, x in (
                     ("transverse_m", sr.transverse), ("transverse_chord_m", sr.transverse_chord), ("axial_m", sr.axial), ("moment_n_m", sr.moment),
                     ("axial_force_n", sr.axial_force))},
@@ -132,11 +133,11 @@ class ResponseResult:
             "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": _list(self.gravity),
             "crank_angle_deg": _list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
             "links": {} if self.link_stress is None else self.link_stress.as_dict(),
-            "max_abs_multiplier": _none(self.max_abs_multiplier), "attracting": self.attracting,
+            "max_abs_multiplier": json_number(self.max_abs_multiplier), "attracting": self.attracting,
             "floquet_verdict": self.verdict,
-            "multiplier_error": _none(self.multiplier_error), "harmonics": self.harmonics,
-            "harmonic_balance_error": _none(self.hb_error), "methods_difference": _none(self.methods_difference),
-            "periodicity_closure": _none(self.closure),
+            "multiplier_error": json_number(self.multiplier_error), "harmonics": self.harmonics,
+            "harmonic_balance_error": json_number(self.hb_error), "methods_difference": json_number(self.methods_difference),
+            "periodicity_closure": json_number(self.closure),
             "reduction": "none" if self.truncation is None else "links", **self.solution(),
             "max_deflection_m": float(np.nanmax(np.hypot(*np.moveaxis(self.node_displacement, -1, 0)))),
         }
@@ -186,10 +187,6 @@ class ResponseResult:
                 "reduction": "none" if self.truncation is None else "links",
                 **({} if self.truncation is None else {"truncation": self.truncation.as_dict()}), **(attrs or {})}
         return write_labelled(path, RESPONSE_FORMAT, coords, variables, meta)
-
-
-def _none(x):
-    return None if x is None or not np.isfinite(x) else float(x)
 
 
 def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
