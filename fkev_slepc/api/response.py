@@ -106,7 +106,7 @@ class ResponseResult:
                 "crank_angle_deg": float(self.angle_deg[a])}
 
     def as_dict(self) -> dict:
-        from fkev_slepc.model.joint_loads import _list
+        from fkev_slepc.model.joint_loads import json_list
 
         from fkev_slepc.periodic.link_stress import FACES
         from fkev_slepc.periodic.stations import cycle_parts
@@ -117,12 +117,12 @@ class ResponseResult:
         for k, st in enumerate(sr.stations):
             stations.append({
                 "link": self.link_names[st.link], "s_m": st.s,
-                "axial_m": _list(sr.axial[:, k]), "transverse_m": _list(sr.transverse[:, k]),
-                "transverse_chord_m": _list(sr.transverse_chord[:, k]),
-                "moment_n_m": _list(sr.moment[:, k]), "axial_force_n": _list(sr.axial_force[:, k]),
-                "axial_force_rigid_n": _list(sr.axial_force_rigid[:, k]), "shear_n": _list(sr.shear[:, k]),
-                "stress_pa": _list(sr.stress[:, k]), "stress_plus_pa": _list(sr.stress_plus[:, k]),
-                "stress_minus_pa": _list(sr.stress_minus[:, k]),
+                "axial_m": json_list(sr.axial[:, k]), "transverse_m": json_list(sr.transverse[:, k]),
+                "transverse_chord_m": json_list(sr.transverse_chord[:, k]),
+                "moment_n_m": json_list(sr.moment[:, k]), "axial_force_n": json_list(sr.axial_force[:, k]),
+                "axial_force_rigid_n": json_list(sr.axial_force_rigid[:, k]), "shear_n": json_list(sr.shear[:, k]),
+                "stress_pa": json_list(sr.stress[:, k]), "stress_plus_pa": json_list(sr.stress_plus[:, k]),
+                "stress_minus_pa": json_list(sr.stress_minus[:, k]),
                 "stress_mean_pa": {face: json_number(mean[k, f]) for f, face in enumerate(FACES)},
                 "stress_alternating_pa": {face: json_number(alternating[k, f]) for f, face in enumerate(FACES)},
                 "envelope": {key: [float(np.nanmin(x[:, k])), float(np.nanmax(x[:, k]))] for key, x in (
@@ -130,8 +130,8 @@ class ResponseResult:
                     ("axial_force_n", sr.axial_force))},
             })
         return {
-            "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": _list(self.gravity),
-            "crank_angle_deg": _list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
+            "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": json_list(self.gravity),
+            "crank_angle_deg": json_list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
             "links": {} if self.link_stress is None else self.link_stress.as_dict(),
             "max_abs_multiplier": json_number(self.max_abs_multiplier), "attracting": self.attracting,
             "floquet_verdict": self.verdict,
