@@ -1,9 +1,12 @@
-"""Constants shared by every stage, defined once: per-point statuses and the exit codes.
+"""Constants shared by every stage, defined once: per-point statuses and the exit codes (and the
+one NaN/∞ -> None rule of every JSON number, :func:`json_number`).
 
 This module imports nothing from the package, so any stage may import it.
 """
 
 from __future__ import annotations
+
+import math
 
 from enum import StrEnum
 
@@ -75,3 +78,7 @@ def converged_codes() -> list[int]:
     """``CONVERGED`` as archive integers."""
     return codes(CONVERGED)
 
+
+def json_number(x) -> float | None:
+    """``float(x)``, or None for None, NaN and ±∞ (JSON has neither: ``null``)."""
+    return None if x is None or not math.isfinite(x) else float(x)

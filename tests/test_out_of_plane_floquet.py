@@ -111,3 +111,30 @@ def test_fkev_floquet_plane_out(tmp_path):
     sc = replace_values(load_scene(scene), {f"links[{i}].elements": 1 for i in range(3)})
     want = np.max(np.abs(floquet_multipliers(Model(sc, ("full",), plane="out"), 300.0, "full", tol=1e-10).multipliers))
     assert out["speed_rad_s"] == [300.0] and abs(out["max_abs_multiplier"][0] - want) < 1e-8
+
+
+def test_work_limit_estimated_on_the_plane_run():
+    """``work_problems(..., plane="out")`` estimates the Magnus steps on the out-of-plane model
+    (the one ``fkev floquet --plane out`` runs), not the in-plane one (issue #34)."""
+    import re
+    from pathlib import Path
+
+    from fkev_slepc.api.floquet import API_NAMES, work_problems
+    from fkev_slepc.api.pool import ModelPool
+    from fkev_slepc.periodic.floquet import full_min_steps
+    from fkev_slepc.scene import load_scene
+    from fkev_slepc.scene.edit import replace_values
+
+    root = Path(__file__).resolve().parents[1]
+    sc = load_scene(root / "runs/flat-rod-slider-crank.toml")
+    sc = replace_values(sc, {f"links[{i}].elements": 1 for i in range(len(sc.links))})
+    low = float(np.min(sc.driver.speeds))
+
+    def estimate(plane):
+        (p,) = work_problems(sc, "full", None, API_NAMES, ModelPool(sc), max_steps=0, plane=plane)
+        return float(re.search(r"about (\S+) Magnus steps", p.message).group(1))
+
+    out = float(full_min_steps(Model(sc, ("full",), plane="out"), low, "full"))
+    inp = float(full_min_steps(Model(sc, ("full",), plane="in"), low, "full"))
+    assert out != inp
+    assert estimate("out") == float(f"{out:.3g}") and estimate("in") == float(f"{inp:.3g}")

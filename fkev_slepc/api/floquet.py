@@ -24,19 +24,20 @@ MAX_MAGNUS_STEPS = DEFAULTS.max_steps  # full-model Magnus steps of one monodrom
 
 
 def work_problems(scene, case: str, reduce, names: dict, pool=None,
-                  max_steps: int = MAX_MAGNUS_STEPS) -> list[Problem]:
+                  max_steps: int = MAX_MAGNUS_STEPS, plane: str = "in") -> list[Problem]:
     """Before any work: operators that overflow double precision at the top speed
     (:func:`fkev_slepc.solve.finite.overflow_problems`), and the work of the full-model monodromy at
     the lowest speed, 2·2π·ρ(A) Magnus steps (:func:`~fkev_slepc.periodic.floquet.full_min_steps`,
     growing like 1/Ω) on a state of 2n, beyond :data:`MAX_MAGNUS_STEPS` (not checked for a fixed
     basis ``reduce`` = r, whose steps are the reduced model's), with the estimate and the ways out.
     ``pool``: the :class:`~fkev_slepc.api.pool.ModelPool` of ``scene`` that gives the model (default a new one);
-    ``max_steps``: the limit (``PeriodicSettings.max_steps``)."""
+    ``max_steps``: the limit (``PeriodicSettings.max_steps``); ``plane``: the plane whose model is run
+    ("in" or "out"), the one whose steps are estimated."""
     from fkev_slepc.solve.finite import overflow_problems
     from fkev_slepc.periodic.floquet import full_min_steps
 
     with np.errstate(all="ignore"):  # an overflow is the finding of overflow_problems, not a warning
-        model = (ModelPool(scene) if pool is None else pool).model(case)  # its terms include the structure's
+        model = (ModelPool(scene) if pool is None else pool).model(case, plane)  # its terms include the structure's
     bad = [Problem(names["speeds"] if p.path == "driver.speeds" else p.path, p.message)
            for p in overflow_problems(scene, model)]
     if bad or isinstance(reduce, int):
@@ -116,7 +117,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
         raise SceneError(sc.source, [Problem(names["speeds"], "Floquet speeds must be > 0 rad/s (at rest the frozen "
                                              f"verdict is exact; use fkev point) (got {', '.join(f'{w:g}' for w in speeds)})")])
     pool = study.pool.for_scene(scene)  # the study's models, on this grid
-    problems = work_problems(scene, case, reduce, names, pool, st.max_steps)
+    problems = work_problems(scene, case, reduce, names, pool, st.max_steps, plane)
     if problems:
         raise SceneError(sc.source, problems)
     if output is None:

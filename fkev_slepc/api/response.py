@@ -8,8 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.model.mechanism import node_displacement
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.status import json_number
 
 RESPONSE_FORMAT = "fkev-response"
 
@@ -56,10 +58,10 @@ class ResponseResult:
         ``tol``, ``converged``, the balance's ``harmonics``, ``harmonic_balance_error`` and ``levels``
         ([H, estimate], coarse to fine; abandoned where the method is shooting), ``shooting_steps``,
         and the link-component ``truncation`` (None on the full model)."""
-        return {"method": self.method, "response_error": _none(self.error), "tol": _none(self.tol),
+        return {"method": self.method, "response_error": json_number(self.error), "tol": json_number(self.tol),
                 "converged": self.converged, "harmonics": self.harmonics,
-                "harmonic_balance_error": _none(self.hb_error),
-                "levels": [[int(h), _none(e)] for h, e in self.hb_levels], "shooting_steps": int(self.shooting_steps),
+                "harmonic_balance_error": json_number(self.hb_error),
+                "levels": [[int(h), json_number(e)] for h, e in self.hb_levels], "shooting_steps": int(self.shooting_steps),
                 "truncation": None if self.truncation is None else self.truncation.as_dict()}
 
     def plot(self, kind: str = "deflected", **options):
@@ -104,7 +106,7 @@ class ResponseResult:
                 "crank_angle_deg": float(self.angle_deg[a])}
 
     def as_dict(self) -> dict:
-        from fkev_slepc.model.joint_loads import _list
+        from fkev_slepc.model.joint_loads import json_list
 
         from fkev_slepc.periodic.link_stress import FACES
         from fkev_slepc.periodic.stations import cycle_parts
@@ -115,27 +117,27 @@ class ResponseResult:
         for k, st in enumerate(sr.stations):
             stations.append({
                 "link": self.link_names[st.link], "s_m": st.s,
-                "axial_m": _list(sr.axial[:, k]), "transverse_m": _list(sr.transverse[:, k]),
-                "transverse_chord_m": _list(sr.transverse_chord[:, k]),
-                "moment_n_m": _list(sr.moment[:, k]), "axial_force_n": _list(sr.axial_force[:, k]),
-                "axial_force_rigid_n": _list(sr.axial_force_rigid[:, k]), "shear_n": _list(sr.shear[:, k]),
-                "stress_pa": _list(sr.stress[:, k]), "stress_plus_pa": _list(sr.stress_plus[:, k]),
-                "stress_minus_pa": _list(sr.stress_minus[:, k]),
-                "stress_mean_pa": {face: _none(mean[k, f]) for f, face in enumerate(FACES)},
-                "stress_alternating_pa": {face: _none(alternating[k, f]) for f, face in enumerate(FACES)},
+                "axial_m": json_list(sr.axial[:, k]), "transverse_m": json_list(sr.transverse[:, k]),
+                "transverse_chord_m": json_list(sr.transverse_chord[:, k]),
+                "moment_n_m": json_list(sr.moment[:, k]), "axial_force_n": json_list(sr.axial_force[:, k]),
+                "axial_force_rigid_n": json_list(sr.axial_force_rigid[:, k]), "shear_n": json_list(sr.shear[:, k]),
+                "stress_pa": json_list(sr.stress[:, k]), "stress_plus_pa": json_list(sr.stress_plus[:, k]),
+                "stress_minus_pa": json_list(sr.stress_minus[:, k]),
+                "stress_mean_pa": {face: json_number(mean[k, f]) for f, face in enumerate(FACES)},
+                "stress_alternating_pa": {face: json_number(alternating[k, f]) for f, face in enumerate(FACES)},
                 "envelope": {key: [float(np.nanmin(x[:, k])), float(np.nanmax(x[:, k]))] for key, x in (
                     ("transverse_m", sr.transverse), ("transverse_chord_m", sr.transverse_chord), ("axial_m", sr.axial), ("moment_n_m", sr.moment),
                     ("axial_force_n", sr.axial_force))},
             })
         return {
-            "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": _list(self.gravity),
-            "crank_angle_deg": _list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
+            "scene": self.title, "speed_rad_s": self.speed, "case": self.case, "gravity_m_s2": json_list(self.gravity),
+            "crank_angle_deg": json_list(self.angle_deg), "stations": stations, "peak_stress": self.peak_stress(),
             "links": {} if self.link_stress is None else self.link_stress.as_dict(),
-            "max_abs_multiplier": _none(self.max_abs_multiplier), "attracting": self.attracting,
+            "max_abs_multiplier": json_number(self.max_abs_multiplier), "attracting": self.attracting,
             "floquet_verdict": self.verdict,
-            "multiplier_error": _none(self.multiplier_error), "harmonics": self.harmonics,
-            "harmonic_balance_error": _none(self.hb_error), "methods_difference": _none(self.methods_difference),
-            "periodicity_closure": _none(self.closure),
+            "multiplier_error": json_number(self.multiplier_error), "harmonics": self.harmonics,
+            "harmonic_balance_error": json_number(self.hb_error), "methods_difference": json_number(self.methods_difference),
+            "periodicity_closure": json_number(self.closure),
             "reduction": "none" if self.truncation is None else "links", **self.solution(),
             "max_deflection_m": float(np.nanmax(np.hypot(*np.moveaxis(self.node_displacement, -1, 0)))),
         }
@@ -187,10 +189,6 @@ class ResponseResult:
         return write_labelled(path, RESPONSE_FORMAT, coords, variables, meta)
 
 
-def _none(x):
-    return None if x is None or not np.isfinite(x) else float(x)
-
-
 def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
                    harmonics: int | None = None, tol: float | None = None, shoot: bool | None = None, stations=None,
                    names=None, settings=None, reduce=None, model_for=None) -> ResponseResult:
@@ -234,7 +232,7 @@ def study_response(scene: Scene, speed_rad_s: float, case: str = "full", angles_
     whole = whole_link_stress(model, a, q, speed=float(speed_rad_s), gravity=gravity)
     kin = model.angle_state(theta, with_loads=False).kinematics
     pos = point_local(kin, mech.node_link, mech.node_local)[0]
-    disp = _node_displacement(mech, q)
+    disp = node_displacement(mech, q, mech.node_axis)[..., :2]  # (n, n_node, 2): x, y
     sh = r.shoot
     return ResponseResult(
         scene.title, scene.source_text, float(speed_rad_s), case, np.asarray(gravity, float), a, q, pos, disp,
@@ -261,13 +259,3 @@ def chosen_stations(scene: Scene, mech, stations, names=None):
         except ValueError as err:
             raise SceneError(scene.source, [Problem(name, str(err))]) from None
     return chosen
-
-
-def _node_displacement(mech, q) -> np.ndarray:
-    """Ground-frame (x, y) elastic displacement of every node (n, n_node, 2); a slider node's
-    translations are along/normal to its guide (``node_axis``), the normal one fixed."""
-    qp = np.concatenate([q, np.zeros((q.shape[0], 1))], axis=1)
-    d = np.where(mech.node_dofs >= 0, mech.node_dofs, q.shape[1])
-    a, b = qp[:, d[:, 0]], qp[:, d[:, 1]]
-    ax = mech.node_axis
-    return np.stack([ax[:, 0] * a - ax[:, 1] * b, ax[:, 1] * a + ax[:, 0] * b], axis=-1)

@@ -36,6 +36,7 @@ from fkev_slepc.sweep.product_run import (
     ProductRequest, finish, open_product, refuse_changed_settings, settings_attrs, solve_pending,
 )
 from fkev_slepc.sweep.units import pending
+from fkev_slepc.status import json_number
 
 OPTION_KEYS = ("angles_deg", "gravity_m_s2", "harmonics", "tol", "shoot", "stations", "reduce")
 
@@ -210,10 +211,9 @@ def _solutions(f, g) -> tuple[dict, ...]:
     tol = float(json.loads(_text(g.attrs["options"])).get("tol", np.nan))
     steps, err = column(P.R_SHOOTING_STEPS, 0), column(P.R_ERROR, np.nan)
     hb, harm, st = f[P.R_HB_ERROR.path][:, 0], f[P.R_HARMONICS.path][:, 0], f[P.R_STATUS.path][:, 0]
-    none = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731
-    return tuple({"method": "harmonic balance" if s == 0 else "shooting", "response_error": none(e), "tol": none(tol),
+    return tuple({"method": "harmonic balance" if s == 0 else "shooting", "response_error": json_number(e), "tol": json_number(tol),
                   "converged": bool(c in (Status.OK.code, Status.UNSTABLE.code) and e <= tol), "harmonics": int(h),
-                  "harmonic_balance_error": none(b), "shooting_steps": int(s)}
+                  "harmonic_balance_error": json_number(b), "shooting_steps": int(s)}
                  for s, e, b, h, c in zip(steps, err, hb, harm, st))
 
 

@@ -29,16 +29,16 @@ class SpeedResponse:
     solutions: tuple[dict, ...] = ()  # per speed: how it was solved and its truncation (ResponseResult.solution)
 
     def as_dict(self) -> dict:
-        from fkev_slepc.model.joint_loads import _list
+        from fkev_slepc.model.joint_loads import json_list
 
-        return {"scene": self.title, "case": self.case, "speed_rad_s": _list(self.speeds),
-                "stations": [{"station": lab, "peak_transverse_m": _list(self.peak_transverse[:, k]),
-                              "peak_transverse_chord_m": _list(self.peak_chord[:, k]),
-                              "peak_moment_n_m": _list(self.peak_moment[:, k]),
-                              "peak_stress_pa": _list(self.peak_stress[:, k])}
+        return {"scene": self.title, "case": self.case, "speed_rad_s": json_list(self.speeds),
+                "stations": [{"station": lab, "peak_transverse_m": json_list(self.peak_transverse[:, k]),
+                              "peak_transverse_chord_m": json_list(self.peak_chord[:, k]),
+                              "peak_moment_n_m": json_list(self.peak_moment[:, k]),
+                              "peak_stress_pa": json_list(self.peak_stress[:, k])}
                              for k, lab in enumerate(self.station_labels)],
-                "max_abs_multiplier": _list(self.max_abs_multiplier),
-                "mean_frequencies_rad_s": [_list(r) for r in self.mean_frequencies],
+                "max_abs_multiplier": json_list(self.max_abs_multiplier),
+                "mean_frequencies_rad_s": [json_list(r) for r in self.mean_frequencies],
                 "forced_resonances": list(self.resonances), "solution": list(self.solutions)}
 
     def save(self, path, attrs: dict | None = None):

@@ -53,12 +53,16 @@ def add_parser(sub) -> None:
     p.add_argument("--resonance-order", type=int, default=None, metavar="N",
                    help="list the resonance candidates 2ω̄ₖ/n, (ω̄ⱼ ± ω̄ₖ)/n of order n <= N that lie between two stable "
                    "grid speeds, where a band narrower than the spacing would not be seen (default 3; 0: none)")
-    p.add_argument("--reduce", default=None, metavar="auto|none|N|links|links:N",
+    p.add_argument("--reduce", default=None, metavar="default|auto|none|N|links|links:N|moving|moving:R",
                    help="reduction of each monodromy: auto (frozen-mode basis grown until max|μ| and the Floquet "
                    "frequencies change < 1e-3, truncation archived), none (full model), N frozen modes per angle, "
                    "links (component modes in link frames, modes per link doubled to the same rule), links:N (N "
-                   "fixed-interface modes per link, truncation measured against 2N); default: "
-                   "auto where the full model needs >= 60,000 Magnus steps, else none (docs/engine.md)")
+                   "fixed-interface modes per link, truncation measured against 2N), moving (the lowest r frozen modes "
+                   "followed around the cycle, r doubled from 8 to the same rule: docs/theory.md §18.10), moving:R "
+                   "(R modes, truncation against 2R); default (the default), per "
+                   f"speed: the full model below {DEFAULTS.auto_min_steps:,} full-model Magnus steps; above, links "
+                   f"where {4 * DEFAULTS.link_modes} modes per link are fewer than the free DOFs and need at most "
+                   f"1/{DEFAULTS.links_step_ratio:g} of the full model's steps, else auto (docs/engine.md)")
     p.add_argument("--probe-resonances", action="store_true",
                    help="solve one more monodromy at each of those candidates (a band found there is refined)")
     add_elements_argument(p)

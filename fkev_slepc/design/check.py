@@ -23,6 +23,7 @@ from fkev_slepc.design.out_of_plane import NOT_CHECKED, OutOfPlaneCheck, out_of_
 from fkev_slepc.model.buckling import WARN_BELOW, Buckling, weak_axis_buckling
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.periodic.link_stress import FACES
+from fkev_slepc.status import json_number
 
 STRENGTHS = ("yield_strength", "ultimate_strength", "endurance_limit")
 
@@ -46,7 +47,7 @@ class LinkCheck:
         crit = self.critical or {}
         return {"material": "/".join(self.materials) or None,
                 "peak_stress_pa": None if self.peak is None else self.peak["stress_pa"], "peak": self.peak,
-                "static_sf": _finite(self.static_sf), "fatigue_sf": _finite(self.fatigue_sf),
+                "static_sf": json_number(self.static_sf), "fatigue_sf": json_number(self.fatigue_sf),
                 "fatigue_criterion": criterion,
                 "sigma_mean_pa": crit.get("sigma_mean_pa"), "sigma_alternating_pa": crit.get("sigma_alternating_pa"),
                 "critical_point": self.critical, "buckling_sf": self.buckling.factor,
@@ -130,14 +131,9 @@ def link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
                      points)
 
 
-def _finite(x: float | None) -> float | None:
-    """``x``, or None for None and ∞ (no stress: no finite factor; JSON has no infinity)."""
-    return None if x is None or not np.isfinite(x) else x
-
-
 def _faces(x: np.ndarray) -> dict:
     """{face: list} of a (n_pt, 2) array; NaN and ∞ as None (JSON)."""
-    return {face: [float(v) if np.isfinite(v) else None for v in x[:, f]] for f, face in enumerate(FACES)}
+    return {face: [json_number(v) for v in x[:, f]] for f, face in enumerate(FACES)}
 
 
 def check_links(scene: Scene, mech, ls, jl, criterion: str) -> tuple[LinkCheck, ...]:

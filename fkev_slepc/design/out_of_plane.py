@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.design.margins import ModeMargin, mode_margin
+from fkev_slepc.status import json_number
 
 NOT_CHECKED = "not checked (no out-of-plane section)"
 
@@ -46,7 +47,7 @@ class OutOfPlaneCheck:
                 "closest_angles_deg": b["closest_angles_deg"], "orders_inside": b["orders_inside"],
                 "below": b["below"], "above": b["above"], "divergent_angles_deg": list(self.divergent_deg),
                 "buckling_sf": self.buckling_sf, "buckling_link": self.buckling_link,
-                "f1_hz": [float(f) if np.isfinite(f) else None for f in self.f1_hz]}
+                "f1_hz": [json_number(f) for f in self.f1_hz]}
 
 
 def out_of_plane_check(scene, speed_rad_s: float, case: str, angles_deg, buckling,

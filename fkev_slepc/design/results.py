@@ -24,6 +24,7 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.reader import ArchiveError
+from fkev_slepc.status import json_number
 
 
 _CHECKS = (P.D_TORQUE_MIN, P.D_TORQUE_MAX, P.D_JOINT_PEAK, P.D_PIN_PEAK, P.D_BUCKLING, P.D_MIN_AXIAL,
@@ -127,8 +128,7 @@ def design_rows(ds) -> list[dict]:
                 da = point[name].sel({P.SPEED: w}) if P.SPEED in point[name].dims else point[name]
                 for j in np.ndindex(*da.shape):
                     label = ".".join([name] + [str(da[d].values[i]) for d, i in zip(da.dims, j)])
-                    x = float(da.values[j])
-                    row[label] = x if np.isfinite(x) else None
+                    row[label] = json_number(da.values[j])
             rows.append(row)
     kept = [c for c in rows[0] if any(r[c] is not None for r in rows)] if rows else []
     return [{c: r[c] for c in kept} for r in rows]

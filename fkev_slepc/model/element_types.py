@@ -39,7 +39,7 @@ def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
     return (x + 1) / 2, w / 2
 
 
-def _axial(xi: np.ndarray, n_dof: int, deriv: int) -> np.ndarray:
+def axial_shapes(xi: np.ndarray, n_dof: int, deriv: int) -> np.ndarray:
     """d^k/dξ^k of the axial shape functions at ``xi``: (n_xi, n_dof)."""
     out = np.zeros((xi.size, n_dof))
     if deriv == 0:
@@ -56,9 +56,9 @@ def _axial(xi: np.ndarray, n_dof: int, deriv: int) -> np.ndarray:
     return out
 
 
-def _bending(xi: np.ndarray, n_dof: int, deriv: int) -> np.ndarray:
+def bending_shapes(xi: np.ndarray, n_dof: int, deriv: int) -> np.ndarray:
     """d^k/dξ^k of the Hermite shape functions (rotations per unit l; the φ columns are
-    multiplied by l in :func:`_scale`): (n_xi, n_dof)."""
+    multiplied by l in :func:`dof_scale`): (n_xi, n_dof)."""
     out = np.zeros((xi.size, n_dof))
     if deriv == 0:
         out[:, 1] = 1 - 3 * xi**2 + 2 * xi**3
@@ -83,7 +83,7 @@ def _gram(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.einsum("g,gi,gj->ij", w, a, b)
 
 
-def _scale(l: np.ndarray, n_dof: int) -> np.ndarray:
+def dof_scale(l: np.ndarray, n_dof: int) -> np.ndarray:
     """(n_el, n_dof) DOF scaling: rotations enter the shape functions multiplied by l."""
     d = np.ones((l.size, n_dof))
     d[:, 2] = d[:, 5] = l
@@ -107,8 +107,8 @@ class ElementType:
     def _templates(self):
         xi, w = _gauss(6)
         n = self.n_dof
-        Nu, Nv = _axial(xi, n, 0), _bending(xi, n, 0)
-        dNv = _bending(xi, n, 1)
+        Nu, Nv = axial_shapes(xi, n, 0), bending_shapes(xi, n, 0)
+        dNv = bending_shapes(xi, n, 1)
         mass = _gram(Nu, Nu, w) + _gram(Nv, Nv, w)
         skew = _gram(Nv, Nu, w) - _gram(Nu, Nv, w)  # ∫NᵀSN, S = [[0, -1], [1, 0]]
         kg = np.stack([_gram(xi[:, None] ** k * dNv, dNv, w) for k in range(3)])
@@ -118,14 +118,14 @@ class ElementType:
         """Consistent mass m = ρAl∫NᵀN dξ."""
         if self.name == "thesis":
             return el.mass_local(rho_a, l)
-        d = _scale(l, self.n_dof)
+        d = dof_scale(l, self.n_dof)
         return (rho_a * l)[:, None, None] * self._templates[0] * d[:, :, None] * d[:, None, :]
 
     def skew_mass(self, rho_a: np.ndarray, l: np.ndarray) -> np.ndarray:
         """Secondary mass m_a = ρAl∫NᵀSN dξ (skew-symmetric)."""
         if self.name == "thesis":
             return el.skew_mass_local(rho_a, l)
-        d = _scale(l, self.n_dof)
+        d = dof_scale(l, self.n_dof)
         return (rho_a * l)[:, None, None] * self._templates[1] * d[:, :, None] * d[:, None, :]
 
     def structural(self, ea: np.ndarray, ei: np.ndarray, l: np.ndarray) -> np.ndarray:
@@ -139,7 +139,7 @@ class ElementType:
         """Pseudo-normal stiffness k_g = (1/l)∫F(ξ) v'ᵀv' dξ for F = c₀ + c₁ξ + c₂ξ² (c: (n_el, 3))."""
         if self.name == "thesis":
             return el.axial_force_local(c, l)
-        d = _scale(l, self.n_dof)
+        d = dof_scale(l, self.n_dof)
         kg = np.einsum("ek,kij->eij", c, self._templates[2])
         return kg * (d[:, :, None] * d[:, None, :]) / l[:, None, None]
 
@@ -150,9 +150,9 @@ class ElementType:
         u' is at most quadratic, v'' linear).
         """
         xi, wg = _gauss(3)
-        d = _scale(l, self.n_dof)
-        Bu = _axial(xi, self.n_dof, 1)[None] * d[:, None, :] / l[:, None, None]
-        Bv = _bending(xi, self.n_dof, 2)[None] * d[:, None, :] / (l**2)[:, None, None]
+        d = dof_scale(l, self.n_dof)
+        Bu = axial_shapes(xi, self.n_dof, 1)[None] * d[:, None, :] / l[:, None, None]
+        Bv = bending_shapes(xi, self.n_dof, 2)[None] * d[:, None, :] / (l**2)[:, None, None]
         B = np.concatenate([Bu, Bv], axis=1)
         w = np.concatenate([np.outer(ea * l, wg), np.outer(ei * l, wg)], axis=1)
         return B, w
@@ -164,10 +164,10 @@ def point_load(xi: np.ndarray, l: np.ndarray, n_dof: int, f: np.ndarray) -> np.n
     ``xi`` (n_pt,) of elements of length ``l`` (n_pt,): (..., n_pt, n_dof) on the local DOFs
     (docs/theory.md §5.1: the shape functions of the mass matrix; rotations per unit l)."""
     xi, l = np.asarray(xi, float), np.asarray(l, float)
-    d = _scale(l, n_dof)
-    Nu = _axial(xi, n_dof, 0) * d
-    Nv = _bending(xi, n_dof, 0) * d
-    dNv = _bending(xi, n_dof, 1) * d / l[:, None]
+    d = dof_scale(l, n_dof)
+    Nu = axial_shapes(xi, n_dof, 0) * d
+    Nv = bending_shapes(xi, n_dof, 0) * d
+    dNv = bending_shapes(xi, n_dof, 1) * d / l[:, None]
     return f[..., 0:1] * Nu + f[..., 1:2] * Nv + f[..., 2:3] * dNv
 
 

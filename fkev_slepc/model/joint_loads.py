@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fkev_slepc.model.kinematics import Kinematics, _perp, _unit, point_local, solve_kinematics
+from fkev_slepc.model.kinematics import Kinematics, perp, unit_vector, point_local, solve_kinematics
 from fkev_slepc.model.kinetostatics import solve_loads
 from fkev_slepc.model.mechanism import Mechanism
 from fkev_slepc.model.process_loads import process_kinetostatics, process_points
@@ -126,43 +126,43 @@ class JointLoads:
                 "kind": "ground" if self.joint_ground[jj] else ("prismatic" if not np.isnan(
                     self.guide_reaction[:, jj]).all() else "pin"),
                 "on": "ground reaction on the linkage" if self.joint_ground[jj] else self.end_label(lk, k),
-                "fx_n": _list(self.joint_force[:, jj, 0]), "fy_n": _list(self.joint_force[:, jj, 1]),
-                "magnitude_n": _list(mag[:, jj]), **self._peak("peak", mag[:, jj]),
-                "in_link": {self.link_names[l2]: {"along_n": _list(self.bearing_along[:, l2, k2]),
-                                                  "normal_n": _list(self.bearing_normal[:, l2, k2])}
+                "fx_n": json_list(self.joint_force[:, jj, 0]), "fy_n": json_list(self.joint_force[:, jj, 1]),
+                "magnitude_n": json_list(mag[:, jj]), **self._peak("peak", mag[:, jj]),
+                "in_link": {self.link_names[l2]: {"along_n": json_list(self.bearing_along[:, l2, k2]),
+                                                  "normal_n": json_list(self.bearing_normal[:, l2, k2])}
                             for l2, k2 in self.attach[jj]},
             }
             if not np.isnan(self.pin_force[:, jj]).all():
-                joints[name].update(pin_fx_n=_list(self.pin_force[:, jj, 0]), pin_fy_n=_list(self.pin_force[:, jj, 1]),
-                                    pin_magnitude_n=_list(np.hypot(*self.pin_force[:, jj].T)),
+                joints[name].update(pin_fx_n=json_list(self.pin_force[:, jj, 0]), pin_fy_n=json_list(self.pin_force[:, jj, 1]),
+                                    pin_magnitude_n=json_list(np.hypot(*self.pin_force[:, jj].T)),
                                     **self._peak("pin_peak", np.hypot(*self.pin_force[:, jj].T)))
         ends = {}
         for jj, here in enumerate(self.attach):
             for lk, k in here:
                 f = self.end_force[:, lk, k]
                 ends[self.end_label(lk, k)] = {
-                    "joint": self.joint_names[jj], "fx_n": _list(f[:, 0]), "fy_n": _list(f[:, 1]),
-                    "along_n": _list(self.end_along[:, lk, k]), "normal_n": _list(self.end_normal[:, lk, k])}
+                    "joint": self.joint_names[jj], "fx_n": json_list(f[:, 0]), "fy_n": json_list(f[:, 1]),
+                    "along_n": json_list(self.end_along[:, lk, k]), "normal_n": json_list(self.end_normal[:, lk, k])}
         links = {}
         for lk, name in enumerate(self.link_names):
             s, N = self.link_axial(lk)
-            links[name] = {"s_m": _list(s), "axial_force_n": [_list(row) for row in N]}
-        guides = {self.joint_names[jj]: _list(self.guide_reaction[:, jj])
+            links[name] = {"s_m": json_list(s), "axial_force_n": [json_list(row) for row in N]}
+        guides = {self.joint_names[jj]: json_list(self.guide_reaction[:, jj])
                   for jj in range(len(self.joint_names)) if not np.isnan(self.guide_reaction[:, jj]).all()}
         return {
-            "speed_rad_s": self.speed, "acceleration_rad_s2": self.accel, "gravity_m_s2": _list(self.gravity),
-            "crank_angle_deg": _list(self.crank_angle_deg), "ok": self.ok.tolist(),
+            "speed_rad_s": self.speed, "acceleration_rad_s2": self.accel, "gravity_m_s2": json_list(self.gravity),
+            "crank_angle_deg": json_list(self.crank_angle_deg), "ok": self.ok.tolist(),
             "joints": joints, "link_ends": ends, "links": links, "guide_reaction_n": guides,
-            "driving_torque_n_m": _list(self.torque), "power_w": _list(self.power),
-            "energy_rate_w": _list(self.energy_rate), "power_residual": self.power_residual,
-            "process_loads": {name: {"fx_n": _list(self.process_force[:, i, 0]), "fy_n": _list(self.process_force[:, i, 1]),
-                                     "moment_n_m": _list(self.process_moment[:, i])}
+            "driving_torque_n_m": json_list(self.torque), "power_w": json_list(self.power),
+            "energy_rate_w": json_list(self.energy_rate), "power_residual": self.power_residual,
+            "process_loads": {name: {"fx_n": json_list(self.process_force[:, i, 0]), "fy_n": json_list(self.process_force[:, i, 1]),
+                                     "moment_n_m": json_list(self.process_moment[:, i])}
                               for i, name in enumerate(self.process_names)},
-            "process_power_w": _list(self.process_power),
+            "process_power_w": json_list(self.process_power),
         }
 
 
-def _list(a) -> list:
+def json_list(a) -> list:
     """JSON-ready list, NaN as None."""
     a = np.asarray(a, dtype=float)
     return [None if not np.isfinite(v) else float(v) for v in a.ravel()]
@@ -217,9 +217,9 @@ def joint_loads(mech: Mechanism, theta, speed: float, accel: float = 0.0, gravit
 
     present = ~np.isnan(mech.link_points[..., 0])  # (n_link, 3)
     end = np.where(present[None, :, :, None], end, np.nan)
-    e = _unit(kin.phi)[:, :, None, :]  # (n, l, 1, 2)
+    e = unit_vector(kin.phi)[:, :, None, :]  # (n, l, 1, 2)
     along = (end * e).sum(-1)
-    normal = (end * _perp(e)).sum(-1)
+    normal = (end * perp(e)).sum(-1)
 
     n, nj = kin.theta.size, len(mech.joint_names)
     jforce = np.zeros((n, nj, 2))
@@ -232,7 +232,7 @@ def joint_loads(mech: Mechanism, theta, speed: float, accel: float = 0.0, gravit
             jforce[:, jj] = end[:, lk, k]
 
     pin, bearing = _slider_blocks(mech, kin, end, w2, acc, g, points, proc)
-    b_along, b_normal = (bearing * e).sum(-1), (bearing * _perp(e)).sum(-1)
+    b_along, b_normal = (bearing * e).sum(-1), (bearing * perp(e)).sum(-1)
     E, rate = _energy(mech, kin, float(speed), acc, g)
     axis_beam = np.zeros(mech.beam_link.size, dtype=bool)
     axis_beam[np.unique(mech.beam_link, return_index=True)[1]] = True

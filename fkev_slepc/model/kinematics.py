@@ -47,15 +47,15 @@ class Kinematics:
 TRANSMISSION_WARN_DEG = 20.0
 
 
-def _perp(u: np.ndarray) -> np.ndarray:
+def perp(u: np.ndarray) -> np.ndarray:
     return np.stack([-u[..., 1], u[..., 0]], axis=-1)
 
 
-def _unit(angle: np.ndarray) -> np.ndarray:
+def unit_vector(angle: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
 
 
-def _rotate(phi: np.ndarray, r: np.ndarray) -> np.ndarray:
+def rotate(phi: np.ndarray, r: np.ndarray) -> np.ndarray:
     """R(φ) r for angles (..., ) and link-frame vectors broadcastable to (..., 2)."""
     c, s = np.cos(phi), np.sin(phi)
     return np.stack([c * r[..., 0] - s * r[..., 1], s * r[..., 0] + c * r[..., 1]], axis=-1)
@@ -94,10 +94,10 @@ class _State:
         every other joint on it follow from the rigid-body pose."""
         self.phi[:, lk], self.dphi[:, lk], self.ddphi[:, lk] = phi, dphi, ddphi
         w, dw = dphi[:, None], ddphi[:, None]
-        a = _rotate(phi, -np.asarray(r_j, dtype=float))  # root - joint
+        a = rotate(phi, -np.asarray(r_j, dtype=float))  # root - joint
         self.root[:, lk] = self.pos[:, j] + a
-        self.droot[:, lk] = self.dpos[:, j] + w * _perp(a)
-        self.ddroot[:, lk] = self.ddpos[:, j] + dw * _perp(a) - w**2 * a
+        self.droot[:, lk] = self.dpos[:, j] + w * perp(a)
+        self.ddroot[:, lk] = self.ddpos[:, j] + dw * perp(a) - w**2 * a
         for jj, lk2, k in ((jj, l2, k) for jj, lst in enumerate(self.mech.attach) for (l2, k) in lst):
             if lk2 == lk and jj != j:
                 p, dp, ddp = rigid_point(self.root[:, lk], self.droot[:, lk], self.ddroot[:, lk],
@@ -108,9 +108,9 @@ class _State:
 
 def rigid_point(root, droot, ddroot, phi, dphi, ddphi, r):
     """Position, d/dθ, d²/dθ² of link-frame point(s) ``r`` on a rigid link (broadcasting)."""
-    a = _rotate(phi, np.asarray(r, dtype=float))
+    a = rotate(phi, np.asarray(r, dtype=float))
     w, dw = dphi[..., None], ddphi[..., None]
-    return root + a, droot + w * _perp(a), ddroot + dw * _perp(a) - w**2 * a
+    return root + a, droot + w * perp(a), ddroot + dw * perp(a) - w**2 * a
 
 
 def _rrr(st: _State, step) -> np.ndarray:
@@ -126,13 +126,13 @@ def _rrr(st: _State, step) -> np.ndarray:
         cos_g = (La**2 + dist**2 - Lb**2) / (2 * La * dist)
     good = np.abs(cos_g) <= 1.0
     psi_a = np.arctan2(dq[:, 1], dq[:, 0]) + step.sign * np.arccos(np.clip(cos_g, -1, 1))
-    ua = _unit(psi_a)
+    ua = unit_vector(psi_a)
     J = P + La * ua
     vb = J - Q
     psi_b = np.arctan2(vb[:, 1], vb[:, 0])
-    ub = _unit(psi_b)
+    ub = unit_vector(psi_b)
     # [La ua⊥, -Lb ub⊥] [ψa'; ψb'] = Q' - P'   (loop closure differentiated once, twice)
-    c1, c2 = La * _perp(ua), -Lb * _perp(ub)
+    c1, c2 = La * perp(ua), -Lb * perp(ub)
     det = _det(c1, c2)
     good &= np.abs(det) > 1e-12 * La * Lb  # toggle (dead-centre) positions are singular
     wa, wb = _solve2(c1, c2, det, dQ - dP)
@@ -141,8 +141,8 @@ def _rrr(st: _State, step) -> np.ndarray:
     j = step.joint
     st.pos[:, j] = J
     with np.errstate(invalid="ignore", over="ignore"):
-        st.dpos[:, j] = dP + La * (wa[:, None] * _perp(ua))
-        st.ddpos[:, j] = ddP + La * (dwa[:, None] * _perp(ua) - wa[:, None] ** 2 * ua)
+        st.dpos[:, j] = dP + La * (wa[:, None] * perp(ua))
+        st.ddpos[:, j] = ddP + La * (dwa[:, None] * perp(ua) - wa[:, None] ** 2 * ua)
         for arm, d, psi, w, dw in ((arm_a, da, psi_a, wa, dwa), (arm_b, db, psi_b, wb, dwb)):
             r_j = np.asarray(arm.r_p) + d
             st.place(arm.link, j, r_j, psi - np.arctan2(d[1], d[0]), w, dw)
@@ -167,9 +167,9 @@ def _rrp(st: _State, step) -> np.ndarray:
     J = G0 + lam[:, None] * t
     v = J - P
     psi = np.arctan2(v[:, 1], v[:, 0])
-    u = _unit(psi)
+    u = unit_vector(psi)
     # P + La u(ψ) = G0 + λ t: [La u⊥, -t] [ψ'; λ'] = -P', and with + La ψ'² u for ψ'', λ''
-    c1, c2 = La * _perp(u), np.broadcast_to(-t, u.shape)
+    c1, c2 = La * perp(u), np.broadcast_to(-t, u.shape)
     det = _det(c1, c2)
     good &= np.abs(det) > 1e-12 * La  # the arm normal to the guide: the slider's limit
     wpsi, dlam = _solve2(c1, c2, det, -dP)
@@ -178,7 +178,7 @@ def _rrp(st: _State, step) -> np.ndarray:
         st.pos[:, j], st.dpos[:, j], st.ddpos[:, j] = J, dlam[:, None] * t, ddlam[:, None] * t
         st.place(arm.link, j, np.asarray(arm.r_p) + d, psi - np.arctan2(d[1], d[0]), wpsi, dwpsi)
         # the link along the guide is ideal (π/2), normal to it a toggle (0)
-        mu = np.arccos(np.clip(np.abs(u @ _perp(t)), 0.0, 1.0))
+        mu = np.arccos(np.clip(np.abs(u @ perp(t)), 0.0, 1.0))
     return good, mu
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.model.kinematics import Kinematics, _perp, _rotate, _unit, point_local
+from fkev_slepc.model.kinematics import Kinematics, perp, rotate, unit_vector, point_local
 from fkev_slepc.model.mechanism import Mechanism
 
 
@@ -52,7 +52,7 @@ def unknowns(mech: Mechanism) -> tuple[np.ndarray, dict[int, int], int]:
     for jj, here in enumerate(mech.attach):
         if jj in reaction:
             lk, k = here[0]
-            coef[lk, k, :, reaction[jj]] = _perp(mech.joint_guide[jj])
+            coef[lk, k, :, reaction[jj]] = perp(mech.joint_guide[jj])
             continue
         for lk, k in here:
             if (lk, k) in slot:
@@ -71,7 +71,7 @@ def _equations(mech: Mechanism, kin: Kinematics, coef: np.ndarray, n_unk: int) -
     if 3 * n_link != n_unk:
         raise ValueError(f"kinetostatics: {3 * n_link} equations for {n_unk} unknowns")
     pts = np.nan_to_num(mech.link_points - mech.body_centroid[:, None, :])  # absent points: coef is 0
-    arm = _rotate(kin.phi[:, :, None], pts[None])  # (n, l, 3, 2) from the centroid to each point
+    arm = rotate(kin.phi[:, :, None], pts[None])  # (n, l, 3, 2) from the centroid to each point
     A = np.zeros((n_ang, 3 * n_link, n_unk))
     A[:, 0::3] = coef[None, :, :, 0, :].sum(axis=2)
     A[:, 1::3] = coef[None, :, :, 1, :].sum(axis=2)
@@ -108,7 +108,7 @@ def solve_loads(mech: Mechanism, kin: Kinematics, plan=None) -> Loads:
     P_mid = point_local(kin, mech.elem_link, mid_local)
     P_mass = point_local(kin, mech.mass_link, mech.mass_local)
     P_beam = point_local(kin, mech.beam_link, mech.beam_origin)
-    e_beam = _unit(kin.phi[:, mech.beam_link] + mech.beam_angle)
+    e_beam = unit_vector(kin.phi[:, mech.beam_link] + mech.beam_angle)
     good = kin.ok
     results = []
     for part in (2, 1):
@@ -132,7 +132,7 @@ def solve_external(mech: Mechanism, kin: Kinematics, link: np.ndarray, point: np
     coef, reaction, n_unk = unknowns(mech) if plan is None else plan
     n_ang, n_link = kin.theta.size, mech.n_link
     A = _equations(mech, kin, coef, n_unk)
-    arm = _rotate(kin.phi[:, link], np.asarray(point, float) - mech.body_centroid[link])  # centroid -> point
+    arm = rotate(kin.phi[:, link], np.asarray(point, float) - mech.body_centroid[link])  # centroid -> point
     per = np.stack([force[..., 0], force[..., 1],
                     arm[..., 0] * force[..., 1] - arm[..., 1] * force[..., 0] + moment], axis=-1)
     rhs = np.zeros((n_ang, n_link, 3))

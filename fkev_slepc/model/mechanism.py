@@ -180,6 +180,20 @@ def build_mechanism(scene: Scene) -> Mechanism:
     )  # fmt: skip
 
 
+def node_displacement(mesh, q: np.ndarray, axes: np.ndarray | None = None) -> np.ndarray:
+    """Global (x, y, rotation) displacement (..., n_node, 3) of every node of ``mesh`` (anything with
+    ``node_dofs``, (n_node, 3) free DOF index or -1) from the free-DOF values ``q`` (..., n_free; real or
+    complex); a constrained DOF is 0; ``axes`` (n_node, 2): the direction of each node's first
+    translational DOF (``Mechanism.node_axis``), its values (a, n) along/normal to it turned to (x, y)."""
+    q = np.asarray(q)
+    vals = np.concatenate([q, np.zeros(q.shape[:-1] + (1,), q.dtype)], axis=-1)[..., mesh.node_dofs]  # -1 -> 0
+    if axes is not None:  # (a, n) in the node's frame -> (U, V)
+        a, n = vals[..., 0].copy(), vals[..., 1].copy()
+        vals[..., 0] = a * axes[:, 0] - n * axes[:, 1]
+        vals[..., 1] = a * axes[:, 1] + n * axes[:, 0]
+    return vals
+
+
 def number_dofs(rep: np.ndarray, fixed: np.ndarray, n_node: int) -> tuple[np.ndarray, int]:
     """Free DOF numbers (n_node, 3) (-1: fixed) and their count, from the raw DOFs 3·node + c:
     ``rep`` the raw DOF each one is merged into (itself if none), ``fixed`` the constrained ones."""

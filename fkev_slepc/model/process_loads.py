@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.model.element_types import point_load
-from fkev_slepc.model.kinematics import Kinematics, _rotate, _unit, point_local
+from fkev_slepc.model.kinematics import Kinematics, rotate, unit_vector, point_local
 from fkev_slepc.model.kinetostatics import axial_right, solve_external
 from fkev_slepc.model.mechanism import POINT_INDEX, Mechanism
 
@@ -86,7 +86,7 @@ def ground_loads(points: ProcessPoints, kin: Kinematics) -> tuple[np.ndarray, np
         for c, col in enumerate((pl.fx, pl.fy, pl.moment)):
             table[:, i, c] = np.interp(deg, pl.crank_angle_deg, col, period=360.0)
     angle = np.where(np.isnan(points.frame_angle), kin.phi[:, points.link], points.frame_angle)
-    return _rotate(angle, table[..., :2]), table[..., 2]
+    return rotate(angle, table[..., :2]), table[..., 2]
 
 
 @dataclass(frozen=True)
@@ -112,7 +112,7 @@ def process_kinetostatics(mech: Mechanism, kin: Kinematics, points: ProcessPoint
     force, moment = ground_loads(points, kin)
     end, torque, guide = solve_external(mech, kin, points.link, points.local, force, moment, plan)
     n, n_el = kin.theta.size, mech.elem_link.size
-    e_beam = _unit(kin.phi[:, mech.beam_link] + mech.beam_angle)
+    e_beam = unit_vector(kin.phi[:, mech.beam_link] + mech.beam_angle)
     inside = (points.xi > 0.0) & (points.xi < 1.0)
     nodes = np.where(points.xi < 1.0, mech.elem_nodes[points.elem, 0], mech.elem_nodes[points.elem, 1])
     zero_el, zero_mass = np.zeros((n, n_el, 2)), np.zeros((n, mech.mass_nodes.size, 2))

@@ -44,6 +44,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from fkev_slepc.periodic.settings import DEFAULTS, SAFETY
+from fkev_slepc.status import json_number
 
 DEFAULT_TOL = DEFAULTS.verdict_tol  # max|μ| - 1 above which (and above SAFETY·error) a speed is unstable
 EDGE_RTOL = DEFAULTS.edge_rtol  # band edges to this relative accuracy
@@ -250,7 +251,7 @@ class Gap:
         r = self.resonance
         return {"resonance": r.label, "predicted_rad_s": r.speed, "order": r.order, "kind": r.kind,
                 "between_rad_s": [float(w) for w in self.between], "probe_status": self.probe_status or None,
-                "probe_max_abs_multiplier": float(self.probe_max_abs) if np.isfinite(self.probe_max_abs) else None}
+                "probe_max_abs_multiplier": json_number(self.probe_max_abs)}
 
 
 def unsampled(points: Sequence[SpeedPoint], mean_frequencies: Callable[[float], Sequence[float]],

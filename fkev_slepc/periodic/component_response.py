@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.model.kinematics import solve_kinematics
-from fkev_slepc.periodic.components import LINK_MODES, _rows, link_components
+from fkev_slepc.periodic.components import LINK_MODES, frame_rows, link_components
 from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS, HarmonicResponse, harmonic_balance
 from fkev_slepc.periodic.settings import DEFAULTS
 
@@ -110,8 +110,8 @@ class StaticCorrection:
         phi = solve_kinematics(model.mechanism, theta).phi
         for c, G in self.links:
             for i in range(theta.size):
-                f_hat = _rows(f[i, c.rows][:, None], c.pair, -phi[i, c.link], 0)
-                out[i, c.rows] = _rows(G @ f_hat, c.pair, phi[i, c.link], 0)[:, 0]
+                f_hat = frame_rows(f[i, c.rows][:, None], c.pair, -phi[i, c.link], 0)
+                out[i, c.rows] = frame_rows(G @ f_hat, c.pair, phi[i, c.link], 0)[:, 0]
         return out
 
 

@@ -236,7 +236,7 @@ def link_components(model, dense_max: int = DENSE_MAX) -> Components:
     return cache[key]
 
 
-def _rows(X, pair, phi: float, a: int):
+def frame_rows(X, pair, phi: float, a: int):
     """∂ᵃ/∂φᵃ of R_iᵀ(φ) X: the interior pairs (x̂, ŷ) -> (U, V) = (c x̂ - s ŷ, s x̂ + c ŷ); other
     rows identity (a = 0) or zero."""
     c, s = np.cos(phi + a * HALF_PI), np.sin(phi + a * HALF_PI)
@@ -292,7 +292,7 @@ class LinkBasis:
             start += k
             X = [np.hstack([_constraint(c, n_b, phi[j], b), c.modes[:, :k] if b == 0 else np.zeros((c.size, k))])
                  for b in range(3)]
-            d = [sum(comb(m, a) * _rows(X[m - a], c.pair, phi[j], a) for a in range(m + 1)) for m in range(3)]
+            d = [sum(comb(m, a) * frame_rows(X[m - a], c.pair, phi[j], a) for a in range(m + 1)) for m in range(3)]
             ix = np.ix_(c.rows, cols)
             out[0][ix] = d[0]
             out[1][ix] = dphi[j] * d[1]

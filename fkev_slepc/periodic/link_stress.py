@@ -58,7 +58,7 @@ class LinkStress:
 
     def as_dict(self) -> dict:
         """Per link: the peak and, per point, s and the cycle parts of both faces (lists)."""
-        from fkev_slepc.model.joint_loads import _list
+        from fkev_slepc.model.joint_loads import json_list
 
         parts = dict(zip(("stress_max_pa", "stress_min_pa", "stress_mean_pa", "stress_alternating_pa"), self.parts()))
         out = {}
@@ -66,6 +66,6 @@ class LinkStress:
             sel = self.point_link == lk
             if not sel.any():
                 continue
-            out[name] = {"peak": self.peak(lk), "s_m": _list(self.point_s[sel]),
-                         **{key: {face: _list(x[sel, f]) for f, face in enumerate(FACES)} for key, x in parts.items()}}
+            out[name] = {"peak": self.peak(lk), "s_m": json_list(self.point_s[sel]),
+                         **{key: {face: json_list(x[sel, f]) for f, face in enumerate(FACES)} for key, x in parts.items()}}
         return out

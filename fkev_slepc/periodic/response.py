@@ -83,11 +83,6 @@ class PeriodicResponse:
     def max_abs_multiplier(self) -> float:
         return float("nan") if self.shoot is None else self.shoot.max_abs_multiplier
 
-    def attracting(self, attract_tol: float = DEFAULTS.attract_tol) -> bool | None:
-        """False where the response does not attract (:func:`response_verdict`); None without shooting."""
-        v = response_verdict(self.max_abs_multiplier, np.nan if self.shoot is None else self.shoot.error, attract_tol)
-        return None if v is None else v != DOES_NOT_ATTRACT
-
 
 DOES_NOT_ATTRACT = "does not attract"
 
@@ -173,9 +168,9 @@ def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
     same samples, doubled until it too meets ``interp_tol`` at the midpoints (each Magnus node then
     costs a weighted sum, not an assembly); any other system in (q, q') from ``mck`` and ``load``."""
     if not isinstance(system, PeriodicSystem):
-        from fkev_slepc.periodic.shooting import _adapters
+        from fkev_slepc.periodic.shooting import adapters
 
-        return periodic_shot(*_adapters(system.mck, system.load, omega), omega, tol=tol)
+        return periodic_shot(*adapters(system.mck, system.load, omega), omega, tol=tol)
     interp = system.interpolant(settings.samples, settings.interp_tol, settings.max_samples)
     k = interp.samples
     B = system.forcing(2.0 * np.pi * np.arange(k) / k)
@@ -196,9 +191,9 @@ def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
 
 def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:
     """The shooting solution at other angles: integrated again from its periodic initial state."""
-    from fkev_slepc.periodic.shooting import _adapters, states_at
+    from fkev_slepc.periodic.shooting import adapters, states_at
 
-    x = states_at(*_adapters(system.mck, system.load, omega), np.concatenate([sh.q[0], sh.dq[0]]), theta, sh.steps)
+    x = states_at(*adapters(system.mck, system.load, omega), np.concatenate([sh.q[0], sh.dq[0]]), theta, sh.steps)
     n = sh.q.shape[1]
     q, dq = x[:, :n], x[:, n:]
     if isinstance(system, ProjectedSystem):  # z -> q = W z + Δq

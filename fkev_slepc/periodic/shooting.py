@@ -77,7 +77,7 @@ class _Cached:
         return self.value
 
 
-def _adapters(coefficients, load, omega):
+def adapters(coefficients, load, omega):
     """(generator, forcing) of the state x = (q, q') in θ, sharing one cache of (Ω²M, ΩC, K, f)."""
     cache = _Cached(coefficients, load, omega)
     gen = magnus.second_order(lambda th: cache(th)[:3])
@@ -132,7 +132,7 @@ def shooting(coefficients, load, omega: float, thetas, *, steps: int | None = No
     ResonanceError
         (I − Φ) singular to working precision (a multiplier at 1), with the closest multiplier.
     """
-    gen, forcing = _adapters(coefficients, load, omega)
+    gen, forcing = adapters(coefficients, load, omega)
     with np.errstate(over="ignore", invalid="ignore"):  # the first, too coarse step sizes may overflow
         mono = magnus.monodromy(gen, 2.0 * np.pi, forcing=forcing, order=order, steps=steps, tol=tol,
                                  max_steps=max_steps)

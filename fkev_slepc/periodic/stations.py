@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.model.element_types import _axial, _bending, _scale
+from fkev_slepc.model.element_types import axial_shapes, bending_shapes, dof_scale
 
 
 @dataclass(frozen=True)
@@ -163,13 +163,13 @@ def station_response(model, theta, q, stations=None, rigid_axial=None, *, speed=
     n_dof = T.shape[-1]
     l = mech.elem_length[e]
     q_phys = np.einsum("asij,asj->asi", T, q_el)
-    q_loc = q_phys * _scale(l, n_dof)[None]
+    q_loc = q_phys * dof_scale(l, n_dof)[None]
 
     def at(fn, deriv):
         rows = np.stack([fn(np.array([x]), n_dof, deriv)[0] for x in xi])  # (n_st, d)
         return np.einsum("sd,asd->as", rows, q_loc)
 
-    u, v = at(_axial, 0), at(_bending, 0)
+    u, v = at(axial_shapes, 0), at(bending_shapes, 0)
     v_end = {lk: (v[:, n_st + 2 * i], v[:, n_st + 2 * i + 1]) for i, lk in enumerate(links)}
     chord = np.stack([v[:, k] - (1 - st.s / mech.length[st.link]) * v_end[st.link][0]
                       - st.s / mech.length[st.link] * v_end[st.link][1] for k, st in enumerate(stations)], axis=1)
@@ -178,7 +178,7 @@ def station_response(model, theta, q, stations=None, rigid_axial=None, *, speed=
     if speed is not None:
         N, V, M = element_forces(model, state, e, xi, q_phys[:, keep], float(speed), gravity)
     else:
-        du, d2v = at(_axial, 1) / l, at(_bending, 2) / l**2
+        du, d2v = at(axial_shapes, 1) / l, at(bending_shapes, 2) / l**2
         d3v = np.einsum("sd,asd->as", np.tile([0, 12, 6, 0, -12, 6, 0, 0][:n_dof], (xi.size, 1)), q_loc) / l**3
         ea, ei = mech.elem_ea[e], mech.elem_ei[e]
         N, M, V = ea * du, ei * d2v, -ei * d3v

@@ -15,8 +15,9 @@ from matplotlib.figure import Figure
 
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 from fkev_slepc.scene.cases import CASE_NAMES
-from fkev_slepc.archive.reader import ArchiveError, NodeDofMap, SweepResults
+from fkev_slepc.archive.reader import ArchiveError, SweepResults
 from fkev_slepc.archive.scene_text import heading
+from fkev_slepc.model.mechanism import node_displacement  # noqa: F401  (re-exported: plots.shapes, api.results)
 from fkev_slepc.scene.model import mesh_label
 
 SIMPLIFIED = ("no_coriolis", "no_tangential", "no_normal", "no_pseudo_normal")
@@ -229,18 +230,6 @@ def legend_outside(ax, where: str = "right", **options):
     if where == "below":
         return ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), borderaxespad=0, **options)
     return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, **options)
-
-
-def node_displacement(mesh: NodeDofMap, q: np.ndarray, axes: np.ndarray | None = None) -> np.ndarray:
-    """Global (x, y, rotation) displacement (n_node, 3) of every node from the free-DOF values
-    ``q`` (real or complex); a constrained DOF is 0; ``axes`` as in :func:`element_displacement`."""
-    q = np.asarray(q)
-    vals = np.append(q, np.zeros(1, q.dtype))[mesh.node_dofs]  # index -1 -> the appended 0
-    if axes is not None:  # (a, n) in the node's frame -> (U, V)
-        a, n = vals[:, 0].copy(), vals[:, 1].copy()
-        vals[:, 0] = a * axes[:, 0] - n * axes[:, 1]
-        vals[:, 1] = a * axes[:, 1] + n * axes[:, 0]
-    return vals
 
 
 def align_phase(x: np.ndarray, ref: np.ndarray | None) -> np.ndarray:

@@ -32,7 +32,7 @@ from fkev_slepc.scene.cases import CASES
 from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.solve.stability import DENSE_LIMIT
 from fkev_slepc.solve.thresholds import IMAG_TOL
-from fkev_slepc.status import CONVERGED
+from fkev_slepc.status import CONVERGED, json_number
 
 FLUTTER_RTOL = 1e-8
 SCAN_POINTS = 64  # speeds on which the flutter onset is bracketed
@@ -191,11 +191,11 @@ class CriticalScan:
         finite = [(v, a) for v, a in ((div, a_div), (flut, a_flut)) if np.isfinite(v)]
         first = min(finite)[1] if finite else (self.results[0].angle_deg if len(self.results) == 1 else None)
         return {
-            "case": self.case, "modes": self.n_modes, "damping_tol": self.damping_tol, "angle_deg": _num(first),
-            "divergence_speed_rad_s": _num(div), "divergence_angle_deg": _num(a_div),
-            "flutter_speed_rad_s": _num(flut), "flutter_angle_deg": _num(a_flut),
-            "per_angle": [{"angle_deg": r.angle_deg, "divergence_speed_rad_s": _num(r.divergence_speed),
-                           "flutter_speed_rad_s": _num(r.flutter_speed), "flutter_search_max_rad_s": _num(r.max_speed),
+            "case": self.case, "modes": self.n_modes, "damping_tol": self.damping_tol, "angle_deg": json_number(first),
+            "divergence_speed_rad_s": json_number(div), "divergence_angle_deg": json_number(a_div),
+            "flutter_speed_rad_s": json_number(flut), "flutter_angle_deg": json_number(a_flut),
+            "per_angle": [{"angle_deg": r.angle_deg, "divergence_speed_rad_s": json_number(r.divergence_speed),
+                           "flutter_speed_rad_s": json_number(r.flutter_speed), "flutter_search_max_rad_s": json_number(r.max_speed),
                            "flutter_scan_points": r.scan_points, "notes": list(r.notes)} for r in self.results],
             "flutter_rtol": FLUTTER_RTOL,
         }  # fmt: skip
@@ -207,7 +207,3 @@ def scan(engine, model, angles_deg, case: str, n_modes: int, damping_tol: float,
     res = tuple(critical_speeds(engine, model, float(a), case, n_modes, damping_tol, max_speed, default_max, accel,
                                 n_scan) for a in angles_deg)
     return CriticalScan(case, float(damping_tol), int(n_modes), res)
-
-
-def _num(v):
-    return None if v is None or not np.isfinite(v) else float(v)

@@ -143,17 +143,6 @@ class _SpeedProgress:
             self.bar = None
 
 
-def _engine_available() -> None:
-    """Refuse before any work when this checkout has no linkage monodromy engine."""
-    import importlib.util
-
-    from fkev_slepc.sweep.session import RunRefused
-
-    if importlib.util.find_spec("fkev_slepc.periodic.floquet") is None:
-        raise RunRefused("the linkage Floquet engine (periodic stage, module periodic.floquet: the exact periodic "
-                         "coefficients) is not in this checkout")
-
-
 def _not_converged(reduced: dict | None) -> str:
     """Why a speed is not converged: the frozen-mode truncation (with its change) or the monodromy."""
     if reduced and not reduced["converged"]:
@@ -180,8 +169,6 @@ def run_floquet(request: FloquetRequest, comm=None, notify=None, progress: bool 
     comm = local(comm)
     t0 = time.monotonic()
     sc, out = request.scene, Path(request.output)
-    if evaluator is None:
-        _engine_available()
     ps = request.periodic  # a bad setting: SettingsError naming it, before any work
     request.run_frozen_sweep(comm, notify, progress)
     if request.resume:  # the archived settings compared whole: a difference refused before the product's work
