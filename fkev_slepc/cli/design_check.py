@@ -10,13 +10,14 @@ import csv
 import json
 import sys
 
-from fkev_slepc.scene import SceneError
+from fkev_slepc.archive.paths import PathProblem, check_output
+from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 from fkev_slepc.status import EXIT_OK
-from .common import add_elements_argument, angles_and_gravity, load_checked, report_scene_error
+from .common import add_elements_argument, angles_and_gravity, load_checked, preflight, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
-         "harmonics": "--harmonics", "criterion": "--criterion", "threshold": "--buckling-threshold"}
+         "harmonics": "--harmonics", "criterion": "--criterion", "threshold": "--buckling-threshold", "tol": "--tol"}
 CSV_KEYS = ("peak_stress_pa", "static_sf", "fatigue_sf", "fatigue_criterion", "sigma_mean_pa", "sigma_alternating_pa",
             "buckling_sf", "min_axial_force_n")
 
@@ -63,9 +64,20 @@ def run(args) -> int:
         angles, gravity = angles_and_gravity(args, bad)
         if bad:
             raise SceneError(args.scene, bad)
+        if args.json and args.csv == "-":
+            raise SceneError(args.scene, [Problem("--csv", "'-' (stdout) with --json would mix CSV into the JSON: "
+                                                  "write the CSV to a file, or drop --json (got '-')")])
         scene = load_checked(args.scene, args.elements, check_angles=False)
         speed = (args.speed_rpm * RAD_S_PER_RPM if args.speed_rpm is not None else
                  max(scene.driver.speeds, key=abs) if args.speed is None else args.speed)
+        # the checks of fkev response, before any solve: mesh size, harmonics, memory, overflow, the CSV path
+        preflight(scene, args, speeds=[speed], speed_flag=flags["speed_rad_s"], plots=(), periodic=True,
+                  harmonics=args.harmonics, reduce="default")
+        if args.csv not in (None, "-"):
+            try:
+                check_output(args.csv, (".csv", ".txt"), "--csv")
+            except PathProblem as exc:
+                raise SceneError(args.scene, [Problem("--csv", str(exc).removeprefix("--csv "))]) from None
         check = design_check(scene, speed, criterion=args.criterion, case=args.case or "full", angles_deg=angles,
                              gravity_m_s2=gravity, harmonics=args.harmonics, tol=args.tol,
                              threshold=args.buckling_threshold, names=flags)
