@@ -293,3 +293,32 @@ def test_periodic_coefficients_are_summed_in_one_place():
 def test_the_one_sum_check_sees_a_second_sum():
     bad = ast.parse("def coefficients(p, w):\n    return p.stiffness + w * w * p.speed_stiffness\n")
     assert _piece_reads(bad) == [(2, "speed_stiffness")]
+
+
+PLANE_NAMES = {"in", "out"}
+
+
+def _plane_compares(source: str) -> list[int]:
+    """Lines of ``source`` comparing a value with a plane's name, the literal "in" or "out" alone or
+    in a tuple, list or set (``plane == "out"``, ``plane != 'in'``, ``p in ("in", "out")``)."""
+    def literals(side):
+        items = side.elts if isinstance(side, (ast.Tuple, ast.List, ast.Set)) else [side]
+        return {c.value for c in items if isinstance(c, ast.Constant) and isinstance(c.value, str)}
+
+    return sorted({node.lineno for node in ast.walk(ast.parse(source)) if isinstance(node, ast.Compare)
+                   and any(literals(side) & PLANE_NAMES for side in [node.left, *node.comparators])})
+
+
+def test_planes_are_not_compared_by_name():
+    """What differs between the two planes is asked of fkev_slepc/model/plane.py's objects, never by
+    testing the name: a new branch on "in"/"out" belongs there as an attribute."""
+    own = PKG / "model" / "plane.py"
+    bad = [f"{p.relative_to(ROOT)}:{line}" for p in sorted(PKG.rglob("*.py")) if p != own
+           for line in _plane_compares(p.read_text())]
+    assert not bad, bad
+
+
+def test_the_plane_check_sees_a_comparison():
+    source = ('if plane == "out":\n    pass\nx = "in" if a else "out"\nok = a != "inch"\n'
+              "y = o['plane'] != 'in'\nz = p in ('in', 'out')\nw = plane == other\n")
+    assert _plane_compares(source) == [1, 5, 6]

@@ -8,8 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fkev_slepc.api.point import critical_scan
+from fkev_slepc.api.point import critical_scan, out_of_plane_arguments
 from fkev_slepc.api.pool import ModelPool
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, SceneError
 
@@ -103,14 +104,11 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
                                              zeta_floor=zeta_floor),
                           {field: names[key] for field, key in SETTING_NAMES.items() if key in names}, bad)
     reduce = resolve_reduce(st.reduce)
-    if plane != "in":
-        from fkev_slepc.api.point import out_of_plane_arguments
-
-        try:
-            out_of_plane_arguments(sc, plane, None)
-        except SceneError as err:
-            raise SceneError(err.source, [Problem(names["plane"] if p.path == "plane" else p.path, p.message)
-                                          for p in err.problems]) from None
+    try:
+        out_of_plane_arguments(sc, plane, None)
+    except SceneError as err:
+        raise SceneError(err.source, [Problem(names["plane"] if p.path == "plane" else p.path, p.message)
+                                      for p in err.problems]) from None
     scene = configure(sc, angles=angles_deg, speeds=speeds_rad_s, speeds_rpm=speeds_rpm, cases=[case], names=names)
     speeds = np.asarray(scene.driver.speeds, dtype=float)
     if not np.all(speeds > 0):
@@ -123,7 +121,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     if output is None:
         if study.path is None:
             raise SceneError(sc.source, [Problem(names["output"], "required for a study made from text")])
-        stem = Path(study.path).stem + ("" if plane == "in" else f"-{plane}")
+        stem = Path(study.path).stem + Plane.parse(plane).suffix
         output = default_output(study.path).with_name(stem + "-floquet.h5")
     request = FloquetRequest(scene, Path(output), settings=st, resume=resume, force=force,
                              solver=solver, command_line=command_line, plane=plane, model=pool.model(case, plane))

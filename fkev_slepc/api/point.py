@@ -15,8 +15,9 @@ from fkev_slepc.archive.reader import NodeDofMap
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.solve import modes as _modes
 from fkev_slepc.model.mechanism import build_mechanism
-from fkev_slepc.model.operators import PLANES, AssemblyError, Model
+from fkev_slepc.model.operators import AssemblyError, Model
 from fkev_slepc.model.out_of_plane import section_of
+from fkev_slepc.model.plane import BY_NAME, unknown_plane
 from fkev_slepc.solve.accuracy import planned_scene
 from fkev_slepc.solve.critical import DEFAULT_MAX_FACTOR, scan
 from fkev_slepc.solve.engines import cross_check as _cross_check
@@ -40,8 +41,7 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
     an = sc.analysis
     case, n_modes = point_arguments(sc, case, modes, angle_deg=angle_deg, speed_rad_s=speed_rad_s,
                                     need_angle=True, need_speed=True)
-    if plane != "in":
-        out_of_plane_arguments(sc, plane, rel_error)
+    out_of_plane_arguments(sc, plane, rel_error)
     model = pool.model(case, plane)
     modes_fit(sc, n_modes, model.n_free, modes is not None)
     theta = float(np.radians(angle_deg))
@@ -76,17 +76,19 @@ def solve_point(pool, angle_deg, speed_rad_s, case, modes, solver, shapes, cross
 
 
 def out_of_plane_arguments(sc: Scene, plane, rel_error, asked: str | None = None) -> None:
-    """SceneError naming every argument the out-of-plane point cannot take (docs/theory.md §19);
-    ``asked``: the plane as the user gave it when it differs (``both`` of a sweep), for the messages."""
+    """SceneError naming every argument the point of ``plane`` cannot take: an unknown plane, or out of
+    plane (docs/theory.md §19) links without section data and a rel_error; ``asked``: the plane as the user
+    gave it when it differs (``both`` of a sweep), for the messages."""
     bad = []
-    if plane not in PLANES:
-        bad.append(Problem("plane", f"must be one of {', '.join(PLANES)} (got {plane!r})"))
-    else:
+    kind = BY_NAME.get(plane)
+    if kind is None:
+        bad.append(Problem("plane", unknown_plane(plane)))
+    elif kind.section:
         try:
             section_of(build_mechanism(sc))
         except ValueError as err:
             bad.append(Problem("plane", f"{err} (got {asked or plane!r})"))
-    if rel_error is not None or sc.analysis.rel_error is not None:
+    if (kind is None or not kind.accuracy_plan) and (rel_error is not None or sc.analysis.rel_error is not None):
         bad.append(Problem("rel_error", f"the accuracy plan is in plane only (got a rel_error with plane "
                                         f"{asked or plane!r})"))
     if bad:
@@ -112,8 +114,7 @@ def critical_scan(pool, case, angle_deg, max_speed_rad_s, modes, solver, plane="
     """Critical speeds of ``pool.scene`` (see ``Study.critical``)."""
     sc = pool.scene
     case, n_modes = point_arguments(sc, case, modes, angle_deg=angle_deg, max_speed_rad_s=max_speed_rad_s)
-    if plane != "in":
-        out_of_plane_arguments(sc, plane, None)
+    out_of_plane_arguments(sc, plane, None)
     model = pool.model(case, plane)
     modes_fit(sc, n_modes, model.n_free, modes is not None)
     angles = sc.analysis.crank_angles_deg if angle_deg is None else (float(angle_deg),)

@@ -24,7 +24,8 @@ from __future__ import annotations
 import copy
 from dataclasses import replace
 
-from fkev_slepc.model.operators import OUT_OF_PLANE_ABSENT, Model
+from fkev_slepc.model.operators import Model
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.scene import Scene
 from fkev_slepc.scene.cases import terms_used
 from fkev_slepc.solve.engines import make_engine
@@ -67,7 +68,7 @@ class ModelPool:
         name, or a tuple of them): one already built whose terms include the case's (the fewest such
         terms), else a new one for this case."""
         cases = (case,) if isinstance(case, str) else tuple(case)
-        need = frozenset(t for t in terms_used(cases) if plane == "in" or t not in OUT_OF_PLANE_ABSENT)
+        need = frozenset(t for t in terms_used(cases) if Plane.parse(plane).has_term(t))
         fits = [key for key in self._models if key[0] == plane and need <= key[1]]
         if fits:
             return self._models[min(fits, key=lambda key: len(key[1]))]

@@ -14,6 +14,7 @@ from fkev_slepc.solve import modes as _modes
 from fkev_slepc.solve.stability import FROZEN_TIME
 from fkev_slepc.status import CONVERGED
 from fkev_slepc.model.operators import Model
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
 
 __all__ = ["PointResult", "ModeShape"]
@@ -134,7 +135,7 @@ class PointResult:
         >>> s.relative_frequency.round(6), s.method
         (array([0.5, 0.5, 0.5, 0.5]), 'adjoint')
         """
-        if self.plane != "in":
+        if not Plane.parse(self.plane).sensitivities:
             raise ValueError(f"sensitivities are in plane only (this point is plane {self.plane!r})")
         engine = next((m for m in ("dense", "slepc") if self.solver.startswith(m)), "auto")
         solve = point_solver(self.theta_rad, self.speed_rad_s, self.case, len(self.eigenvalues), engine)
@@ -164,7 +165,7 @@ class PointResult:
         from fkev_slepc.plots.shapes import align_phase, node_displacement
 
         q = align_phase(self.raw.shapes[:, k - 1], None)
-        if self.plane == "out":  # the out-of-plane DOFs (θ_X, θ_Y, w) -> (w, θ_X, θ_Y)
+        if Plane.parse(self.plane).transverse:  # the out-of-plane DOFs (θ_X, θ_Y, w) -> (w, θ_X, θ_Y)
             disp = node_displacement(self.mesh, q)[:, [2, 0, 1]]
         else:  # a slider node's translational DOF runs along its guide (mesh.node_axis) -> x, y
             disp = node_displacement(self.mesh, q, self.mesh.node_axis)
@@ -181,7 +182,7 @@ class PointResult:
         picked = list(range(len(self.frequency_hz))) if modes is None else [int(m) - 1 for m in modes]
         heading = (f"{self.title}\nmode shapes at θ = {self.angle_deg:g}°, Ω = {self.speed_rad_s:g} rad/s, "
                    f"case {self.case}")
-        if self.plane == "out":  # w along the links, the twist marked (plots/out_of_plane.py)
+        if Plane.parse(self.plane).transverse:  # w along the links, the twist marked (plots/out_of_plane.py)
             from fkev_slepc.plots.out_of_plane import out_of_plane_figure
 
             return out_of_plane_figure(mesh, xy, self.raw.shapes, self.frequency_hz, picked, heading)

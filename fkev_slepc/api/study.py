@@ -33,6 +33,7 @@ from fkev_slepc.api.results import PointResult
 from fkev_slepc.api.running import RunningSpeed
 from fkev_slepc.api.table import table, write_csv
 from fkev_slepc.archive import reader
+from fkev_slepc.model.plane import planes_of
 from fkev_slepc.scene import Problem, Scene, SceneError, load_scene, parse_scene, with_elements
 from fkev_slepc.scene.edit import replace_values
 from fkev_slepc.sweep.grid import configure
@@ -302,9 +303,10 @@ class Study(RunningSpeed):
         if plane not in PLANE_CHOICES:
             raise SceneError(self.scene.source, [Problem("plane", f"must be one of {', '.join(PLANE_CHOICES)} "
                                                                   f"(got {plane!r})")])
-        if plane != "in":
-            out_of_plane_arguments(scene, "out", rel_error, plane)
-        sweep_plane = "out" if plane == "out" else "in"
+        planes = planes_of(plane)
+        for p in planes:
+            out_of_plane_arguments(scene, p.name, rel_error, plane)
+        sweep_plane = planes[0].name
         if output is None:
             if self.path is None:
                 raise SceneError(self.scene.source, [Problem("output", "required for a study made from text")])
@@ -315,8 +317,8 @@ class Study(RunningSpeed):
         pool = self.pool.for_scene(scene)  # re-meshed for rel_error: a pool of its own
         outcome = run_sweep(request, comm, notify=log.info, progress=progress,
                             model=pool.model(scene.analysis.cases, sweep_plane))
-        if plane == "both":
-            run_out_of_plane(request, comm, log.info, progress, model=pool.model(scene.analysis.cases, "out"))
+        if len(planes) > 1:
+            run_out_of_plane(request, comm, log.info, progress, model=pool.model(scene.analysis.cases, planes[1].name))
         return open(outcome.output)
 
 

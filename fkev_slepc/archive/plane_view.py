@@ -16,8 +16,7 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.verified import ArchiveError
-
-PLANES = ("in", "out")
+from fkev_slepc.model.plane import PLANES, Plane
 
 
 def plane_view(res, plane: str, root):
@@ -31,7 +30,7 @@ def plane_view(res, plane: str, root):
                            "in one archive: fkev run --plane both)")
     if plane == res.plane:
         return res
-    if plane == "in":  # back to the root sweep of a two-plane archive
+    if Plane.parse(plane).primary:  # back to the root sweep of a two-plane archive
         return root()
     import h5py
 

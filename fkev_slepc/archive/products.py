@@ -230,6 +230,7 @@ from fkev_slepc.archive.products_response import (  # noqa: E402 (the /response 
 )
 
 from fkev_slepc.archive.products_planes import OUT as PLANE_OUT_GROUP, plane_product  # noqa: E402
+from fkev_slepc.model.plane import Plane  # noqa: E402
 
 # /planes/out: the out-of-plane sweep of a two-plane archive; PLANE_OUT_PATHS: sweep path -> its path there
 PLANE_OUT, PLANE_OUT_PATHS = plane_product(FREQUENCY, TRACKED, EIGENVALUE, RESIDUAL, DAMPING, MAX_REAL,
@@ -239,7 +240,7 @@ PLANE_OUT, PLANE_OUT_PATHS = plane_product(FREQUENCY, TRACKED, EIGENVALUE, RESID
 
 def on_plane(v: Var, plane: str) -> Var:
     """The row of ``plane`` ("in": the sweep's own ``v``; "out": its copy in :data:`PLANE_OUT`)."""
-    return v if plane == "in" else PLANE_OUT.var(f"{PLANE_OUT_GROUP}/{v.path}")
+    return v if Plane.parse(plane).primary else PLANE_OUT.var(f"{PLANE_OUT_GROUP}/{v.path}")
 
 
 PRODUCTS = (SWEEP, DESIGN, FLOQUET, RESPONSE, PLANE_OUT)  # every product of the format; docs/archive.md lists their datasets

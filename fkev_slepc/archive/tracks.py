@@ -15,6 +15,7 @@ import numpy as np
 
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.groups import build, describe_groups
+from fkev_slepc.model.plane import Plane
 
 
 def read_refined(path, plane: str = "in") -> SimpleNamespace | None:
@@ -60,7 +61,7 @@ def write_tracking(path, tracked: np.ndarray, fallback: np.ndarray, attrs: dict,
         values = {refined_rows[0].path: np.asarray(getattr(refined, P.REFINED[0].source), "f8")}
         build(f, refined_rows, values, {v.path: np.asarray(getattr(refined, v.source)) for v in refined_rows
                                         if not v.scale})
-        describe_groups(f, P.SWEEP if plane == "in" else P.PLANE_OUT)
+        describe_groups(f, P.SWEEP if Plane.parse(plane).primary else P.PLANE_OUT)
 
 
 def read_tracking(path, plane: str = "in") -> dict:

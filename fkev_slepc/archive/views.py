@@ -9,6 +9,7 @@ from typing import NamedTuple
 import numpy as np
 
 from fkev_slepc.archive import products as P
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.status import Status
 
 _RUN_ATTRS = ("imag_tol", "damping_tol", "n_free", "mode_shapes", "n_ranks", "wall_time_s", "fkev_version",
@@ -29,7 +30,7 @@ def errors(res) -> list[PointError]:
     """The ``/errors`` rows of ``res`` (one per point that is still failed or not converged)."""
     import h5py
 
-    e = (P.PLANE_OUT if res.table_plane == "out" else P.SWEEP).errors
+    e = (P.SWEEP if Plane.parse(res.table_plane).primary else P.PLANE_OUT).errors
     with h5py.File(res.path, "r") as f:
         if e.index.path not in f:
             return []
@@ -77,7 +78,7 @@ def to_xarray(res):
     """
     import xarray as xr
 
-    if len(res.planes) > 1 and res.table_plane == "in":
+    if len(res.planes) > 1 and Plane.parse(res.table_plane).primary:
         parts = [_one_plane(res.on_plane(p)) for p in res.planes]
         ds = xr.concat(parts, dim=PLANE_DIM, combine_attrs="override")
         return ds.assign_coords({PLANE_DIM: list(res.planes)})

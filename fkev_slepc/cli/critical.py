@@ -13,6 +13,7 @@ import sys
 
 import numpy as np
 
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_OK
 from .common import add_model_arguments, as_flags, load_checked, report_scene_error
@@ -71,7 +72,8 @@ def _print(o: dict, quiet: bool = False) -> None:
     """The two speeds; unless ``quiet``, how flutter was searched (one line) and any note
     (what stopped a search), sorted by crank angle and marked with it."""
     per = o["per_angle"]
-    plane = "" if o["plane"] == "in" else ", out of plane"
+    kind = Plane.parse(o["plane"])
+    plane = "" if kind.primary else f", {kind.label}"
     print(f"{o['scene']}: case {o['case']}{plane}, {o['n_free']} DOFs, {len(per)} crank angle(s); frozen-time "
           "critical speeds (the matrices held at each crank angle)")
     top = o["max_speed_rad_s"]
@@ -85,7 +87,7 @@ def _print(o: dict, quiet: bool = False) -> None:
     else:
         bounds = [r["flutter_search_max_rad_s"] for r in per if r["flutter_scan_points"]]
         flut = f"none up to {min(bounds):g} rad/s" if bounds else "not searched"
-    if o["plane"] == "out":
+    if not kind.flutter:
         print("  frozen-time flutter: none out of plane (K symmetric, no gyroscopic C: docs/theory.md §19.6)")
     else:
         print(f"  frozen-time flutter (min ζ of {o['modes']} modes crosses 0 and falls below -{o['damping_tol']:g}): "

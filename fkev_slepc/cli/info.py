@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 
 from .common import ARCHIVE_FLAGS, add_plane_selection, flag_words
@@ -111,7 +112,8 @@ def report(res, n_errors: int = 5) -> list[str]:
         f"  cases       {', '.join(res.cases)}",
         f"  modes       {len(res.modes)} per point; {at.get('n_free', '?')} free DOFs; elements per link "
         f"{', '.join(str(n) for n in res.elements_per_link())}"
-        + ("; out of plane (bending out of the plane and torsion, docs/theory.md §19)" if res.plane == "out" else ""),
+        + ("; out of plane (bending out of the plane and torsion, docs/theory.md §19)"
+           if Plane.parse(res.plane).transverse else ""),
         f"  points      {total} = {na} x {ns} x {nc}"
         + (" (all accounted for)" if total == na * ns * nc and counts["pending"] == 0 else ""),
         "  status      " + ", ".join(f"{k} {v}" for k, v in counts.items()),

@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.scene.units import RAD_S_PER_RPM
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_OK
 from .common import ARCHIVE_FLAGS, add_plane_selection, flag_words
@@ -86,8 +87,9 @@ def _approach(a) -> str:
 
 
 def print_table(title: str, o: dict) -> None:
+    kind = Plane.parse(o["plane"])
     print(f"{title}: margins at Ω = {o['speed_rad_s']:g} rad/s (crank order {o['crank_order_hz']:.4g} Hz), "
-          f"case {o['case']}, {'out of plane, ' if o['plane'] == 'out' else ''}{o['order']} modes over "
+          f"case {o['case']}, {'' if kind.primary else kind.label + ', '}{o['order']} modes over "
           f"{o['n_angles']} crank angles, orders 1-{o['orders']}")
     print(f"{'mode':>4} {'band [Hz]':>19} {'inside':>14} {'closest':>8} {'margin':>7}  {'where closest (θ deg)':<28}"
           f" {'nearest below':<26} {'nearest above':<26}")

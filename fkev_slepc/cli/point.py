@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import sys
 
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from fkev_slepc.scene.units import RAD_S_PER_RPM, speeds_given_in_rpm, with_rpm
@@ -47,7 +48,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     flags = {"speed_rad_s": "--speed-rpm"} if args.speed_rpm is not None else {}
     flags["plane"] = "--plane"
-    if args.plane != "in" and args.sensitivity:  # refused before any work
+    if not Plane.parse(args.plane).sensitivities and args.sensitivity:  # refused before any work
         return report_scene_error(SceneError(args.scene, [Problem(
             "--sensitivity", f"sensitivities are in plane only (got --plane {args.plane})")]))
     try:
@@ -87,7 +88,8 @@ def run(args) -> int:
 
 
 def _print_table(o: dict, scene: str = "SCENE") -> None:
-    plane = "" if o["plane"] == "in" else ", out of plane"
+    kind = Plane.parse(o["plane"])
+    plane = "" if kind.primary else f", {kind.label}"
     print(f"{o['scene']}: θ = {o['angle_deg']:g}°, Ω = {with_rpm(o['speed_rad_s'], o['speed_rpm'] is not None)}, "
           f"case {o['case']}{plane}, {o['n_free']} DOFs, {o['kind']} problem, solver {o['solver']}")
     print(f"{'mode':>4} {'f [Hz]':>14} {'Re λ [1/s]':>14} {'Im λ [1/s]':>14} {'ζ':>11} {'residual':>10}")
@@ -104,7 +106,7 @@ def _print_table(o: dict, scene: str = "SCENE") -> None:
     pairs = (f"every reported pair accepted (largest pair error {worst:.1e} <= max_pair_error {o['max_pair_error']:g})"
              if o["pairs_accepted"] else "pairs NOT accepted: the frequencies are not trustworthy")
     print(f"accuracy: {pairs}; frozen-time stability: {growing(o['unstable_modes'])}")
-    if o["speed_rad_s"] != 0 and o["plane"] != "in":
+    if o["speed_rad_s"] != 0 and not kind.primary:
         print(f"frozen-time: the matrices held at θ = {o['angle_deg']:g}°; whether vibration grows over a crank "
               f"revolution is the Floquet verdict: fkev floquet {scene} --plane out --speeds {o['speed_rad_s']:g} "
               f"--case {o['case']}")

@@ -15,6 +15,7 @@ import shlex
 import sys
 from pathlib import Path
 
+from fkev_slepc.model.plane import planes_of
 from fkev_slepc.scene import SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT
 from fkev_slepc.sweep.session import default_output
@@ -80,22 +81,23 @@ def run(args) -> int:
                           cases=args.cases, modes=args.modes, mode_shapes=args.mode_shapes, element=args.element,
                           rel_error=args.rel_error, names=CLI_NAMES)
         plane = default_plane(scene, args.plane, args.rel_error)
-        if plane != "in":
-            from fkev_slepc.api.point import out_of_plane_arguments
+        planes = planes_of(plane, "--plane")
+        from fkev_slepc.api.point import out_of_plane_arguments
 
-            try:
-                out_of_plane_arguments(scene, "out", args.rel_error, plane)
-            except SceneError as err:
-                raise as_flags(err, {"plane": "--plane", "rel_error": "--rel-error"}) from None
+        try:
+            for p in planes:
+                out_of_plane_arguments(scene, p.name, args.rel_error, plane)
+        except SceneError as err:
+            raise as_flags(err, {"plane": "--plane", "rel_error": "--rel-error"}) from None
         scene, plan = mesh_for_accuracy(scene, args.solver, comm, None if args.quiet else _note, CLI_NAMES["rel_error"])
-        sweep_plane = "out" if plane == "out" else "in"
+        sweep_plane = planes[0].name
         request = SweepRequest(scene, Path(args.output) if args.output else default_output(args.scene, sweep_plane),
                                resume=args.resume, retry_failed=args.retry_failed, solver=args.solver,
                                cross_check=args.cross_check, accuracy=plan, force=args.force,
                                make_dirs=args.output is None, resume_command=resume_command(sys.argv[1:]),
                                plane=sweep_plane)
         outcome = run_sweep(request, comm, notify=_note, progress=not args.quiet)
-        other = run_out_of_plane(request, comm, _note, not args.quiet) if plane == "both" else None
+        other = run_out_of_plane(request, comm, _note, not args.quiet) if len(planes) > 1 else None
     except SweepInterrupted as err:  # the notice with the resume command is already printed
         return err.exit_code
     except SceneError as err:

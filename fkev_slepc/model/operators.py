@@ -30,6 +30,7 @@ from fkev_slepc.model.kinetostatics import unknowns
 from fkev_slepc.model.loads import LoadPieces, assemble_loads
 from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.model.pieces import OperatorPieces, PieceStack, assemble_pieces, combine
+from fkev_slepc.model.plane import PLANES, Plane
 from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, QEP
 from fkev_slepc.model.stacks import AngleState, angle_state, element_stacks, node_frames
 from fkev_slepc.scene import Scene
@@ -37,8 +38,6 @@ from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
 
 __all__ = ["AssemblyError", "LoadPieces", "Model", "OperatorPieces", "PieceStack", "classify", "node_frames"]
 
-PLANES = ("in", "out")
-OUT_OF_PLANE_ABSENT = ("coriolis", "tangential")  # identically zero out of plane (§19.6)
 
 # Angles per block of a vectorised call: a block's element temporaries (n_angle, n_el, n_dof,
 # n_dof) stay near 2**21 floats (16 MB) each, whatever the mesh.
@@ -87,15 +86,16 @@ class Model:
                  bearings: dict | None = None):
         if plane not in PLANES:
             raise ValueError(f"plane must be one of {', '.join(PLANES)} (got {plane!r})")
+        kind = Plane.parse(plane)
         self.scene = scene
         self.plane = plane
         mech = build_mechanism(scene)
         self.cases = tuple(cases or scene.analysis.cases)
         self.element = et = element_type(scene.analysis.element)
         self.bearings = None
-        if bearings and plane == "in":
+        if bearings and not kind.section:
             raise ValueError("bearings: compliant joints act out of plane only (plane 'out')")
-        if plane == "in":
+        if not kind.section:
             self.stacks = element_stacks(mech, et)
             # lumped masses and rotary inertias on the mass diagonal, added in this order
             self._lumped = ((mech.mass_dofs[:, :2], mech.mass_value[:, None]), (mech.mass_dofs[:, 2], mech.mass_inertia))
@@ -165,7 +165,7 @@ class Model:
         (n_θ, n_free) on the DOFs of :attr:`pattern`, per Ω², per crank acceleration α and per
         unit gravity along -Y (``LoadPieces.total(Ω, α, g)`` sums them). In plane only: the rigid
         motion and gravity load nothing out of plane (§19.1)."""
-        if self.plane == "out":
+        if not Plane.parse(self.plane).rigid_loads:
             raise ValueError("plane 'out' has no rigid-body loads: the rigid motion and gravity lie in the plane")
         return self._by_blocks(theta, lambda state: assemble_loads(self.mechanism, self.stacks, self.pattern, state),
                                with_loads=False)
@@ -241,13 +241,12 @@ class Model:
         if case not in CASES:
             raise ValueError(f"unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
         t = CASES[case]
-        if self.plane == "out":
-            t = dataclasses.replace(t, **{name: False for name in OUT_OF_PLANE_ABSENT})
+        t = dataclasses.replace(t, **{name: False for name in Plane.parse(self.plane).absent_terms})
         return t, self.scene.driver.acceleration if accel is None else float(accel)
 
     def _terms(self, term: str) -> bool:
         """Whether the motion term ``term`` exists in this model's plane."""
-        return self.plane == "in" or term not in OUT_OF_PLANE_ABSENT
+        return Plane.parse(self.plane).has_term(term)
 
     # -- geometry for drawing --------------------------------------------------------------
     def node_positions(self, theta: float) -> np.ndarray:

@@ -35,6 +35,7 @@ from fkev_slepc.plots.common import (  # align_phase, node_displacement: re-expo
     suptitle,
 )
 from fkev_slepc.archive.reader import ArchiveError, NodeDofMap, SweepResults
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.plots.out_of_plane import out_of_plane_figure
 from fkev_slepc.scene import SceneError, parse_scene
 
@@ -180,7 +181,7 @@ def mode_shape(
     where = f"θ = {res.crank_angle_deg[a]:g}°, {speed_label(res.speed_rad_s[s], res.speeds_in_rpm)}"
     heading = f"{scene_heading(res)}\nmode shapes at {where}"
     xy = np.asarray(res.node_xy[a], dtype=float)
-    if res.plane == "out":  # w along the links, the twist marked; the first case asked
+    if Plane.parse(res.plane).transverse:  # w along the links, the twist marked; the first case asked
         case, shapes, freq = lines[0]
         return out_of_plane_figure(res.mesh, xy, shapes, freq, mode_idx, f"{heading}, case {case}")
     if res.mesh.node_axis is not None:  # the archived axes: exact

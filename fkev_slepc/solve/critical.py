@@ -28,6 +28,7 @@ import scipy.linalg as la
 import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
+from fkev_slepc.model.plane import IN, Plane
 from fkev_slepc.scene.cases import CASES
 from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.solve.stability import DENSE_LIMIT
@@ -157,7 +158,7 @@ def critical_speeds(engine, model, angle_deg: float, case: str, n_modes: int, da
     div = divergence_speed(model, pieces, case, accel, bound, engine.solve_settings.imag_tol)
     top = bound if max_speed is not None else (div if np.isfinite(div) else float(default_max))
     # out of plane K is symmetric and C absent or dissipative (docs/theory.md §19.6): no flutter
-    symmetric = getattr(model, "plane", "in") == "out"
+    symmetric = not Plane.parse(getattr(model, "plane", IN)).flutter
     notes, searched = [], CASES[case].motion and top > 0 and np.isfinite(top) and not symmetric
     if searched:
         flut, notes = flutter_speed(engine, model, pieces, case, top, n_modes, damping_tol, accel, n_scan)

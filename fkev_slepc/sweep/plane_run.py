@@ -9,7 +9,7 @@
    continuation hints, so results do not depend on the rank count), units dealt to the MPI ranks,
    resumable (``resume``: only pending points; ``retry_failed``: failed ones too), checksummed on finish.
    The cases keep their Table 3.1 names; out of plane the Coriolis and tangential terms are identically
-   zero (:data:`fkev_slepc.model.operators.OUT_OF_PLANE_ABSENT`), so ``no_coriolis`` and ``no_tangential``
+   zero (``absent_terms`` of :data:`fkev_slepc.model.plane.OUT`), so ``no_coriolis`` and ``no_tangential``
    pose the same problem as ``full`` there: each problem is solved once per point and its results are
    stored under every case that poses it (:func:`_solved_once`).
 3. **Tracking** (collective): modes followed along crank angle and along speed by MAC, as in plane

@@ -35,6 +35,7 @@ from fkev_slepc.archive import store
 from fkev_slepc.archive.paths import PathProblem, check_archive_output
 from fkev_slepc.model.kinematics import TRANSMISSION_WARN_DEG, solve_kinematics
 from fkev_slepc.model.operators import Model
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.scene import Scene
 from fkev_slepc.solve.engines import make_cross_check_engine, make_engine
 from fkev_slepc.solve.petsc_init import init_petsc
@@ -59,7 +60,7 @@ def default_output(scene_path, plane: str = "in") -> Path:
     ('study/out/four-bar.h5', 'four-bar-out.h5')
     """
     p = Path(scene_path)
-    return p.parent / "out" / (p.stem + ("" if plane == "in" else f"-{plane}") + ".h5")
+    return p.parent / "out" / (p.stem + Plane.parse(plane).suffix + ".h5")
 
 
 def mesh_arrays(mech) -> dict:

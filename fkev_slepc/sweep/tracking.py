@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.model.plane import Plane
 from fkev_slepc.solve.modes import greedy_match, mac
 from fkev_slepc.status import converged_codes
 
@@ -84,7 +85,7 @@ def signature_weight(plane: str, mass_diagonal: np.ndarray, dofs: np.ndarray | N
     root of the mass diagonal, each entry counts with its own kinetic energy, and the MAC of
     different modes falls below 0.15. The in-plane criteria were measured on raw entries and
     stay so."""
-    if plane == "in" or dofs is None:
+    if not Plane.parse(plane).weighted_signatures or dofs is None:
         return None
     return np.sqrt(np.asarray(mass_diagonal, dtype=float)[dofs])
 
