@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+import fkev_slepc as fk
 from clitools import fkev, problem_lines
 from fkev_slepc.api.drive import study_drive
 from fkev_slepc.archive.verify import verify
@@ -267,6 +268,9 @@ def test_fkev_drive_json_archive_and_figure(tmp_path):
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     assert KEYS <= set(d)
+    api = fk.load(DRIVE_SCENE).drive(fluctuation=0.02).as_dict()  # Study.drive: the same numbers
+    assert set(api) == set(d) and api["speed_rad_s"] == d["speed_rad_s"]
+    assert api["flywheel_for_fluctuation_kg_m2"] == d["flywheel_for_fluctuation_kg_m2"]
     n = len(d["crank_angle_deg"])
     assert n >= 360 and all(len(d[k]) == n for k in ("speed_rad_s", "accel_rad_s2", "time_s", "motor_torque_n_m"))
     assert d["coefficient_of_fluctuation"] == pytest.approx(

@@ -23,6 +23,7 @@ from fkev_slepc.scene.model import Drive
 STAGES = 4  # Radau IIA points per interval: order 2s - 1 = 7 at the nodes
 MAX_STEP_DEG = 1.0
 NEWTON_TOL = 1e-14  # on max |ΔΩ| / ω_r
+STALL_TOL = 1e-11  # below, a Newton step that no longer halves is round-off
 NEWTON_MAX = 60
 FLYWHEEL_TOL = 1e-10  # |δ/δ_req - 1|
 
@@ -91,6 +92,7 @@ class DriveProblem:
             val = (F - 0.5 * dJ * w * w) / (J * w)
             return val, (n * n * drive.motor_slope(n * w) - dJ * w) / (J * w) - val / w
 
+        self.motor_key = "drive.motor_torque_table" if drive.table else "drive.motor_stall_torque_n_m"
         delta = np.zeros(J.size) if start is None else np.array(start, dtype=float)
         delta, its = self._newton(g, delta, wr)
         return self._cycle(drive, delta, g(delta)[0], wr, its)
@@ -102,6 +104,7 @@ class DriveProblem:
         prev = np.roll(rows[:, -1], 1)  # the left node of every interval
         block_r = np.repeat(rows[:, :, None], s, axis=2).ravel()
         block_c = np.repeat(rows[:, None, :], s, axis=1).ravel()
+        last = np.inf
         for it in range(1, NEWTON_MAX + 1):
             G, dG = g(delta)
             D = delta.reshape(M, s)
@@ -117,9 +120,11 @@ class DriveProblem:
             while np.any(wr + delta + scale * step <= 0.0) and scale > 1e-3:
                 scale *= 0.5
             delta = delta + scale * step
-            if np.max(np.abs(step)) <= NEWTON_TOL * wr and scale == 1.0:
-                return delta, it
-        raise DriveError("drive.motor_stall_torque_n_m", "no steady cycle: Newton's method on the periodic speed "
+            size = float(np.max(np.abs(step))) / wr
+            if scale == 1.0 and (size <= NEWTON_TOL or (size <= STALL_TOL and size > 0.5 * last)):
+                return delta, it  # converged, or stalled at round-off
+            last = size
+        raise DriveError(self.motor_key, "no steady cycle: Newton's method on the periodic speed "
                          f"did not converge in {NEWTON_MAX} steps (the crank may stop: a stronger motor or a "
                          "larger flywheel?)")
 
