@@ -139,6 +139,13 @@ class Study(RunningSpeed):
 
         return study_design(self, params, speeds, cases, angles, output, **options)
 
+    def drive(self, fluctuation: float | None = None, gravity_m_s2=None, progress=None):
+        """The rigid machine's steady cycle with the scene's ``[drive]`` (``fkev drive``):
+        :func:`fkev_slepc.api.drive.study_drive` (``fluctuation``: the flywheel for that δ)."""
+        from fkev_slepc.api.drive import study_drive
+
+        return study_drive(self.scene, fluctuation, gravity_m_s2, progress)
+
     def point(self, angle_deg: float, speed_rad_s: float, case="full", modes: int | None = None,
               solver: str | None = None, shapes: bool = False, *, cross_check: bool = False,
               rel_error: float | None = None, plane: str = "in") -> PointResult:

@@ -17,13 +17,17 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from fkev_slepc.archive.verify import stamp
+
 _STR = h5py.string_dtype("utf-8")
 
 
-def write_labelled(path, kind: str, coords: dict, variables: dict, attrs: dict) -> Path:
+def write_labelled(path, kind: str, coords: dict, variables: dict, attrs: dict, checksums: bool = False) -> Path:
     """Write ``coords`` {name: (values, units, long_name)} and ``variables`` {name: (dims,
     data, units, long_name)} to ``path``; ``attrs`` become root attributes (dicts as JSON).
-    ``kind`` is stored as the ``format`` attribute (e.g. ``fkev-loads``)."""
+    ``kind`` is stored as the ``format`` attribute (e.g. ``fkev-loads``). ``checksums``: mark
+    the file complete and stamp the SHA-256 of every dataset and of the root attributes
+    (archive/verify.py), so that ``fkev verify`` checks it (``fkev drive -o``)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     with h5py.File(tmp, "w") as f:
@@ -48,5 +52,8 @@ def write_labelled(path, kind: str, coords: dict, variables: dict, attrs: dict) 
             ds.attrs.update(units=units, long_name=long_name)
             for i, d in enumerate(dims):
                 ds.dims[i].attach_scale(scales[d])
+        if checksums:
+            f.attrs["complete"] = 1
+            stamp(f)
     os.replace(tmp, path)
     return path

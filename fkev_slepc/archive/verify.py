@@ -351,8 +351,8 @@ def check(path: Path, locking: bool = True) -> dict:
         return out
     with f, open(path, "rb") as fh:
         kind = _text(f.attrs.get("format", ""))
-        if kind.startswith("fkev-") and kind != _products().FORMAT:  # a labelled single-point file
-            return {**out, "other_format": kind}
+        if (labelled := kind.startswith("fkev-") and kind != _products().FORMAT) and ROOT_DIGEST_ATTR not in f.attrs:
+            return {**out, "other_format": kind}  # a labelled file without checksums (fkev loads, response)
         try:
             out["complete"] = bool(int(f.attrs.get("complete", 0)))
             stamped = ROOT_DIGEST_ATTR in f.attrs
@@ -389,8 +389,8 @@ def check(path: Path, locking: bool = True) -> dict:
                         obj.attrs[key]
                 except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
                     problems.append(f"the attributes of {obj.name} cannot be decoded ({exc})")
-            problems.extend(structure_problems(f))
-            out["counts"] = _counts(f)
+            problems.extend([] if labelled else structure_problems(f))  # the tables describe sweep archives
+            out["counts"] = {} if labelled else _counts(f)
         except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:  # damaged object headers
             problems.append(f"HDF5 cannot read its structure ({exc})")
     return out

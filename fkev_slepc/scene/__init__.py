@@ -13,6 +13,7 @@ from fkev_slepc.scene.model import (
     THIRD,
     Analysis,
     Damping,
+    Drive,
     Driver,
     Joint,
     Link,
@@ -29,7 +30,7 @@ from fkev_slepc.scene.model import (
 from fkev_slepc.scene.reader import load_scene, parse_scene
 
 __all__ = [
-    "DAMPING_TOL", "IMAG_TOL", "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Damping", "Driver", "Joint",
+    "DAMPING_TOL", "IMAG_TOL", "ELEMENT_NAMES", "END_NAMES", "THIRD", "Analysis", "Damping", "Drive", "Driver", "Joint",
     "Link", "LinkEnd",
     "LumpedMass", "Material", "Problem", "Scene", "SceneError", "Segment", "Solver", "with_elements", "load_scene",
     "parse_scene",

@@ -212,6 +212,50 @@ class Damping:
 
 
 @dataclass(frozen=True)
+class Drive:
+    """The scene's ``[drive]`` (docs/theory.md §20.1): the motor's torque against its shaft speed as
+    straight lines through the points (``speeds`` rad/s, ``torques`` N m), extended by the end
+    segments (a stall-torque/no-load-speed motor is the two points (0, T_s), (ω_0, 0)); motor and
+    flywheel inertia on the motor shaft, which turns ``gear_ratio`` times as fast as the crank;
+    the drive shaft's torsional stiffness (None: rigid) and damping."""
+
+    speeds: tuple[float, ...]  # motor shaft, rad/s, increasing
+    torques: tuple[float, ...]  # N m
+    motor_inertia: float = 0.0  # kg m², on the motor shaft
+    flywheel_inertia: float = 0.0  # kg m², on the motor shaft
+    gear_ratio: float = 1.0  # motor speed / crank speed
+    shaft_stiffness: float | None = None  # N m/rad; None: a rigid shaft
+    shaft_damping: float = 0.0  # N m s/rad
+    table: bool = False  # given as motor_torque_table (else stall torque and no-load speed)
+
+    @property
+    def inertia(self) -> float:
+        """J_d = n² (J_m + J_f): the motor side's inertia seen at the crank, kg m²."""
+        return self.gear_ratio**2 * (self.motor_inertia + self.flywheel_inertia)
+
+    def _segment(self, w):
+        x, y = np.asarray(self.speeds), np.asarray(self.torques)
+        i = np.clip(np.searchsorted(x, w, side="right") - 1, 0, x.size - 2)
+        slope = (y[i + 1] - y[i]) / (x[i + 1] - x[i])
+        return i, slope, y[i] + slope * (w - x[i])
+
+    def motor_torque(self, w):
+        """T_m at motor speeds ``w`` (rad/s; arrays too), N m."""
+        return self._segment(np.asarray(w, dtype=float))[2]
+
+    def motor_slope(self, w):
+        """dT_m/dω_m at motor speeds ``w``, N m s."""
+        return self._segment(np.asarray(w, dtype=float))[1]
+
+    def motor_change(self, w, dw):
+        """T_m(w + dw) − T_m(w) without cancellation: slope·dw within one segment."""
+        w, dw = np.asarray(w, dtype=float), np.asarray(dw, dtype=float)
+        i, slope, t0 = self._segment(w)
+        j, _, t1 = self._segment(w + dw)
+        return np.where(i == j, slope * dw, t1 - t0)
+
+
+@dataclass(frozen=True)
 class Solver:
     method: str = "auto"  # "auto" | "slepc" | "dense"
     petsc: tuple[tuple[str, str], ...] = ()  # [solver.petsc] table, option name without "fkev_"
@@ -229,6 +273,7 @@ class Scene:
     damping: Damping = field(default_factory=Damping)
     materials: tuple[Material, ...] = ()
     process_loads: tuple = ()  # [[loads]]: scene/process_loads.py ProcessLoad items
+    drive: Drive | None = None  # [drive] (scene/drive.py); None: the crank turns at constant speed
     source_text: str = ""  # the TOML text, verbatim (archived)
     source: str = "<scene>"  # file name, for messages
 

@@ -13,6 +13,7 @@ from fkev_slepc.scene import parts
 from fkev_slepc.scene import sections as sec
 from fkev_slepc.scene import settings
 from fkev_slepc.scene.damping import read_damping
+from fkev_slepc.scene.drive import read_drive
 from fkev_slepc.scene.materials import read_materials
 from fkev_slepc.scene.model import Problem, Scene, SceneError
 from fkev_slepc.scene.process_loads import read_process_loads
@@ -117,6 +118,7 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
     solver = settings.read_solver(r, doc)
     damping = read_damping(r, doc)
     process = read_process_loads(r, doc, links, joints)
+    drive = read_drive(r, doc)
     if topology_ok and links:
         sec.check_topology(r, links, joints)
     if r.problems:
@@ -132,6 +134,7 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
         damping=damping,
         materials=tuple(mats.values()) if mats else (),
         process_loads=tuple(process),
+        drive=drive,
         source_text=text,
         source=source,
     )

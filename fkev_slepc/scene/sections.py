@@ -14,6 +14,7 @@ import difflib
 
 from fkev_slepc.scene import materials, parts, shapes
 from fkev_slepc.scene.damping import DAMPING_KEYS
+from fkev_slepc.scene.drive import DRIVE_KEYS
 from fkev_slepc.scene.model import END_NAMES, THIRD, Driver, Joint, Link, LinkEnd
 from fkev_slepc.scene.schema import REQUIRED, Reader, join, show
 from fkev_slepc.scene.settings import ANALYSIS_KEYS, SOLVER_KEYS
@@ -38,7 +39,7 @@ JOINT_TYPES = ("revolute", "prismatic")
 ASSEMBLIES = ("left", "right")
 DRIVER_KEYS = ("link", "speeds_rad_s", "speeds_rpm", "acceleration_rad_s2")
 TOP_KEYS = ("title", "materials", "link_defaults", "links", "joints", "driver", "masses", "analysis", "solver",
-            "damping", "units", "loads")
+            "damping", "units", "loads", "drive")
 GROUND = "ground"
 # Where a misplaced key belongs (``modes`` under [solver] -> analysis.modes).
 SECTIONS = {
@@ -47,6 +48,7 @@ SECTIONS = {
     "analysis": ANALYSIS_KEYS,
     "solver": SOLVER_KEYS,
     "damping": DAMPING_KEYS,
+    "drive": DRIVE_KEYS,
 }
 
 
