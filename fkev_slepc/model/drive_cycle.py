@@ -79,8 +79,14 @@ class DriveProblem:
     def shape(self) -> tuple[int, int]:
         return self.h.size, self.c.size
 
-    def solve(self, drive: Drive, start: np.ndarray | None = None) -> DriveCycle:
-        """The steady cycle of ``drive`` (``start``: a previous cycle's Δ at the collocation points)."""
+    @property
+    def node_stage(self) -> np.ndarray:
+        """The collocation index of each mesh node θ_0..θ_{M-1}: the last stage of the interval before it."""
+        M, s = self.shape
+        return np.roll(np.arange(M * s).reshape(M, s)[:, -1], 1)
+
+    def solve(self, drive: Drive) -> DriveCycle:
+        """The steady cycle of ``drive``."""
         n, Jd = drive.gear_ratio, drive.inertia
         J, dJ, TL = Jd + self.link.inertia, self.link.inertia_slope, self.link.load_torque
         wr = reference_speed(drive, self.mean(TL))
@@ -92,16 +98,14 @@ class DriveProblem:
             val = (F - 0.5 * dJ * w * w) / (J * w)
             return val, (n * n * drive.motor_slope(n * w) - dJ * w) / (J * w) - val / w
 
-        self.motor_key = "drive.motor_torque_table" if drive.table else "drive.motor_stall_torque_n_m"
-        delta = np.zeros(J.size) if start is None else np.array(start, dtype=float)
-        delta, its = self._newton(g, delta, wr)
+        delta, its = self._newton(g, np.zeros(J.size), wr, drive.motor_field)
         return self._cycle(drive, delta, g(delta)[0], wr, its)
 
-    def _newton(self, g, delta, wr):
+    def _newton(self, g, delta, wr, motor_field):
         M, s = self.shape
         hA = self.h[:, None, None] * self.A[None]  # (M, s, s)
         rows = np.arange(M * s).reshape(M, s)
-        prev = np.roll(rows[:, -1], 1)  # the left node of every interval
+        prev = self.node_stage  # the left node of every interval
         block_r = np.repeat(rows[:, :, None], s, axis=2).ravel()
         block_c = np.repeat(rows[:, None, :], s, axis=1).ravel()
         last = np.inf
@@ -124,7 +128,7 @@ class DriveProblem:
             if scale == 1.0 and (size <= NEWTON_TOL or (size <= STALL_TOL and size > 0.5 * last)):
                 return delta, it  # converged, or stalled at round-off
             last = size
-        raise DriveError(self.motor_key, "no steady cycle: Newton's method on the periodic speed "
+        raise DriveError(motor_field, "no steady cycle: Newton's method on the periodic speed "
                          f"did not converge in {NEWTON_MAX} steps (the crank may stop: a stronger motor or a "
                          "larger flywheel?)")
 
@@ -133,7 +137,7 @@ class DriveProblem:
         n, Jd = drive.gear_ratio, drive.inertia
         w_st = wr + delta
         t = np.r_[0.0, np.cumsum(self.h * ((self.A[-1][None, :] / w_st.reshape(M, s)).sum(axis=1)))]
-        node = np.roll(np.arange(M * s).reshape(M, s)[:, -1], 1)  # stage index of each node θ_0..θ_{M-1}
+        node = self.node_stage
         d, slope = delta[node], G[node]
         lo, hi = hermite_extremes(d, np.roll(d, -1), slope, np.roll(slope, -1), self.h)
         w, accel = wr + d, (wr + d) * slope
@@ -157,7 +161,7 @@ class DriveProblem:
         rate = self.mean(link.load_torque) - link.load_torque - 0.5 * link.inertia_slope * speed**2
         work = np.r_[0.0, np.cumsum(self.h * (self.A[-1][None, :] * (self.mean(link.load_torque)
                                                                       - link.load_torque).reshape(M, s)).sum(axis=1))]
-        node = np.roll(np.arange(M * s).reshape(M, s)[:, -1], 1)
+        node = self.node_stage
         E = work[:-1] - 0.5 * (link.inertia[node] - self.mean(link.inertia)) * speed**2
         lo, hi = hermite_extremes(E, np.roll(E, -1), rate[node], np.roll(rate[node], -1), self.h)
         return hi - lo, self.mean(link.inertia)
@@ -168,7 +172,7 @@ def reference_speed(drive: Drive, mean_load: float) -> float:
     the mean load or its torque does not fall with speed there."""
     n = drive.gear_ratio
     x, y = np.asarray(drive.speeds), n * np.asarray(drive.torques)  # crank-side torque at motor speeds x
-    key = "drive.motor_torque_table" if drive.table else "drive.motor_stall_torque_n_m"
+    key = drive.motor_field
     if mean_load >= y.max() and (y[-1] - y[-2]) >= 0:
         raise DriveError(key, f"the motor cannot carry the mean load torque {mean_load:.6g} N m at the crank "
                          f"(its largest torque there, gear ratio x torque, is {y.max():.6g} N m)")
@@ -197,7 +201,7 @@ def flywheel_for(problem: DriveProblem, drive: Drive, fluctuation: float, progre
     points = [(0.0, 1.0 / bare.fluctuation)]
     cycle = bare
     for k in range(1, 40):
-        cycle = problem.solve(replace(drive, flywheel_inertia=J_f), start=None)
+        cycle = problem.solve(replace(drive, flywheel_inertia=J_f))
         if progress is not None:
             progress(k, J_f, cycle.fluctuation)
         if abs(cycle.fluctuation / fluctuation - 1.0) <= FLYWHEEL_TOL:
@@ -205,5 +209,5 @@ def flywheel_for(problem: DriveProblem, drive: Drive, fluctuation: float, progre
         points.append((J_f, 1.0 / cycle.fluctuation))
         (x0, y0), (x1, y1) = points[-2], points[-1]
         J_f = max(0.0, x1 + (1.0 / fluctuation - y1) * (x1 - x0) / (y1 - y0))
-    raise DriveError("--fluctuation", f"the flywheel iteration for δ = {fluctuation:g} did not converge "
+    raise DriveError("fluctuation", f"the flywheel iteration for δ = {fluctuation:g} did not converge "
                      f"(last J_f = {J_f:.6g} kg m², δ = {cycle.fluctuation:.6g})")

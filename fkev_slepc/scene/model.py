@@ -233,6 +233,11 @@ class Drive:
         """J_d = n² (J_m + J_f): the motor side's inertia seen at the crank, kg m²."""
         return self.gear_ratio**2 * (self.motor_inertia + self.flywheel_inertia)
 
+    @property
+    def motor_field(self) -> str:
+        """The scene key that gives the motor (named when the motor cannot turn the linkage)."""
+        return "drive.motor_torque_table" if self.table else "drive.motor_stall_torque_n_m"
+
     def _segment(self, w):
         x, y = np.asarray(self.speeds), np.asarray(self.torques)
         i = np.clip(np.searchsorted(x, w, side="right") - 1, 0, x.size - 2)
