@@ -30,7 +30,8 @@ from fkev_slepc.periodic.floquet import START_H_RHO
 from fkev_slepc.periodic.interpolant import TrigInterpolant
 from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, PeriodicSystem, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
-from fkev_slepc.periodic.settings import DEFAULTS, SAFETY
+from fkev_slepc.periodic.settings import DEFAULTS
+from fkev_slepc.periodic.verdict import DECAYS, GROWS, NEUTRAL, verdict
 from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, periodic_shot, shooting
 from fkev_slepc.periodic.component_response import (
     RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
@@ -88,15 +89,14 @@ DOES_NOT_ATTRACT = "does not attract"
 
 
 def response_verdict(max_abs: float, error: float, attract_tol: float = DEFAULTS.attract_tol) -> str | None:
-    """The one "does it attract" rule of the periodic response (``PeriodicSettings.attract_tol``):
-    ``"does not attract"`` where max|μ| > 1 + t (the response exists, the machine does not settle on
-    it), ``"neutral"`` where max|μ| >= 1 − t (undamped), else ``"attracts"``; t = max(attract_tol,
-    SAFETY·``error``), the multiplier error counted as in the Floquet verdict. None without
-    multipliers (``max_abs`` NaN: no shooting)."""
-    if not np.isfinite(max_abs):
-        return None
-    t = max(attract_tol, SAFETY * error) if np.isfinite(error) else attract_tol
-    return DOES_NOT_ATTRACT if max_abs > 1.0 + t else "neutral" if max_abs >= 1.0 - t else "attracts"
+    """Does the periodic response attract, by the one verdict rule of the periodic analyses
+    (fkev_slepc/periodic/verdict.py) with the tolerance ``PeriodicSettings.attract_tol``:
+    ``"does not attract"`` where max|μ| − 1 > t (the response exists, the machine does not settle on
+    it), ``"neutral"`` where |max|μ| − 1| <= t (undamped), else ``"attracts"``; t = attract_tol +
+    SAFETY·``error``, as in the Floquet verdict. None without multipliers (``max_abs`` NaN: no
+    shooting) or without their error."""
+    v = verdict(max_abs, error, attract_tol)
+    return None if v is None else {GROWS: DOES_NOT_ATTRACT, NEUTRAL: "neutral", DECAYS: "attracts"}[v]
 
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,

@@ -82,8 +82,8 @@ class PeriodicSettings:
     shooting_tol: float = _f(1e-11, "relative error asked of the shooting monodromy")
     response_angles_deg: tuple = _f(tuple(float(a) for a in np.arange(0.0, 360.0, 5.0)), "output crank angles, deg")
     full_max_dofs: int = _f(48, "response reduce=default: the full model up to this many free DOFs, links above")
-    attract_tol: float = _f(1e-8, "the response does not attract where max|μ| > 1 + max(attract_tol, "
-                                  "10 (SAFETY) x multiplier error)")
+    attract_tol: float = _f(1e-8, "the response does not attract where max|μ| - 1 > attract_tol + 10 (SAFETY) x "
+                                  "multiplier error (the verdict rule of verdict_tol)")
 
     def __post_init__(self):
         for f in fields(self):
