@@ -32,7 +32,8 @@ from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, PeriodicSy
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.periodic.verdict import DECAYS, GROWS, NEUTRAL, verdict
-from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, periodic_shot, shooting
+from fkev_slepc.periodic.magnus import trajectory
+from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, adapters, periodic_shot
 from fkev_slepc.periodic.component_response import (
     RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
 )
@@ -125,16 +126,15 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
         hb, trunc = converged_response(system, omega, modes=modes, harmonics=harmonics, tol=tol, reduce_tol=reduce_tol,
                                        link_modes=settings.link_modes)
         target = hb.system
-    sh = None
+    check = None
     if shoot:  # before the full collocation: it refuses an exact resonance before a singular solve
-        sh = shooting(target.mck, target.load, omega, np.zeros(1), tol=shooting_tol)
+        check = _shot(target.reduced if isinstance(target, ProjectedSystem) else target, omega, shooting_tol, settings)
     shot = None
     if hb is None:
         hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol, abandon=fallback)
         if hb.abandoned:
             shot = _shot(system, omega, tol, settings)
-    if sh is not None:
-        sh = _resample(sh, hb.theta, target, omega)
+    sh = None if check is None else shooting_at(check, hb.theta, target)
     return PeriodicResponse(float(omega), case, hb, sh, trunc, shot)
 
 
@@ -168,8 +168,6 @@ def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
     same samples, doubled until it too meets ``interp_tol`` at the midpoints (each Magnus node then
     costs a weighted sum, not an assembly); any other system in (q, q') from ``mck`` and ``load``."""
     if not isinstance(system, PeriodicSystem):
-        from fkev_slepc.periodic.shooting import adapters
-
         return periodic_shot(*adapters(system.mck, system.load, omega), omega, tol=tol)
     interp = system.interpolant(settings.samples, settings.interp_tol, settings.max_samples)
     k = interp.samples
@@ -189,13 +187,23 @@ def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
                          sign=float(np.sign(omega)), start=system.start)
 
 
-def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:
-    """The shooting solution at other angles: integrated again from its periodic initial state."""
-    from fkev_slepc.periodic.shooting import adapters, states_at
-
-    x = states_at(*adapters(system.mck, system.load, omega), np.concatenate([sh.q[0], sh.dq[0]]), theta, sh.steps)
-    n = sh.q.shape[1]
-    q, dq = x[:, :n], x[:, n:]
+def shooting_at(shot: PeriodicShot, theta, system) -> ShootingResponse:
+    """The shooting cross-check at the crank angles ``theta`` (the balance's) from ``shot``, the
+    periodic state shot on the system's own generator (:func:`_shot`: for a linkage its PeriodicSystem's,
+    the one Floquet takes): q from the state, dq/dθ from x' = A x + b there, lifted to the global
+    DOFs on a link-component basis (``system`` a ProjectedSystem), and the closure of one revolution
+    integrated from x₀."""
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    x = shot.state(theta)
+    tau = np.mod(shot.sign * (theta - shot.start), 2.0 * np.pi)
+    dx = np.einsum("kij,kj->ki", shot.generator(tau), x) + shot.forcing(tau)
+    n = x.shape[1] // 2
+    d = 1.0 if shot.dof_scale is None else shot.dof_scale[None, :]
+    q, dq = x[:, :n] / d, shot.sign * dx[:, :n] / d
     if isinstance(system, ProjectedSystem):  # z -> q = W z + Δq
         q, dq = system.lift(theta, q, dq)
-    return ShootingResponse(np.asarray(theta), q, dq, sh.multipliers, sh.error, sh.rcond, sh.steps, sh.closure)
+    end = trajectory(shot.generator, shot.x0, np.array([0.0, 2.0 * np.pi]), forcing=shot.forcing, order=shot.order,
+                     steps=shot.steps)[-1]
+    closure = float(np.linalg.norm(end - shot.x0) / max(np.linalg.norm(shot.x0), 1e-300))
+    return ShootingResponse(theta, q, dq, shot.multipliers, max(shot.error, shot.monodromy_error), shot.rcond,
+                            shot.steps, closure)

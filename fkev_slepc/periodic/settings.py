@@ -197,16 +197,21 @@ def _reduce(name, v):
 
 
 def resolve_reduce(value):
-    """None (the full model), "default", "auto", a number of modes per angle, "links" or
-    "links:N" from what a user asked: "default" (decided per speed by
-    ``periodic.floquet.default_reduction``: the full model below ``auto_min_steps`` full-model steps
-    2·2π·ρ(A), above "links" where the link-component level of 4·``link_modes`` modes per link needs at
-    most 1/``links_step_ratio`` of them, else "auto": fields of :class:`PeriodicSettings`; docs/engine.md
-    measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
-    link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled until
-    converged), "links:N" (N >= 0 fixed-interface modes per link), "moving" (the moving frozen-mode basis of
-    fkev_slepc/periodic/moving.py, its cutoff doubled until converged) or "moving:R" (R modes). ValueError otherwise."""
-    if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
+    """The one resolver of ``reduce`` (Floquet and the response alike): the canonical value of what a
+    user asked. **None means not given: the default**, ``"default"`` (decided per analysis: Floquet per
+    speed by ``periodic.floquet.default_reduction``, the full model below ``auto_min_steps`` full-model
+    steps 2·2π·ρ(A), above "links" where the link-component level of 4·``link_modes`` modes per link needs
+    at most 1/``links_step_ratio`` of them, else "auto"; the response by
+    ``periodic.component_response.response_reduction``, the full model up to ``full_max_dofs`` free DOFs,
+    else "links": fields of :class:`PeriodicSettings`; docs/engine.md measures why); the full model is
+    asked by ``"none"`` (resolved to None); "default", "auto", a whole number >= 1 (also as text),
+    "links" (the link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled
+    until converged), "links:N" (N >= 0 fixed-interface modes per link), "moving" (the moving frozen-mode
+    basis of fkev_slepc/periodic/moving.py, its cutoff doubled until converged) or "moving:R" (R modes).
+    ValueError otherwise."""
+    if value is None:
+        return "default"
+    if isinstance(value, str) and value.strip().lower() == "none":
         return None
     if isinstance(value, str):
         v = value.strip().lower()
