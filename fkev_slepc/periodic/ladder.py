@@ -4,8 +4,8 @@ answer change (docs/engine.md; Floquet: fkev_slepc/periodic/truncation.py, the r
 fkev_slepc/periodic/component_response.py).
 
 :func:`climb` takes the levels (an iterable, read lazily: the next level is built only when asked),
-``solve(level)`` -> a result, ``change(coarse, fine)`` -> a tuple of relative changes (each relative to
-the finer level's answer) and ``tol``. The rule:
+``solve(level)`` -> a result, ``change(other, reference)`` -> a tuple of relative changes of
+``other`` from ``reference`` (each relative to the reference: the level returned), and ``tol``. The rule:
 
 * **Converged** at the first level whose change from the level before is within ``tol`` in every
   ``decisive`` measure, for two successive pairs of levels (``confirm``; one small change can be a
@@ -14,7 +14,7 @@ the finer level's answer) and ``tol``. The rule:
   with the larger change of the two pairs, measure by measure, as its truncation estimate.
 * **Exact** at a level that spans the whole space (``whole(level)``: the projection is then a change
   of variables): that level's result, truncation zero.
-* **Fixed** (``fixed``): the first level is the answer, measured against the second (its double),
+* **Fixed** (``fixed``): the first level is the answer, the second (its double) measured from it,
   converged when that one change is within ``tol``.
 * **Stopped**: when the levels run out (a cap, the whole pool) or the next one does not fit
   (``fits(level, previous result)`` False): the last level solved, with the last measured change
@@ -58,7 +58,8 @@ def climb(levels: Iterable, solve: Callable, change: Callable, tol: float, *, de
         if rungs and fits is not None and not fits(level, rungs[-1][1]):
             break
         res = solve(level)
-        m = tuple(change(rungs[-1][1], res)) if rungs else None
+        # each change relative to the level returned: the finer one, or the fixed level against its double
+        m = None if not rungs else tuple(change(res, rungs[0][1]) if fixed else change(rungs[-1][1], res))
         rungs.append((level, res, m))
         if whole(level) and not (fixed and m is not None):  # a fixed level is the first; its double only measures it
             return Climb(res, level, None, True, tuple(rungs))

@@ -150,8 +150,8 @@ def basis_levels(pool, compress, n_dof: int, modes: int, max_basis: int | None =
 def converge(solve, levels, n_dof: int, *, tol: float = REDUCE_TOL, retained: int = AUTO_MODES, confirm: bool = True,
              fixed: bool = False):
     """(result, :class:`Truncation`): the one reduction ladder (fkev_slepc/periodic/ladder.py) over the
-    bases ``levels`` (:func:`basis_levels`, or two bases with ``fixed``: the first measured against the
-    second), ``solve(V̂)`` -> a reduced Floquet result, the changes :func:`measures` of the ``retained``
+    bases ``levels`` (:func:`basis_levels`, or two bases with ``fixed``: the second measured from the
+    first, the result), ``solve(V̂)`` -> a reduced Floquet result, the changes :func:`measures` of the ``retained``
     lowest Floquet frequencies, max|μ| and the frequencies deciding; ``confirm`` False: the first level
     pair within ``tol`` ends the sequence (the moving basis, whose error falls by an order or more per
     doubling, fkev_slepc/periodic/moving.py), not two in a row. A basis of n_dof vectors is the full model
