@@ -47,10 +47,12 @@ def main(argv=None) -> int:
         model = Model(with_elements(load_scene(a.scene), n))
         moving, full, tf, tm = None, None, [], []
         for _ in range(a.repeats):
-            moving, t = timed(lambda: floquet_multipliers(PeriodicSystem(model, a.speed, a.case), PeriodicSettings(reduce="moving")))
+            moving, t = timed(lambda: floquet_multipliers(PeriodicSystem(model, a.speed, a.case),
+                                                          PeriodicSettings(reduce="moving")))
             tm.append(t)
             if model.n_free <= a.full_max:
-                full, t = timed(lambda: floquet_multipliers(PeriodicSystem(model, a.speed, a.case), PeriodicSettings(reduce="none")))
+                full, t = timed(lambda: floquet_multipliers(PeriodicSystem(model, a.speed, a.case),
+                                                            PeriodicSettings(reduce="none")))
                 tf.append(t)
         tr = moving.truncation
         ref = f"{full.max_abs - 1:.8g}, {statistics.median(tf):.1f} s" if full is not None else "not run"

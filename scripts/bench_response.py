@@ -54,6 +54,7 @@ def main(argv=None) -> None:
     from fkev_slepc.model.operators import Model
     from fkev_slepc.periodic.floquet import floquet_multipliers
     from fkev_slepc.periodic.settings import PeriodicSettings
+    from fkev_slepc.periodic.system import PeriodicSystem
     from fkev_slepc.periodic.steady import steady_solve
     from fkev_slepc.scene import load_scene, with_elements
 

@@ -42,7 +42,8 @@ def _model(path, elements: int) -> Model:
 
 def _levels(model, omega, damping, keeps):
     comp = link_components(model)
-    return [floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping, basis=comp.basis(k)), PeriodicSettings(reduce="none")) for k in keeps]
+    return [floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping, basis=comp.basis(k)),
+                                PeriodicSettings(reduce="none")) for k in keeps]
 
 
 def test_levels_approach_the_full_model_and_every_mode_is_the_full_model():
@@ -82,7 +83,8 @@ def test_undamped_reduced_multipliers_stay_on_the_unit_circle():
     """A strict sub-basis at a Floquet-stable speed (Bahgat–Willmert, 2 elements per link,
     500 rad/s, 1 mode per link): |μ| = 1 to 1e-12, det Φ = 1, the set closed under μ -> 1/μ̄."""
     model = _model(BW, 2)
-    res = floquet_multipliers(PeriodicSystem(model, 500.0, "full", damping=False), PeriodicSettings(reduce="links:1"), check_truncation=False)
+    res = floquet_multipliers(PeriodicSystem(model, 500.0, "full", damping=False),
+                              PeriodicSettings(reduce="links:1"), check_truncation=False)
     assert res.basis < model.n_free
     mu = res.multipliers
     assert np.max(np.abs(np.abs(mu) - 1.0)) < 1e-12
@@ -98,7 +100,8 @@ def test_damped_scene_every_mode_is_the_full_model():
     model = _model(BW_DAMPED, 1)
     full = floquet_multipliers(PeriodicSystem(model, 700.0, "full"), PeriodicSettings(reduce="none"))
     comp = link_components(model)
-    red = floquet_multipliers(PeriodicSystem(model, 700.0, "full", basis=comp.basis(int(max(c.size for c in comp.links)))), PeriodicSettings(reduce="none"))
+    red = floquet_multipliers(PeriodicSystem(model, 700.0, "full", basis=comp.basis(int(max(c.size for c in comp.links)))),
+                              PeriodicSettings(reduce="none"))
     assert abs(red.max_abs - full.max_abs) < 1e-8 * full.max_abs
     assert abs(np.linalg.det(full.monodromy.phi)) < 1.0  # damped: volume contracts
     i, j = match_multipliers(full.multipliers, red.multipliers)

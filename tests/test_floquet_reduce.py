@@ -33,7 +33,8 @@ def _tm(elements: int) -> Model:
 def tm100():
     model = _tm(1)
     full = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False), PeriodicSettings(reduce="none"))
-    auto = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False), PeriodicSettings(reduce="auto", reduce_tol=1e-9))
+    auto = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False),
+                               PeriodicSettings(reduce="auto", reduce_tol=1e-9))
     return model, full, auto
 
 
@@ -66,7 +67,8 @@ def test_a_capped_basis_reports_its_error_unconverged(tm100):
     """max_basis below convergence: the last level is returned with its measured changes and
     converged False (the error is reported, never hidden)."""
     model, full, _ = tm100
-    res = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False), PeriodicSettings(reduce="auto", max_basis=7))
+    res = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False),
+                              PeriodicSettings(reduce="auto", max_basis=7))
     t = res.truncation
     assert res.basis <= 7 and not t.converged
     assert t.max_abs > 1e-3 and np.isfinite(t.frequency) and np.isfinite(t.growth_rate)
@@ -78,7 +80,8 @@ def test_undamped_reduced_multipliers_stay_on_the_unit_circle():
     Lagrangian system is Lagrangian, so the symplectic steps keep every |μ| = 1, det Φ = 1 and the
     set closed under μ -> 1/μ̄."""
     model = _tm(2)
-    res = floquet_multipliers(PeriodicSystem(model, 30.0, "full", damping=False), PeriodicSettings(reduce=4, basis_angles=8, threshold=1e-3), check_truncation=False)
+    res = floquet_multipliers(PeriodicSystem(model, 30.0, "full", damping=False),
+                              PeriodicSettings(reduce=4, basis_angles=8, threshold=1e-3), check_truncation=False)
     assert 6 <= res.basis < model.n_free
     mu = res.multipliers
     assert res.error < 1e-8
@@ -156,7 +159,8 @@ def test_default_reduces_only_where_the_full_model_is_expensive():
 
     small = _tm(1)
     assert full_min_steps(small, 100.0) < AUTO_MIN_STEPS
-    assert floquet_multipliers(PeriodicSystem(small, 100.0, "full", damping=False), PeriodicSettings(reduce="default")).basis is None
+    assert floquet_multipliers(PeriodicSystem(small, 100.0, "full", damping=False),
+                               PeriodicSettings(reduce="default")).basis is None
     assert full_min_steps(_tm(3), 60.0) >= AUTO_MIN_STEPS
 
 

@@ -59,10 +59,12 @@ def test_stated_error_bounds_a_tight_reference(scene, omega):
         model, damping = Model(_tm_one_element(), ("full",)), False
     else:
         model, damping = Model(load_scene(RUNS / scene), ("full",)), True
-    res = floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping), PeriodicSettings(reduce="none", monodromy_tol=1e-8))
+    res = floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping),
+                              PeriodicSettings(reduce="none", monodromy_tol=1e-8))
     assert res.monodromy.converged
     assert res.monodromy.steps <= 2 ** np.ceil(np.log2(full_min_steps(model, omega, damping=damping)))
-    ref = floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping), PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
+    ref = floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping),
+                              PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
     true = float(np.max(np.abs(np.sort(np.abs(res.multipliers)) - np.sort(np.abs(ref.multipliers)))))
     assert true <= res.error <= 1e-8 * max(1.0, res.max_abs)
     true_f = frequency_change(ref.exponents, res.exponents, omega, 4)
@@ -80,7 +82,8 @@ def test_a_reduced_level_asks_its_low_frequencies_to_a_thousandth_of_reduce_tol(
     res = floquet_multipliers(PeriodicSystem(model, 500.0, "full", basis=basis), PeriodicSettings(reduce="none"))
     assert res.monodromy.converged and res.basis < model.n_free
     assert res.monodromy.second_error <= FREQUENCY_TOL_SHARE * DEFAULTS.reduce_tol
-    ref = floquet_multipliers(PeriodicSystem(model, 500.0, "full", basis=basis), PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
+    ref = floquet_multipliers(PeriodicSystem(model, 500.0, "full", basis=basis),
+                              PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
     assert frequency_change(ref.exponents, res.exponents, 500.0, 4) <= res.monodromy.second_error
 
 
@@ -93,7 +96,8 @@ def test_two_coarse_stable_levels_do_not_hide_a_band():
     is the fixed-step one, and the stated matched error bounds the true one."""
     model = Model(load_scene(RUNS / "bahgat-willmert-1976.toml"), ("full",))
     res = floquet_multipliers(PeriodicSystem(model, 582.7007, "full"), PeriodicSettings(reduce="none"))
-    ref = floquet_multipliers(PeriodicSystem(model, 582.7007, "full"), PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
+    ref = floquet_multipliers(PeriodicSystem(model, 582.7007, "full"),
+                              PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
     assert res.max_abs - 1.0 > 3e-3 and abs(res.max_abs - ref.max_abs) <= 1e-8
     assert res.monodromy.matched_error <= matched_tolerance(DEFAULTS.edge_rtol)(res.multipliers)
     i, j = match_multipliers(res.multipliers, ref.multipliers)

@@ -66,7 +66,8 @@ def _both_paths(monkeypatch, model, omega, **kw):
     out = {}
     for structured in (False, True):
         monkeypatch.setattr(PeriodicSystem, "hamiltonian_steps", structured)
-        out[structured] = floquet_multipliers(PeriodicSystem(model, omega, "full", **kw), PeriodicSettings(reduce="none"))
+        out[structured] = floquet_multipliers(PeriodicSystem(model, omega, "full", **kw),
+                                              PeriodicSettings(reduce="none"))
     return out[False], out[True]
 
 
@@ -115,7 +116,8 @@ def test_damped_or_non_lagrangian_generators_keep_the_generic_path(monkeypatch, 
         out = {}
         for structured in (False, True):
             monkeypatch.setattr(PeriodicSystem, "hamiltonian_steps", structured)
-            out[structured] = floquet_multipliers(PeriodicSystem(model, omega, case), PeriodicSettings(reduce="none", steps=256))
+            out[structured] = floquet_multipliers(PeriodicSystem(model, omega, case),
+                                                  PeriodicSettings(reduce="none", steps=256))
         np.testing.assert_array_equal(out[False].monodromy.phi, out[True].monodromy.phi)
 
 

@@ -79,8 +79,10 @@ def test_settings_and_keywords_give_the_same_multipliers():
     model = Model(with_elements(load_scene(BW), 1), ("full",))
     s = replace(DEFAULTS, reduce="none", monodromy_tol=1e-6)
     a = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False), s)
-    b = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False), PeriodicSettings(reduce="none", monodromy_tol=1e-6))
-    c = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False), replace(s, monodromy_tol=1e-3).with_overrides(monodromy_tol=1e-6))
+    b = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False),
+                            PeriodicSettings(reduce="none", monodromy_tol=1e-6))
+    c = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False),
+                            replace(s, monodromy_tol=1e-3).with_overrides(monodromy_tol=1e-6))
     np.testing.assert_array_equal(a.multipliers, b.multipliers)
     np.testing.assert_array_equal(a.multipliers, c.multipliers)
     assert a.max_abs > 1.0 + 1e-6 + 10 * a.error

@@ -25,7 +25,8 @@ def test_no_coriolis_multipliers_match_the_dense_unscaled_monodromy():
     error (measured 2.7e-11 on max|μ|, 1.0e-10 on every μ at 4,096 reference steps)."""
     model = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1), ("no_coriolis",))
     w = 600.0
-    res = floquet_multipliers(PeriodicSystem(model, w, "no_coriolis"), PeriodicSettings(reduce="none", monodromy_tol=1e-10))  # the accuracy of the former default
+    res = floquet_multipliers(PeriodicSystem(model, w, "no_coriolis"),
+                              PeriodicSettings(reduce="none", monodromy_tol=1e-10))  # the accuracy of the former default
     assert res.interp_error <= 1e-12 and res.samples < 1024
     system = PeriodicSystem(model, w, "no_coriolis")
 
@@ -145,7 +146,8 @@ def test_floquet_progress_reports_every_magnus_run():
 
     calls = []
     model = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1), ("full",))
-    res = floquet_multipliers(PeriodicSystem(model, 500.0, "full"), PeriodicSettings(reduce="none"), progress=lambda done, steps: calls.append((done, steps)))
+    res = floquet_multipliers(PeriodicSystem(model, 500.0, "full"),
+                              PeriodicSettings(reduce="none"), progress=lambda done, steps: calls.append((done, steps)))
     runs = sorted({s for _, s in calls})
     assert runs[-1] == res.monodromy.steps and all(b == 2 * a for a, b in zip(runs, runs[1:]))
     assert all(0 < d <= s for d, s in calls) and calls[-1] == (res.monodromy.steps, res.monodromy.steps)

@@ -275,8 +275,8 @@ def _monodromy(system: PeriodicSystem, st: PeriodicSettings, comm=None, progress
         # multiplier error, pre-asymptotic levels guarded (magnus.step_doubling_error); the stiff
         # bound h·ρ(A) <= 1/2 of the earlier rule (or 2^16) is the cap: no run takes more steps than it could
         rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
-        mono = monodromy(gen, TWO_PI, order=st.magnus_order, steps=st.steps or None, tol=np.inf, mu_tol=st.monodromy_tol,
-                         min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
+        mono = monodromy(gen, TWO_PI, order=st.magnus_order, steps=st.steps or None, tol=np.inf,
+                         mu_tol=st.monodromy_tol, min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
                          max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
                          comm=comm, progress=progress,  # frequencies: compared by the truncation only
                          second_tol=np.inf if basis is None else FREQUENCY_TOL_SHARE * st.reduce_tol,
