@@ -108,10 +108,12 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
     :class:`~fkev_slepc.periodic.system.PeriodicSystem`). Where the system and its load are
     constant in the link frame (:func:`static_response`) the harmonic balance is that one static
-    solve, whatever ``harmonics``. ``reduce`` (a PeriodicSystem only): None/"none" the full
-    model, "links"/"links:N" the link-frame component basis (modes per link doubled to
-    ``reduce_tol``, or N measured against 2N: fkev_slepc/periodic/component_response.py),
-    "default" the full model up to ``full_max_dofs`` free DOFs, else "links"; ``link_modes`` and
+    solve, whatever ``harmonics``. ``reduce`` (a PeriodicSystem only; one meaning,
+    :func:`~fkev_slepc.periodic.settings.resolve_reduce`): "none" the full model,
+    "links"/"links:N" the link-frame component basis (modes per link doubled to ``reduce_tol``, or
+    N measured against 2N, on the one ladder: fkev_slepc/periodic/component_response.py),
+    None (not given) or "default" the full model up to ``full_max_dofs`` free DOFs, else "links";
+    with ``shoot`` the cross-check shoots on the system's own generator (:func:`shooting_at`); ``link_modes`` and
     ``full_max_dofs`` are those of ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`).
     ``fallback``: on the full model with H doubled, the response by shooting (to ``tol``) where the
     balance will not converge (module docstring).
