@@ -110,6 +110,8 @@ def main(argv=None) -> None:
     from fkev_slepc.scene import load_scene, with_elements
     from fkev_slepc.periodic.magnus import match_multipliers
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.settings import PeriodicSettings
+    from fkev_slepc.periodic.system import PeriodicSystem
 
     if args.table:
         (level_steps if args.table_steps else floor if args.table_floor else side_by_side)(args)
@@ -122,9 +124,11 @@ def main(argv=None) -> None:
     for _ in range(args.repeats):
         t_sweep.append(sweep())
         t0 = time.perf_counter()
-        res = floquet_multipliers(model, args.speed, args.case, tol=args.tol)
+        res = floquet_multipliers(PeriodicSystem(model, args.speed, args.case),
+                                  PeriodicSettings(reduce="none", monodromy_tol=args.tol))
         t_mono.append(time.perf_counter() - t0)
-    ref = floquet_multipliers(model, args.speed, args.case, tol=args.tol / 1000)
+    ref = floquet_multipliers(PeriodicSystem(model, args.speed, args.case),
+                              PeriodicSettings(reduce="none", monodromy_tol=args.tol / 1000))
     i, j = match_multipliers(res.multipliers, ref.multipliers)
     err = float(np.max(np.abs(res.multipliers[i] - ref.multipliers[j])))
     ts, tm = np.median(t_sweep), np.median(t_mono)
@@ -144,8 +148,8 @@ def main(argv=None) -> None:
         big = with_elements(scene, args.large_elements)
         bm = Model(big, cases=(args.case,))
         t0 = time.perf_counter()
-        red = floquet_multipliers(bm, args.speed, args.case, tol=args.tol, reduce="auto",
-                                  max_basis=args.large_max_basis)
+        red = floquet_multipliers(PeriodicSystem(bm, args.speed, args.case),
+                                  PeriodicSettings(reduce="auto", monodromy_tol=args.tol, max_basis=args.large_max_basis))
         print(f"large: {bm.n_free} DOFs, reduce=auto (at most {args.large_max_basis} vectors): "
               f"{time.perf_counter() - t0:.1f} s, last level {red.basis} vectors, {red.monodromy.steps} steps")
         print_truncation(red.truncation)
@@ -163,6 +167,8 @@ def reduced_vs_full(scene, elements, speed, case, tol, repeats) -> None:
     """The full and the auto-reduced monodromy of one speed, timed alternately (medians)."""
     from fkev_slepc.model.operators import Model
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.settings import PeriodicSettings
+    from fkev_slepc.periodic.system import PeriodicSystem
 
     from fkev_slepc.scene import with_elements
 
@@ -170,10 +176,12 @@ def reduced_vs_full(scene, elements, speed, case, tol, repeats) -> None:
     t_full, t_red = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        full = floquet_multipliers(model, speed, case, tol=tol)
+        full = floquet_multipliers(PeriodicSystem(model, speed, case),
+                                   PeriodicSettings(reduce="none", monodromy_tol=tol))
         t_full.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        red = floquet_multipliers(model, speed, case, tol=tol, reduce="auto")
+        red = floquet_multipliers(PeriodicSystem(model, speed, case),
+                                  PeriodicSettings(reduce="auto", monodromy_tol=tol))
         t_red.append(time.perf_counter() - t0)
     tf, tr = np.median(t_full), np.median(t_red)
     print(f"reduced vs full: {scene.title}, {model.n_free} DOFs, case {case}, {speed:g} rad/s, {repeats} repeat(s)")
@@ -227,6 +235,7 @@ def floor(args) -> None:
     is the least a run of this integrator at N steps costs, whatever its step-count rule."""
     from fkev_slepc.periodic import magnus
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.settings import PeriodicSettings
     from fkev_slepc.periodic.system import PeriodicSystem
 
     print("| scene | el/link | DOFs | rad/s | steps N | sweep s | Floquet s (×sweep) | product N s (×sweep) "
@@ -239,7 +248,8 @@ def floor(args) -> None:
         for _ in range(args.repeats):
             t["sweep"].append(sweep())
             t0 = time.perf_counter()
-            steps = floquet_multipliers(model, speed, args.case, tol=args.tol).monodromy.steps
+            steps = floquet_multipliers(PeriodicSystem(model, speed, args.case),
+                                        PeriodicSettings(reduce="none", monodromy_tol=args.tol)).monodromy.steps
             t["floquet"].append(time.perf_counter() - t0)
             for key, n in (("N", steps), ("N/2", steps // 2)):
                 t0 = time.perf_counter()
@@ -259,6 +269,7 @@ def side_by_side(args) -> None:
     Hamiltonian ones (PeriodicSystem.hamiltonian_steps), the ratio of their medians and the relative
     difference of their Φ."""
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.settings import PeriodicSettings
     from fkev_slepc.periodic.system import PeriodicSystem
 
     methods = [m.strip() for m in args.table_methods.split(",") if m.strip()]
@@ -278,7 +289,8 @@ def side_by_side(args) -> None:
             for label, m, structured in todo:
                 PeriodicSystem.hamiltonian_steps = structured
                 t0 = time.perf_counter()
-                res[label] = floquet_multipliers(model, speed, args.case, tol=args.tol, reduce=TABLE_REDUCE[m])
+                res[label] = floquet_multipliers(PeriodicSystem(model, speed, args.case),
+                                                 PeriodicSettings(reduce=TABLE_REDUCE[m], monodromy_tol=args.tol))
                 times[label].append(time.perf_counter() - t0)
         PeriodicSystem.hamiltonian_steps = True
         ts = float(np.median(times["sweep"]))

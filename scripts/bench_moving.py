@@ -19,6 +19,8 @@ from pathlib import Path
 
 from fkev_slepc.model.operators import Model
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.settings import PeriodicSettings
+from fkev_slepc.periodic.system import PeriodicSystem
 from fkev_slepc.scene import load_scene, with_elements
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,10 +47,12 @@ def main(argv=None) -> int:
         model = Model(with_elements(load_scene(a.scene), n))
         moving, full, tf, tm = None, None, [], []
         for _ in range(a.repeats):
-            moving, t = timed(lambda: floquet_multipliers(model, a.speed, a.case, reduce="moving"))
+            moving, t = timed(lambda: floquet_multipliers(PeriodicSystem(model, a.speed, a.case),
+                                                          PeriodicSettings(reduce="moving")))
             tm.append(t)
             if model.n_free <= a.full_max:
-                full, t = timed(lambda: floquet_multipliers(model, a.speed, a.case))
+                full, t = timed(lambda: floquet_multipliers(PeriodicSystem(model, a.speed, a.case),
+                                                            PeriodicSettings(reduce="none")))
                 tf.append(t)
         tr = moving.truncation
         ref = f"{full.max_abs - 1:.8g}, {statistics.median(tf):.1f} s" if full is not None else "not run"

@@ -53,6 +53,8 @@ def main(argv=None) -> None:
 
     from fkev_slepc.model.operators import Model
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.settings import PeriodicSettings
+    from fkev_slepc.periodic.system import PeriodicSystem
     from fkev_slepc.periodic.steady import steady_solve
     from fkev_slepc.scene import load_scene, with_elements
 
@@ -72,7 +74,7 @@ def main(argv=None) -> None:
             r = steady_solve(model, w, "full", gravity, tol=args.tol, shoot=False, reduce=args.reduce)
             t_resp.append(time.perf_counter() - t)
             t = time.perf_counter()
-            f = floquet_multipliers(model, w, "full", reduce="default")
+            f = floquet_multipliers(PeriodicSystem(model, w, "full"), PeriodicSettings(reduce="default"))
             t_floq.append(time.perf_counter() - t)
             if args.floor and r.periodic is not None:
                 t_floor.append(shooting_floor(model, w, r.periodic.steps))

@@ -125,6 +125,8 @@ def mesh_point(scene, elements: int, speed: float, modes: int, *, case: str = "f
     basis of ``modes`` fixed-interface modes per link (and of 2·modes if ``double``)."""
     from fkev_slepc.periodic.components import link_components
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.settings import PeriodicSettings
+    from fkev_slepc.periodic.system import PeriodicSystem
     from fkev_slepc.periodic.truncation import retained_frequencies
 
     t0 = time.perf_counter()
@@ -135,12 +137,14 @@ def mesh_point(scene, elements: int, speed: float, modes: int, *, case: str = "f
     times = []
     for _ in range(max(1, repeats)):
         t0 = time.perf_counter()
-        res = floquet_multipliers(model, speed, case, tol=tol, basis=basis)
+        res = floquet_multipliers(PeriodicSystem(model, speed, case, basis=basis),
+                                  PeriodicSettings(reduce="none", monodromy_tol=tol))
         times.append(time.perf_counter() - t0)
     freq = retained_frequencies(res.exponents, retained)
     doubled = None
     if double:
-        ref = floquet_multipliers(model, speed, case, tol=tol, basis=comp.basis(2 * modes))
+        ref = floquet_multipliers(PeriodicSystem(model, speed, case, basis=comp.basis(2 * modes)),
+                                  PeriodicSettings(reduce="none", monodromy_tol=tol))
         f2 = retained_frequencies(ref.exponents, retained)
         n = min(freq.size, f2.size)
         doubled = (ref.basis, ref.max_abs, float(np.max(np.abs(folded(freq[:n], speed) - folded(f2[:n], speed)))))
@@ -180,6 +184,8 @@ def band_edge(scene, elements: int, modes: int, bracket, *, case: str = "full", 
     from fkev_slepc.periodic.edges import refine_edges
     from fkev_slepc.periodic.components import link_components
     from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.settings import PeriodicSettings
+    from fkev_slepc.periodic.system import PeriodicSystem
 
     model = model_of(scene, elements, case)
     basis = link_components(model).basis(modes)
@@ -187,7 +193,8 @@ def band_edge(scene, elements: int, modes: int, bracket, *, case: str = "full", 
 
     def evaluate(w):
         count[0] += 1
-        return SpeedPoint.of(w, floquet_multipliers(model, w, case, tol=tol, basis=basis))
+        return SpeedPoint.of(w, floquet_multipliers(PeriodicSystem(model, w, case, basis=basis),
+                                                    PeriodicSettings(reduce="none", monodromy_tol=tol)))
 
     ends = [evaluate(w) for w in bracket]
     pairs = brackets(ends)

@@ -148,6 +148,8 @@ from fkev_slepc.model.operators import Model  # noqa: E402
 from fkev_slepc.model.periodic import periodic_pieces  # noqa: E402
 from fkev_slepc.scene import load_scene  # noqa: E402
 from fkev_slepc.periodic.floquet import TrigInterpolant, floquet_multipliers, to_dense  # noqa: E402
+from fkev_slepc.periodic.settings import PeriodicSettings
+from fkev_slepc.periodic.system import PeriodicSystem
 
 RUNS = __import__("pathlib").Path(__file__).resolve().parents[1] / "runs"
 # in-plane frequencies of a slender rotating blade at λ = 12: sqrt(ω_flap² - λ²) with the
@@ -210,7 +212,7 @@ def test_lone_rotating_crank_multipliers_are_its_frozen_spectrum():
     give a spurious growth."""
     omega = 12.0 / STRIP_SCALE  # λ = 12
     model = Model(cantilever(1.0, STRIP, 3))
-    res = floquet_multipliers(model, omega, "full", steps=16384)
+    res = floquet_multipliers(PeriodicSystem(model, omega, "full"), PeriodicSettings(reduce="none", steps=16384))
     assert res.error < 1e-8
     assert np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-8
     s = _frozen_state_eigenvalues(model, 0.4, omega, "full")
@@ -236,8 +238,8 @@ def test_lone_crank_phases_are_the_published_in_plane_frequencies():
     truncation error measured against 6): the multipliers of the in-plane modes are
     exp(±2πi r/λ), r = sqrt(ω_flap² - λ²) with the published flapwise values."""
     lam = 12.0
-    res = floquet_multipliers(Model(cantilever(1.0, STRIP, 16)), lam / STRIP_SCALE, "full",
-                              reduce=3, basis_angles=1, tol=1e-10)
+    res = floquet_multipliers(PeriodicSystem(Model(cantilever(1.0, STRIP, 16)), lam / STRIP_SCALE, "full"),
+                              PeriodicSettings(reduce=3, basis_angles=1, monodromy_tol=1e-10))
     assert res.basis == 3 and res.truncation.value < 1e-8
     assert np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-8
     r = np.sqrt(FLAP_12**2 - lam**2)
@@ -251,7 +253,8 @@ def test_lone_crank_phases_are_the_published_in_plane_frequencies():
 @pytest.fixture(scope="module")
 def bw_500():
     model = _model("bahgat-willmert-1976.toml")
-    return model, floquet_multipliers(model, 500.0, "full", damping=False, tol=1e-9)
+    return model, floquet_multipliers(PeriodicSystem(model, 500.0, "full", damping=False),
+                                      PeriodicSettings(reduce="none", monodromy_tol=1e-9))
 
 
 def test_bahgat_willmert_undamped_monodromy_is_symplectic(bw_500):
@@ -289,22 +292,24 @@ def test_speed_scaling_and_reversal(which, bw_500):
         base = model.scene
     else:
         base, omega = _tm_one_element(), 200.0
-        res = floquet_multipliers(Model(base, ("full",)), omega, "full", damping=False, tol=1e-9)
+        res = floquet_multipliers(PeriodicSystem(Model(base, ("full",)), omega, "full", damping=False),
+                                  PeriodicSettings(reduce="none", monodromy_tol=1e-9))
         assert res.max_abs > 100.0
     s = 1.5
     links = tuple(replace(lk, youngs_modulus=lk.youngs_modulus * s * s) for lk in base.links)
-    scaled = floquet_multipliers(Model(replace(base, links=links), ("full",)), s * omega, "full",
-                                 damping=False, tol=1e-9)
+    scaled = floquet_multipliers(PeriodicSystem(Model(replace(base, links=links), ("full",)), s * omega, "full", damping=False),
+                                 PeriodicSettings(reduce="none", monodromy_tol=1e-9))
     assert _same_set(res.multipliers, scaled.multipliers, 1e-7)
-    back = floquet_multipliers(Model(base, ("full",)), -omega, "full", damping=False, tol=1e-9)
+    back = floquet_multipliers(PeriodicSystem(Model(base, ("full",)), -omega, "full", damping=False),
+                               PeriodicSettings(reduce="none", monodromy_tol=1e-9))
     assert _same_set(1.0 / res.multipliers, back.multipliers, 1e-7)
 
 
 def test_slow_crank_keeps_every_multiplier_on_the_unit_circle():
     """Ω ≪ ω₁ (Bahgat–Willmert, ω₁ = 1778 rad/s, Ω = ω₁/10, away from the narrow resonances):
     every |μ| = 1 within 1e-6."""
-    res = floquet_multipliers(_model("bahgat-willmert-1976.toml"), 177.8, "full", damping=False,
-                              steps=4096)
+    res = floquet_multipliers(PeriodicSystem(_model("bahgat-willmert-1976.toml"), 177.8, "full", damping=False),
+                              PeriodicSettings(reduce="none", steps=4096))
     assert res.error < 1e-6
     assert np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-6
 
@@ -331,7 +336,7 @@ def test_structural_damping_makes_the_crank_decay():
     Cd, Kd = _dense(model, p.damping)[0], omega * _dense(model, p.damping_stiffness)[0]
     force = Cd @ qdot + Kd @ q(th)
     assert np.linalg.norm(force) < 1e-7 * np.linalg.norm(Cd @ qdot)
-    res = floquet_multipliers(model, omega, "full", tol=1e-9)
+    res = floquet_multipliers(PeriodicSystem(model, omega, "full"), PeriodicSettings(reduce="none", monodromy_tol=1e-9))
     assert res.max_abs < 1.0
 
 
@@ -340,8 +345,9 @@ def test_corotated_reduction_on_the_whole_space_is_exact():
     DOF is a change of variables q = Q(θ)V̂η: the multipliers are the full model's (Turcic–Midha,
     1 element per link, 9 DOFs, 200 rad/s)."""
     model = Model(_tm_one_element(), ("full",))
-    full = floquet_multipliers(model, 200.0, "full", damping=False, tol=1e-10)
-    red = floquet_multipliers(model, 200.0, "full", damping=False, tol=1e-10,
-                              reduce=model.n_free - 1, basis_angles=2, check_truncation=False)
+    full = floquet_multipliers(PeriodicSystem(model, 200.0, "full", damping=False),
+                               PeriodicSettings(reduce="none", monodromy_tol=1e-10))
+    red = floquet_multipliers(PeriodicSystem(model, 200.0, "full", damping=False),
+                              PeriodicSettings(reduce=model.n_free - 1, monodromy_tol=1e-10, basis_angles=2), check_truncation=False)
     assert red.basis == model.n_free
     assert _same_set(full.multipliers, red.multipliers, 1e-8)

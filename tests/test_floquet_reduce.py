@@ -18,6 +18,8 @@ from fkev_slepc.model.operators import Model
 from fkev_slepc.scene import load_scene
 from fkev_slepc.periodic.magnus import match_multipliers
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.settings import PeriodicSettings
+from fkev_slepc.periodic.system import PeriodicSystem
 
 TM = Path(__file__).resolve().parents[1] / "runs" / "turcic-midha-1984.toml"
 
@@ -30,8 +32,9 @@ def _tm(elements: int) -> Model:
 @pytest.fixture(scope="module")
 def tm100():
     model = _tm(1)
-    full = floquet_multipliers(model, 100.0, "full", damping=False)
-    auto = floquet_multipliers(model, 100.0, "full", damping=False, reduce="auto", reduce_tol=1e-9)
+    full = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False), PeriodicSettings(reduce="none"))
+    auto = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False),
+                               PeriodicSettings(reduce="auto", reduce_tol=1e-9))
     return model, full, auto
 
 
@@ -64,7 +67,8 @@ def test_a_capped_basis_reports_its_error_unconverged(tm100):
     """max_basis below convergence: the last level is returned with its measured changes and
     converged False (the error is reported, never hidden)."""
     model, full, _ = tm100
-    res = floquet_multipliers(model, 100.0, "full", damping=False, reduce="auto", max_basis=7)
+    res = floquet_multipliers(PeriodicSystem(model, 100.0, "full", damping=False),
+                              PeriodicSettings(reduce="auto", max_basis=7))
     t = res.truncation
     assert res.basis <= 7 and not t.converged
     assert t.max_abs > 1e-3 and np.isfinite(t.frequency) and np.isfinite(t.growth_rate)
@@ -76,8 +80,8 @@ def test_undamped_reduced_multipliers_stay_on_the_unit_circle():
     Lagrangian system is Lagrangian, so the symplectic steps keep every |μ| = 1, det Φ = 1 and the
     set closed under μ -> 1/μ̄."""
     model = _tm(2)
-    res = floquet_multipliers(model, 30.0, "full", damping=False, reduce=4, basis_angles=8,
-                              threshold=1e-3, check_truncation=False)
+    res = floquet_multipliers(PeriodicSystem(model, 30.0, "full", damping=False),
+                              PeriodicSettings(reduce=4, basis_angles=8, threshold=1e-3), check_truncation=False)
     assert 6 <= res.basis < model.n_free
     mu = res.multipliers
     assert res.error < 1e-8
@@ -90,7 +94,7 @@ def test_undamped_reduced_multipliers_stay_on_the_unit_circle():
 @pytest.mark.parametrize("bad", ["full", 0, -2])
 def test_bad_reduce_is_named(bad):
     with pytest.raises(ValueError, match="reduce"):
-        floquet_multipliers(_tm(1), 100.0, "full", reduce=bad)
+        floquet_multipliers(PeriodicSystem(_tm(1), 100.0, "full"), PeriodicSettings(reduce=bad))
 
 
 def test_fkev_floquet_archives_the_basis_and_truncation(tmp_path):
@@ -155,7 +159,8 @@ def test_default_reduces_only_where_the_full_model_is_expensive():
 
     small = _tm(1)
     assert full_min_steps(small, 100.0) < AUTO_MIN_STEPS
-    assert floquet_multipliers(small, 100.0, "full", damping=False, reduce="default").basis is None
+    assert floquet_multipliers(PeriodicSystem(small, 100.0, "full", damping=False),
+                               PeriodicSettings(reduce="default")).basis is None
     assert full_min_steps(_tm(3), 60.0) >= AUTO_MIN_STEPS
 
 

@@ -17,6 +17,8 @@ import pytest
 
 from fkev_slepc.model.operators import Model
 from fkev_slepc.periodic.floquet import FREQUENCY_TOL_SHARE, floquet_multipliers, full_min_steps, matched_tolerance
+from fkev_slepc.periodic.settings import PeriodicSettings
+from fkev_slepc.periodic.system import PeriodicSystem
 from fkev_slepc.periodic.magnus import match_multipliers, step_doubling_error
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.periodic.truncation import frequency_change
@@ -57,10 +59,12 @@ def test_stated_error_bounds_a_tight_reference(scene, omega):
         model, damping = Model(_tm_one_element(), ("full",)), False
     else:
         model, damping = Model(load_scene(RUNS / scene), ("full",)), True
-    res = floquet_multipliers(model, omega, "full", damping=damping, tol=1e-8)
+    res = floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping),
+                              PeriodicSettings(reduce="none", monodromy_tol=1e-8))
     assert res.monodromy.converged
     assert res.monodromy.steps <= 2 ** np.ceil(np.log2(full_min_steps(model, omega, damping=damping)))
-    ref = floquet_multipliers(model, omega, "full", damping=damping, steps=2 * res.monodromy.steps)
+    ref = floquet_multipliers(PeriodicSystem(model, omega, "full", damping=damping),
+                              PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
     true = float(np.max(np.abs(np.sort(np.abs(res.multipliers)) - np.sort(np.abs(ref.multipliers)))))
     assert true <= res.error <= 1e-8 * max(1.0, res.max_abs)
     true_f = frequency_change(ref.exponents, res.exponents, omega, 4)
@@ -75,10 +79,11 @@ def test_a_reduced_level_asks_its_low_frequencies_to_a_thousandth_of_reduce_tol(
 
     model = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 2), ("full",))
     basis = link_components(model).basis(1)
-    res = floquet_multipliers(model, 500.0, "full", basis=basis)
+    res = floquet_multipliers(PeriodicSystem(model, 500.0, "full", basis=basis), PeriodicSettings(reduce="none"))
     assert res.monodromy.converged and res.basis < model.n_free
     assert res.monodromy.second_error <= FREQUENCY_TOL_SHARE * DEFAULTS.reduce_tol
-    ref = floquet_multipliers(model, 500.0, "full", basis=basis, steps=2 * res.monodromy.steps)
+    ref = floquet_multipliers(PeriodicSystem(model, 500.0, "full", basis=basis),
+                              PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
     assert frequency_change(ref.exponents, res.exponents, 500.0, 4) <= res.monodromy.second_error
 
 
@@ -90,8 +95,9 @@ def test_two_coarse_stable_levels_do_not_hide_a_band():
     between two multipliers (no collision hides in the error; at least 2π·edge_rtol): the verdict
     is the fixed-step one, and the stated matched error bounds the true one."""
     model = Model(load_scene(RUNS / "bahgat-willmert-1976.toml"), ("full",))
-    res = floquet_multipliers(model, 582.7007, "full")
-    ref = floquet_multipliers(model, 582.7007, "full", steps=2 * res.monodromy.steps)
+    res = floquet_multipliers(PeriodicSystem(model, 582.7007, "full"), PeriodicSettings(reduce="none"))
+    ref = floquet_multipliers(PeriodicSystem(model, 582.7007, "full"),
+                              PeriodicSettings(reduce="none", steps=2 * res.monodromy.steps))
     assert res.max_abs - 1.0 > 3e-3 and abs(res.max_abs - ref.max_abs) <= 1e-8
     assert res.monodromy.matched_error <= matched_tolerance(DEFAULTS.edge_rtol)(res.multipliers)
     i, j = match_multipliers(res.multipliers, ref.multipliers)

@@ -20,6 +20,7 @@ from fkev_slepc.model.operators import Model
 from fkev_slepc.periodic import hamiltonian as ham
 from fkev_slepc.periodic.components import link_components
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.settings import PeriodicSettings
 from fkev_slepc.periodic.interpolant import TrigInterpolant
 from fkev_slepc.periodic.magnus import magnus_generators, monodromy
 from fkev_slepc.periodic.reduce import compress, frozen_pool
@@ -65,7 +66,8 @@ def _both_paths(monkeypatch, model, omega, **kw):
     out = {}
     for structured in (False, True):
         monkeypatch.setattr(PeriodicSystem, "hamiltonian_steps", structured)
-        out[structured] = floquet_multipliers(model, omega, "full", **kw)
+        out[structured] = floquet_multipliers(PeriodicSystem(model, omega, "full", **kw),
+                                              PeriodicSettings(reduce="none"))
     return out[False], out[True]
 
 
@@ -114,7 +116,8 @@ def test_damped_or_non_lagrangian_generators_keep_the_generic_path(monkeypatch, 
         out = {}
         for structured in (False, True):
             monkeypatch.setattr(PeriodicSystem, "hamiltonian_steps", structured)
-            out[structured] = floquet_multipliers(model, omega, case, steps=256)
+            out[structured] = floquet_multipliers(PeriodicSystem(model, omega, case),
+                                                  PeriodicSettings(reduce="none", steps=256))
         np.testing.assert_array_equal(out[False].monodromy.phi, out[True].monodromy.phi)
 
 

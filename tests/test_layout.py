@@ -322,3 +322,57 @@ def test_the_plane_check_sees_a_comparison():
     source = ('if plane == "out":\n    pass\nx = "in" if a else "out"\nok = a != "inch"\n'
               "y = o['plane'] != 'in'\nz = p in ('in', 'out')\nw = plane == other\n")
     assert _plane_compares(source) == [1, 5, 6]
+
+
+# the first-order generator of M q̈ + C q̇ + K q: a linkage's is PeriodicSystem.generator_of (periodic/system.py),
+# the one Floquet, shooting and the response take; the generic adapters of (M, C, K) -> (q, q') serve only
+# systems that are not a PeriodicSystem (closed-form oscillators), in shooting.py and response.py's generic branch
+GENERATOR_BUILDERS = {"state_matrix", "second_order", "second_order_forcing", "adapters"}
+GENERATOR_HOMES = {("periodic/system.py", "generator_of", "state_matrix"),
+                   ("periodic/shooting.py", "adapters", "second_order"),
+                   ("periodic/shooting.py", "adapters", "second_order_forcing"),
+                   ("periodic/shooting.py", "shooting", "adapters"),
+                   ("periodic/response.py", "_shot", "adapters")}
+
+
+def _generator_calls(tree: ast.AST, where: str) -> set[tuple[str, str, str]]:
+    """(module, enclosing function, builder) of every call of a generator builder in ``tree``."""
+    out = set()
+    for f in ast.walk(tree):
+        if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for c in ast.walk(f):
+                if isinstance(c, ast.Call):
+                    name = getattr(c.func, "id", getattr(c.func, "attr", None))
+                    if name in GENERATOR_BUILDERS:
+                        out.add((where, f.name, name))
+    return out
+
+
+def test_one_generator_for_every_periodic_analysis():
+    """No module builds a first-order generator of the periodic coefficients but PeriodicSystem; the
+    (q, q') adapters of (M, C, K) are called only on the generic (non-linkage) paths (issue 34: the
+    response's --shooting took its multipliers from a second generator of (Ω²M, ΩC, K))."""
+    found = set()
+    for p in sorted(PKG.rglob("*.py")):
+        if p.name != "magnus.py":  # where the generic builders are defined
+            found |= _generator_calls(ast.parse(p.read_text()), str(p.relative_to(PKG)))
+    assert found == GENERATOR_HOMES
+
+
+def test_the_one_generator_check_sees_a_second_generator():
+    bad = ast.parse("def shoot(s, w):\n    return magnus.second_order(lambda th: s.mck(th))\n")
+    assert _generator_calls(bad, "periodic/other.py") == {("periodic/other.py", "shoot", "second_order")}
+
+
+def test_one_verdict_rule():
+    """SAFETY·error enters a verdict in periodic/verdict.py alone (issue 34: two rules, in bands.py and
+    response.py, with two forms of the allowance)."""
+    def periodic_safety(tree):  # the module takes the verdict's SAFETY (solve/accuracy.py has its own)
+        return any(isinstance(n, ast.ImportFrom) and n.module == "fkev_slepc.periodic.settings"
+                   and any(a.name == "SAFETY" for a in n.names) for n in ast.walk(tree))
+
+    trees = {str(p.relative_to(PKG)): ast.parse(p.read_text()) for p in sorted(PKG.rglob("*.py"))}
+    uses = {name for name, tree in trees.items() if periodic_safety(tree) or name == "periodic/settings.py"
+            for n in ast.walk(tree)
+            if isinstance(n, ast.BinOp) and any(getattr(x, "id", None) == "SAFETY" for x in (n.left, n.right))}
+    assert uses == {"periodic/verdict.py"}

@@ -10,6 +10,8 @@ import pytest
 from fkev_slepc.model.operators import Model
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.settings import PeriodicSettings
+from fkev_slepc.periodic.system import PeriodicSystem
 from fkev_slepc.periodic.moving import BasisError, MovingBasis, moving_pool
 from fkev_slepc.periodic.settings import SettingsError, resolve_reduce
 from fkev_slepc.scene import load_scene, with_elements
@@ -71,9 +73,9 @@ def test_moving_basis_converges_to_the_full_models_band_at_500_rad_s(bw4):
     """Bahgat-Willmert 4 el/link, 500 rad/s, undamped full: the band (ω̄3-ω̄1)/8 with
     max|μ| - 1 = 4.744e-2 on the full model; the moving basis of r = 8, 16, 32 modes gives it within
     3.6 %, 6e-4 and 1e-6 relative, and the cutoff the run chooses within 1e-3."""
-    full = floquet_multipliers(bw4, 500.0, "full").max_abs - 1.0
+    full = floquet_multipliers(PeriodicSystem(bw4, 500.0, "full"), PeriodicSettings(reduce="none")).max_abs - 1.0
     assert full == pytest.approx(4.744e-2, rel=1e-3)
-    red = floquet_multipliers(bw4, 500.0, "full", reduce="moving")
+    red = floquet_multipliers(PeriodicSystem(bw4, 500.0, "full"), PeriodicSettings(reduce="moving"))
     assert red.truncation.converged and red.truncation.max_abs <= 1e-3
     assert red.max_abs - 1.0 == pytest.approx(full, rel=1e-3)
     sizes = [lv[0] for lv in red.truncation.levels]
@@ -81,7 +83,7 @@ def test_moving_basis_converges_to_the_full_models_band_at_500_rad_s(bw4):
     err = [abs(lv[1] - 1.0 - full) / full for lv in red.truncation.levels]
     assert err[0] < 0.05 and all(b < a / 10 for a, b in zip(err, err[1:]))  # an order or more per doubling
     # the fixed cutoff reports its truncation against 2R
-    r16 = floquet_multipliers(bw4, 500.0, "full", reduce="moving:16")
+    r16 = floquet_multipliers(PeriodicSystem(bw4, 500.0, "full"), PeriodicSettings(reduce="moving:16"))
     assert r16.basis == 16 and abs(r16.max_abs - 1.0 - full) / full < 1e-3
     assert r16.truncation.max_abs == pytest.approx(abs(r16.max_abs - red.max_abs) / red.max_abs, rel=0.2)
 

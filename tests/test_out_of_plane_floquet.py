@@ -12,6 +12,8 @@ from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.periodic import magnus as fq
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.settings import PeriodicSettings
+from fkev_slepc.periodic.system import PeriodicSystem
 
 
 def _crank():
@@ -30,7 +32,8 @@ def test_lone_crank_out_of_plane_multipliers_are_its_frozen_spectrum():
     multiplier is exp(sP) of a frozen eigenvalue s (P = 2π/Ω), |μ| = 1; the frozen matrices used
     as periodic coefficients (without the frame-rate terms of §19.9) give a spurious growth."""
     model, omega = _crank()
-    res = floquet_multipliers(model, omega, "full", tol=1e-11)
+    res = floquet_multipliers(PeriodicSystem(model, omega, "full"),
+                              PeriodicSettings(reduce="none", monodromy_tol=1e-11))
     assert res.error < 1e-9
     assert np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-9
     q = model.qep(model.pieces(0.4), omega, "full")
@@ -75,7 +78,8 @@ def test_bahgat_willmert_out_of_plane_monodromy_is_symplectic():
     under μ -> 1/μ̄ (§18.6), whatever the verdict."""
     scene = bahgat_willmert(elements=(1, 1, 1), cases=("full",))
     model = Model(scene, plane="out", section=rect_section(scene, 2.07e11, 7760.0))
-    res = floquet_multipliers(model, 300.0, "full", damping=False, tol=1e-4)
+    res = floquet_multipliers(PeriodicSystem(model, 300.0, "full", damping=False),
+                              PeriodicSettings(reduce="none", monodromy_tol=1e-4))
     mu = res.multipliers
     assert abs(np.linalg.det(res.monodromy.phi) - 1.0) < 1e-8
     i, j = fq.match_multipliers(mu, 1.0 / mu.conj())
@@ -109,7 +113,8 @@ def test_fkev_floquet_plane_out(tmp_path):
     from fkev_slepc.scene.edit import replace_values
 
     sc = replace_values(load_scene(scene), {f"links[{i}].elements": 1 for i in range(3)})
-    want = np.max(np.abs(floquet_multipliers(Model(sc, ("full",), plane="out"), 300.0, "full", tol=1e-10).multipliers))
+    want = np.max(np.abs(floquet_multipliers(PeriodicSystem(Model(sc, ("full",), plane="out"), 300.0, "full"),
+                                             PeriodicSettings(reduce="none", monodromy_tol=1e-10)).multipliers))
     assert out["speed_rad_s"] == [300.0] and abs(out["max_abs_multiplier"][0] - want) < 1e-8
 
 

@@ -11,6 +11,7 @@ from clitools import BW, digest, edited, fkev
 
 from fkev_slepc.model.operators import Model
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.system import PeriodicSystem
 from fkev_slepc.periodic.settings import (
     DEFAULTS, PeriodicSettings, SettingsError, checked_settings, resume_refusal,
 )
@@ -72,20 +73,22 @@ def test_resume_refusal_names_each_field_with_both_values():
 
 
 def test_settings_and_keywords_give_the_same_multipliers():
-    """floquet_multipliers(settings=s) is the keyword call with s's values, bit for bit; a keyword given
-    beside the settings overrides its field. Undamped thesis mesh at 800 rad/s, inside the band
+    """floquet_multipliers(system, s) is the call with settings built from s's values, bit for bit; a
+    keyword given to ``with_overrides`` replaces its field. Undamped thesis mesh at 800 rad/s, inside the band
     710-838 rad/s of docs/stability.md: max|μ| > 1, and det Φ = 1 (Liouville: ∏|μ| = 1) either way."""
     model = Model(with_elements(load_scene(BW), 1), ("full",))
     s = replace(DEFAULTS, reduce="none", monodromy_tol=1e-6)
-    a = floquet_multipliers(model, 800.0, "full", settings=s, damping=False)
-    b = floquet_multipliers(model, 800.0, "full", tol=1e-6, damping=False)
-    c = floquet_multipliers(model, 800.0, "full", settings=replace(s, monodromy_tol=1e-3), tol=1e-6, damping=False)
+    a = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False), s)
+    b = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False),
+                            PeriodicSettings(reduce="none", monodromy_tol=1e-6))
+    c = floquet_multipliers(PeriodicSystem(model, 800.0, "full", damping=False),
+                            replace(s, monodromy_tol=1e-3).with_overrides(monodromy_tol=1e-6))
     np.testing.assert_array_equal(a.multipliers, b.multipliers)
     np.testing.assert_array_equal(a.multipliers, c.multipliers)
     assert a.max_abs > 1.0 + 1e-6 + 10 * a.error
     assert abs(np.sum(np.log(np.abs(a.multipliers)))) < 1e-8
     with pytest.raises(ValueError, match="magnus_order: must be 4 or 6"):
-        floquet_multipliers(model, 800.0, "full", order=5)
+        floquet_multipliers(PeriodicSystem(model, 800.0, "full"), PeriodicSettings(reduce="none", magnus_order=5))
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,7 @@ from fkev_slepc.scene import load_scene, with_elements
 from fkev_slepc.periodic import magnus as fq
 from fkev_slepc.periodic.cycle_mean import cycle_mean
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.settings import PeriodicSettings
 from fkev_slepc.periodic.system import PeriodicSystem
 
 RUNS = ROOT / "runs"
@@ -24,7 +25,8 @@ def test_no_coriolis_multipliers_match_the_dense_unscaled_monodromy():
     error (measured 2.7e-11 on max|μ|, 1.0e-10 on every μ at 4,096 reference steps)."""
     model = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1), ("no_coriolis",))
     w = 600.0
-    res = floquet_multipliers(model, w, "no_coriolis", tol=1e-10)  # the accuracy of the former default
+    res = floquet_multipliers(PeriodicSystem(model, w, "no_coriolis"),
+                              PeriodicSettings(reduce="none", monodromy_tol=1e-10))  # the accuracy of the former default
     assert res.interp_error <= 1e-12 and res.samples < 1024
     system = PeriodicSystem(model, w, "no_coriolis")
 
@@ -131,7 +133,7 @@ def test_lone_rotating_beam_is_one_static_solve():
         errors.append(np.abs(tip / (np.tan(k * lk.length) / k - lk.length) - 1).max())
         assert np.abs(r.stations.transverse).max() < 1e-12 * np.abs(tip).max()
     assert errors[1] < 1e-7 and 3.5 < errors[0] / errors[1] < 4.5  # h²
-    res = floquet_multipliers(Model(scene), w, "full")
+    res = floquet_multipliers(PeriodicSystem(Model(scene), w, "full"), PeriodicSettings(reduce="none"))
     assert res.monodromy.steps == 1 and np.max(np.abs(np.abs(res.multipliers) - 1.0)) < 1e-10
     four_bar = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1))
     assert PeriodicSystem(four_bar, 500.0).link_frame() is None
@@ -144,7 +146,8 @@ def test_floquet_progress_reports_every_magnus_run():
 
     calls = []
     model = Model(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1), ("full",))
-    res = floquet_multipliers(model, 500.0, "full", progress=lambda done, steps: calls.append((done, steps)))
+    res = floquet_multipliers(PeriodicSystem(model, 500.0, "full"),
+                              PeriodicSettings(reduce="none"), progress=lambda done, steps: calls.append((done, steps)))
     runs = sorted({s for _, s in calls})
     assert runs[-1] == res.monodromy.steps and all(b == 2 * a for a, b in zip(runs, runs[1:]))
     assert all(0 < d <= s for d, s in calls) and calls[-1] == (res.monodromy.steps, res.monodromy.steps)

@@ -117,6 +117,25 @@ def test_shooting_equals_harmonic_balance_on_the_thesis_linkages(path, w, beta, 
     assert sh.closure < 1e-10 and sh.max_abs_multiplier < 1.0
 
 
+def test_the_response_shoots_on_the_generator_floquet_takes():
+    """``--shooting`` (periodic_response with shoot) takes the PeriodicSystem's own scaled generator,
+    the one Floquet takes (issue 34: it built a second one of (Ω²M, ΩC, K)): Bahgat-Willmert, one
+    element per link, β = 1e-5, 300 rad/s, its multipliers are Floquet's within their stated errors
+    (measured 4.6e-15: the same generator and steps), the periodic trajectory closes."""
+    from fkev_slepc.periodic.floquet import floquet_multipliers
+    from fkev_slepc.periodic.magnus import match_multipliers
+    from fkev_slepc.periodic.response import periodic_response
+    from fkev_slepc.periodic.settings import PeriodicSettings
+
+    sc = replace(with_elements(load_scene(RUNS / "bahgat-willmert-1976.toml"), 1), damping=Damping(0.0, 1e-5))
+    s = PeriodicSystem(Model(sc, cases=("full",)), 300.0, "full")
+    sh = periodic_response(s, 300.0, harmonics=16, shoot=True, shooting_tol=1e-9).shoot
+    fq = floquet_multipliers(s, PeriodicSettings(reduce="none", monodromy_tol=1e-10))
+    i, j = match_multipliers(sh.multipliers, fq.multipliers)
+    assert np.abs(sh.multipliers[i] - fq.multipliers[j]).max() <= fq.error + sh.error
+    assert sh.closure < 1e-10 and sh.max_abs_multiplier < 1.0
+
+
 def test_cli_response_json(tmp_path):
     import xarray as xr
 

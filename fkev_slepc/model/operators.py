@@ -146,12 +146,16 @@ class Model:
         """Every piece the model's cases need at crank angles ``theta`` (rad): CSR data
         (n_θ, nnz) on :attr:`pattern` (NaN rows where ``ok`` is False). Computed in blocks of
         angles whose temporaries stay near :data:`BLOCK_FLOATS` floats each."""
-        def build(state):
-            stack = assemble_pieces(self.stacks, self.pattern, state, self.terms, self._lumped, self.scene.damping)
-            bearing = self.bearing_data(state)
-            return stack if bearing is None else dataclasses.replace(stack, structural=stack.structural + bearing)
+        return self._by_blocks(theta, self.stack_at)
 
-        return self._by_blocks(theta, build)
+    def stack_at(self, state: AngleState, terms=None) -> PieceStack:
+        """The pieces of ``terms`` (default the model's) at the angles of ``state``, the compliant bearings
+        in K_s: the one assembly of M, K_s and the Rayleigh damping (the periodic coefficients take
+        theirs from it, ``terms=()``: model/periodic.py)."""
+        stack = assemble_pieces(self.stacks, self.pattern, state, self.terms if terms is None else set(terms),
+                                self._lumped, self.scene.damping)
+        bearing = self.bearing_data(state)
+        return stack if bearing is None else dataclasses.replace(stack, structural=stack.structural + bearing)
 
     def bearing_data(self, state: AngleState) -> np.ndarray | None:
         """The compliant bearings' stiffness (n_θ, nnz) at the angles of ``state`` (None without any;

@@ -138,10 +138,8 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
     dp, ddp = state.dphi[..., None, None], state.ddphi[..., None, None]
     g = lambda X: el.to_global(X, state.T)  # Tᵀ X T over (θ, element)
 
-    mass = pat.scatter(g(m))
-    for dofs, values in model.lumped:
-        mass = pat.add_diagonal(mass, dofs, values)
-    stiff = pat.scatter(g(ks))
+    base = model.stack_at(state, terms=())  # M, K_s (bearings in) and the Rayleigh damping: the model's one assembly
+    mass, stiff = base.mass, base.structural
     gyro = pat.scatter(g(dp * (2.0 * cc * ma - 2.0 * mE)))
     kg = st.axial_force(state.axial[0]) if cp else 0.0
     speed = pat.scatter(g(ct * ddp * ma - ddp * mE + dp**2 * (m @ E @ E - 2.0 * cc * maE - cn * nm) + kg))
@@ -149,16 +147,14 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
     if cc == ct:  # Lagrangian (LAGRANGIAN_CASES in plane; every case out of plane, §19.9)
         coupling = pat.scatter(g(dp * (cc * ma - mE)))
         potential = pat.scatter(g(kg + dp**2 * (EmE - cc * (Ema + maE) - cn * nm)))
-    damping = damping_k = None
+    damping, damping_k = base.rayleigh, None
     dm = model.scene.damping
-    if dm is not None and dm.active:
+    if damping is not None:
         a_d, b_d = dm.mass_proportional, dm.stiffness_proportional
-        damping = a_d * mass + b_d * stiff
         damping_k = pat.scatter(g(-dp * ((a_d * m + b_d * ks) @ E)))
         if mech.mass_value.size and a_d:
             damping_k = _lumped_frame_damping(pat, damping_k, mech, state.kinematics, a_d)
-    bearing = model.bearing_data(state)  # compliant joints out of plane: a potential, not damped (§19.8)
-    stiff = stiff if bearing is None else stiff + bearing
+    # compliant joints (in K_s of the stack): a potential, not damped (§19.8)
     return PeriodicPieces(thetas, case, mass, gyro, stiff, speed, coupling, potential, damping, damping_k)
 
 

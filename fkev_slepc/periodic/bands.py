@@ -43,7 +43,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from fkev_slepc.periodic.settings import DEFAULTS, SAFETY
+from fkev_slepc.periodic import verdict
+from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.status import json_number
 
 DEFAULT_TOL = DEFAULTS.verdict_tol  # max|μ| - 1 above which (and above SAFETY·error) a speed is unstable
@@ -75,10 +76,9 @@ class SpeedPoint:
 
 
 def margin(point: SpeedPoint, tol: float = DEFAULT_TOL) -> float:
-    """max|μ| - 1 - (tol + SAFETY·error): > 0 unstable, NaN if the monodromy did not converge."""
-    if not point.converged or not np.isfinite(point.error):
-        return float("nan")
-    return point.max_abs - 1.0 - (tol + SAFETY * point.error)
+    """max|μ| - 1 - (tol + SAFETY·error): > 0 unstable, NaN if the monodromy did not converge (the one
+    rule of fkev_slepc/periodic/verdict.py)."""
+    return verdict.margin(point.max_abs, point.error, tol) if point.converged else float("nan")
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,8 @@ import numpy as np
 from fkev_slepc.model.kinematics import solve_kinematics
 from fkev_slepc.periodic.components import LINK_MODES, frame_rows, link_components
 from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS, HarmonicResponse, harmonic_balance
-from fkev_slepc.periodic.settings import DEFAULTS
+from fkev_slepc.periodic.ladder import climb
+from fkev_slepc.periodic.settings import DEFAULTS, resolve_reduce
 
 RESPONSE_REDUCE_TOL = 1e-3  # relative change of stress and deflection that ends the doubling
 MEASURE_ANGLES = 72  # crank angles (every 5°) at which two levels are compared
@@ -51,12 +52,8 @@ class ProjectedSystem:
     and ``load`` for the response solvers, ``lift`` back to the global DOFs."""
 
     def __init__(self, system, basis, correct: bool = True):
-        from fkev_slepc.periodic.system import PeriodicSystem
-
-        s = system
-        self.full, self.basis = s, basis
-        self.reduced = PeriodicSystem(s.model, s.omega, s.case, damping=s.damping, gravity=s.gravity,
-                                      basis=basis, start=s.start)
+        self.full, self.basis = system, basis
+        self.reduced = system.on(basis)
         self.correction = StaticCorrection(basis) if correct else None
 
     def mck(self, theta):
@@ -73,10 +70,8 @@ class ProjectedSystem:
             yield self.basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])[:2]
 
     def load(self, theta) -> np.ndarray:
-        """Wᵀ f (k, R)."""
-        theta = np.atleast_1d(np.asarray(theta, dtype=float))
-        f = self.full.load(theta)
-        return np.stack([W.T @ f[i] for i, (W, _) in enumerate(self._each(theta))])
+        """Wᵀ f (k, R): the reduced system's load."""
+        return self.reduced.load(theta)
 
     def lift(self, theta, z, dz=None):
         """q = W z + Δq (k, n) at the crank angles, and dq/dθ = W z' + W' z given z' (Δq' left out)."""
@@ -167,13 +162,12 @@ class ResponseTruncation:
 
 def response_reduction(model, value, full_max_dofs: int = FULL_MAX_DOFS) -> str | None:
     """None (the full model), "links" or "links:N" from what a user asked (None, "none",
-    "default", "links", "links:N"): "default" is the full model up to ``full_max_dofs`` free DOFs
+    "default", "links", "links:N"; :func:`~fkev_slepc.periodic.settings.resolve_reduce`: None is not
+    given, the default): "default" is the full model up to ``full_max_dofs`` free DOFs
     (``PeriodicSettings.full_max_dofs``; docs/engine.md measures why), else "links". ValueError naming
     the accepted values otherwise."""
-    from fkev_slepc.periodic.truncation import resolve_reduce
-
     try:
-        v = resolve_reduce("default" if value is None else value)
+        v = resolve_reduce(value)  # the one resolver: None is not given, the default
     except ValueError:
         v = "bad"
     if v == "default":
@@ -265,33 +259,34 @@ def changes(model, coarse: LiftedResponse, fine: LiftedResponse) -> tuple[float,
 
 def converged_response(system, omega: float, *, modes: int | None = None, harmonics=None, tol: float = 1e-10,
                        reduce_tol: float = RESPONSE_REDUCE_TOL, correct: bool = True, link_modes: int = LINK_MODES):
-    """(LiftedResponse, ResponseTruncation): ``modes`` per link measured against 2·modes, or
-    (``modes`` None) doubled from ``link_modes`` until converged (module docstring) or every
-    interior mode is kept (then the full model: truncation zero)."""
+    """(LiftedResponse, ResponseTruncation) on the one reduction ladder (fkev_slepc/periodic/ladder.py):
+    ``modes`` per link measured against 2·modes, or (``modes`` None) doubled from ``link_modes`` until
+    converged (module docstring) or every interior mode is kept (then the full model: truncation zero);
+    a level whose harmonic balance would pass ``MAX_UNKNOWNS`` is not solved (stated unconverged)."""
     comp = link_components(system.model)
     top = int(comp.interior.max(initial=0))
-    solve = lambda k: component_response(system, omega, k, harmonics=harmonics, tol=tol, correct=correct)  # noqa: E731
-    k = link_modes if modes is None else int(modes)
-    prev, levels, pair = solve(k), [], None
-    if harmonics is None:  # the next levels at the H the first one reached: no doubling of H again
-        H1 = prev.harmonics.shape[0] - 1
-        solve = lambda k: component_response(system, omega, k, harmonics=H1, tol=tol, correct=correct)  # noqa: E731
-    while True:
-        if k >= top:  # every interior mode kept: W square, the full model
-            return prev, _truncation(prev, k, 0.0, 0.0, True, reduce_tol, levels)
-        k2 = min(2 * k, top) if k else 1
-        H = max(prev.harmonics.shape[0] - 1, 16)
-        if (2 * H + 1) * comp.basis(k2).shape[1] > MAX_UNKNOWNS:  # the next level does not fit: stated
-            return prev, _truncation(prev, k, *(pair or (np.inf, np.inf)), False, reduce_tol, levels)
-        res = solve(k2)
-        ds, dd = changes(system.model, prev, res)
-        levels.append((k2, res.system.basis.shape[1], ds, dd))
-        if modes is not None:  # a fixed level, measured against the doubled one
-            return prev, _truncation(prev, k, ds, dd, max(ds, dd) <= reduce_tol, reduce_tol, levels)
-        ok = max(ds, dd) <= reduce_tol
-        if pair is not None and ok and max(pair) <= reduce_tol:
-            return res, _truncation(res, k2, max(ds, pair[0]), max(dd, pair[1]), True, reduce_tol, levels)
-        prev, pair, k = res, (ds, dd), k2
+    first = {}
+
+    def solve(k):  # the next levels at the H the first one reached: no doubling of H again
+        res = component_response(system, omega, k, harmonics=first.get("H", harmonics), tol=tol, correct=correct)
+        first.setdefault("H", harmonics if harmonics is not None else res.harmonics.shape[0] - 1)
+        return res
+
+    def levels():
+        k = link_modes if modes is None else int(modes)
+        yield k
+        while k < top:
+            k = min(2 * k, top) if k else 1
+            yield k
+
+    def fits(k, prev):
+        return (2 * max(prev.harmonics.shape[0] - 1, 16) + 1) * comp.basis(k).shape[1] <= MAX_UNKNOWNS
+
+    c = climb(levels(), solve, lambda a, b: changes(system.model, a, b), reduce_tol, whole=lambda k: k >= top,
+              fits=fits, fixed=modes is not None)
+    steps = tuple((k, r.system.basis.shape[1], *m) for k, r, m in c.rungs[1:])
+    ds, dd = (0.0, 0.0) if c.exact else c.changes or (np.inf, np.inf)
+    return c.result, _truncation(c.result, c.level, ds, dd, c.converged, reduce_tol, steps)
 
 
 def _truncation(res: LiftedResponse, k, ds, dd, ok, tol, levels) -> ResponseTruncation:

@@ -74,7 +74,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from fkev_slepc.periodic.bands import DEFAULT_TOL, EDGE_RTOL, SpeedPoint, margin
-from fkev_slepc.periodic.settings import SAFETY
+from fkev_slepc.periodic.verdict import allowance
 
 CLOSE = 2.0  # the closing step, in estimated errors ε of the estimate
 CROWD = 1.0  # two known points within this many bracket widths of one side: the estimates stagnate
@@ -108,7 +108,7 @@ def indicator(point: SpeedPoint, tol: float = DEFAULT_TOL, toward: complex | Non
         i, j = np.unravel_index(int(np.argmin(gap)), gap.shape)
     z = np.log(mu[i] / mu[j]) / 2.0
     a = -0.5 * (np.log(abs(mu[i])) + np.log(abs(mu[j])))
-    h = float((z * z).real - (a + np.log1p(tol + SAFETY * point.error)) ** 2)
+    h = float((z * z).real - (a + np.log1p(allowance(point.error, tol))) ** 2)
     return h if np.isfinite(h) and (h > 0) == (m > 0) else float("nan")
 
 

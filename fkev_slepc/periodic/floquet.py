@@ -1,9 +1,11 @@
 """Floquet stability of a linkage at constant crank speed (docs/theory.md §18, docs/stability.md).
 
-``floquet_multipliers(model_or_scene, omega, case="full", ...) -> LinkageFloquet``: the
-multipliers of one crank revolution of M(θ)q̈ + C(θ)q̇ + K(θ)q = 0 with the exact periodic
-coefficients of :mod:`fkev_slepc.model.periodic` (Rayleigh damping from the scene's [damping]
-unless ``damping=False``), integrated in the crank angle by :func:`fkev_slepc.periodic.magnus.monodromy`.
+``floquet_multipliers(system, settings=DEFAULTS) -> LinkageFloquet``: the multipliers of one crank
+revolution of M(θ)q̈ + C(θ)q̇ + K(θ)q = 0 for the :class:`~fkev_slepc.periodic.system.PeriodicSystem`
+``system`` (``PeriodicSystem(model, omega, case, damping=...)``: the exact periodic coefficients of
+:mod:`fkev_slepc.model.periodic`, Rayleigh damping from the scene's [damping] unless ``damping=False``),
+with every tolerance and the reduction from the :class:`~fkev_slepc.periodic.settings.PeriodicSettings`
+``settings``, integrated in the crank angle by :func:`fkev_slepc.periodic.magnus.monodromy`.
 
 How:
 
@@ -66,7 +68,7 @@ from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings
 from fkev_slepc.periodic.system import CONSTANT_TOL, Coefficients, PeriodicSystem, spread
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.periodic.truncation import (
-    Truncation, between, converge, frequency_change, link_modes, moving_modes, resolve_reduce,
+    Truncation, basis_levels, converge, frequency_change, link_modes, moving_modes, resolve_reduce,
 )
 
 TWO_PI = 2.0 * np.pi
@@ -187,92 +189,81 @@ def default_reduction(model, omega: float, case: str = "full", damping: bool = T
     return "auto"
 
 
-def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, damping: bool = True,
-                        start: float = 0.0, order: int | None = None, steps: int | None = None,
-                        tol: float | None = None, samples: int | None = None, interp_tol: float | None = None,
-                        reduce: int | str | None = None, basis_angles: int | None = None,
-                        threshold: float | None = None, reduce_tol: float | None = None,
-                        max_basis: int | None = None, check_truncation: bool = True,
-                        basis: np.ndarray | None = None, comm=None, progress=None,
-                        settings: PeriodicSettings | None = None) -> LinkageFloquet:
-    """Floquet multipliers of one crank revolution at crank speed ``omega`` (rad/s, ≠ 0).
+def floquet_multipliers(system: PeriodicSystem, settings: PeriodicSettings = DEFAULTS, *, check_truncation: bool = True,
+                        comm=None, progress=None) -> LinkageFloquet:
+    """Floquet multipliers of one crank revolution of ``system`` (its model, crank speed ≠ 0, case,
+    damping, start angle; with its ``basis`` — a co-rotated V̂ (n, R), a
+    :class:`~fkev_slepc.periodic.components.LinkBasis` or a moving basis — on that basis alone).
 
-    ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`, default its defaults with
-    ``reduce`` none): every tolerance below; a keyword given (not None) overrides its field
-    (``order`` magnus_order, ``tol`` monodromy_tol, ``steps``, ``samples``, ``interp_tol``, ``reduce``,
-    ``basis_angles``, ``threshold``, ``reduce_tol``, ``max_basis``).
-    ``reduce``: None (the full model), ``"default"`` (:func:`default_reduction`: None below
-    ``auto_min_steps`` full-model steps, above ``"links"`` or ``"auto"``), ``"auto"`` (the convergence sequence of
-    :mod:`fkev_slepc.periodic.truncation`, to ``reduce_tol``, at most ``max_basis``
-    vectors) or r (the pool of r modes at ``basis_angles`` angles compressed at ``threshold``;
-    its truncation measured against the pool of 2r unless ``check_truncation`` is False),
-    ``"links"`` (link-frame component modes, :mod:`fkev_slepc.periodic.components`: the
-    modes per link double from ``link_modes`` by the same convergence rule; ``covered_rad_s``
-    states the highest retained fixed-interface frequency) or ``"links:N"`` (N modes per link,
-    measured against 2N). ``basis``: an explicit basis instead: a co-rotated V̂ (n, R) or a
-    :class:`~fkev_slepc.periodic.components.LinkBasis`. ``comm``: an MPI communicator whose
-    ranks share every monodromy's steps (collective; one speed on several ranks).
-    ``progress(steps done, steps)``: called by the Magnus integrator after each block of steps (:func:`monodromy`).
-    ``tol``: the error of the multipliers' moduli asked of the integrator, relative to
-    max(1, max|μ|) (the steps double from h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling
-    estimate, pre-asymptotic levels guarded, is below it, and on a reduced basis that of the lowest
-    four Floquet frequencies below ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative, and every
-    multiplier matched within :func:`matched_tolerance` of the gaps between them: :func:`_step_measure`,
-    :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the
-    verdict's 10 × error a tenth of its 1e-6 (docs/engine.md "Step count"; the default is
-    ``PeriodicSettings.monodromy_tol``)."""
-    from fkev_slepc.model.operators import Model
-
-    if not np.isfinite(omega) or omega == 0.0:
-        raise ValueError(f"omega: the Floquet analysis needs a non-zero crank speed, got {omega!r}")
-    model = model_or_scene if isinstance(model_or_scene, Model) else Model(model_or_scene, (case,))
-    st = (settings or replace(DEFAULTS, reduce="none")).with_overrides(  # a bad override: SettingsError naming it
-        magnus_order=order, monodromy_tol=tol, steps=steps, samples=samples, interp_tol=interp_tol,
-        basis_angles=basis_angles, threshold=threshold, reduce_tol=reduce_tol, max_basis=max_basis)
-    order, steps, tol, samples, interp_tol = st.magnus_order, st.steps or None, st.monodromy_tol, st.samples, st.interp_tol
-    basis_angles, threshold, reduce_tol, max_basis = st.basis_angles, st.threshold, st.reduce_tol, st.max_basis or None
-    try:
-        reduce = resolve_reduce(st.reduce if reduce is None else reduce)
-    except ValueError as err:
-        raise ValueError(f"reduce: {err}") from None
+    ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`): every tolerance and the
+    reduction ``reduce``, resolved by :func:`~fkev_slepc.periodic.settings.resolve_reduce` (the one
+    meaning: ``"none"`` the full model, ``"default"`` — the settings' default — decided per speed by
+    :func:`default_reduction`): ``"auto"`` (frozen modes at ``basis_angles`` angles, the sequence of
+    :mod:`fkev_slepc.periodic.truncation` to ``reduce_tol``, at most ``max_basis`` vectors), r (the pool
+    of r modes compressed at ``threshold``), ``"links"`` / ``"links:N"`` (link-frame component modes,
+    :mod:`fkev_slepc.periodic.components`; ``covered_rad_s`` states the highest retained fixed-interface
+    frequency), ``"moving"`` / ``"moving:R"`` (fkev_slepc/periodic/moving.py); the sequences climb the one
+    reduction ladder (fkev_slepc/periodic/ladder.py), a fixed level is measured against its double unless
+    ``check_truncation`` is False. ``comm``: an MPI communicator whose ranks share every monodromy's
+    steps (collective; one speed on several ranks). ``progress(steps done, steps)``: called by the Magnus
+    integrator after each block of steps (:func:`monodromy`). ``monodromy_tol``: the error of the
+    multipliers' moduli asked of the integrator, relative to max(1, max|μ|) (the steps double from
+    h·ρ(A) ≈ ``START_H_RHO`` until the step-doubling estimate, pre-asymptotic levels guarded, is below
+    it, and on a reduced basis that of the lowest four Floquet frequencies below
+    ``FREQUENCY_TOL_SHARE``·``reduce_tol`` relative, and every multiplier matched within
+    :func:`matched_tolerance` of the gaps between them: :func:`_step_measure`,
+    :func:`~fkev_slepc.periodic.magnus.step_doubling_error`); 1e-8 keeps the verdict's 10 × error a
+    tenth of its 1e-6 (docs/engine.md "Step count")."""
+    if not np.isfinite(system.omega) or system.omega == 0.0:
+        raise ValueError(f"omega: the Floquet analysis needs a non-zero crank speed, got {system.omega!r}")
+    if not isinstance(settings, PeriodicSettings):
+        raise ValueError(f"settings: must be a PeriodicSettings (got {type(settings).__name__})")
+    reduce = None if system.basis is not None else resolve_reduce(settings.reduce)
     if reduce == "default":
-        reduce = default_reduction(model, omega, case, damping, start, st)
-    if basis is None and reduce is not None:
-        opts = dict(damping=damping, start=start, comm=comm, progress=progress, settings=replace(st, reduce="none"))
-        solve = lambda V: floquet_multipliers(model, omega, case, basis=V, **opts)  # noqa: E731
-        pool = lambda r: frozen_pool(model, omega, case, r, basis_angles, start)  # noqa: E731
-        n, squeeze, first = int(model.n_free), compress, st.auto_modes
-        if isinstance(reduce, str) and reduce.startswith("links"):  # link-frame component modes
-            comp = link_components(model)
-            pool, squeeze, first = comp.basis, lambda P, tau: P, st.link_modes  # noqa: E731
-        if isinstance(reduce, str) and reduce.startswith("moving"):  # the moving frozen-mode basis
-            pool, squeeze, first = moving_pool(model, omega, case, st.moving_angles), lambda P, tau: P, st.moving_modes  # noqa: E731
-            if reduce == "moving":
-                res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol, max_basis=max_basis,
-                                      compress=squeeze, retained=min(st.auto_modes, n - 1), confirm=False,
-                                      max_modes=n - 1)
-                return replace(res, truncation=trunc)
-            r = min(moving_modes(reduce), n - 1)
-            res = solve(pool(r))
-            if not check_truncation:
-                return res
-            ref = solve(pool(min(2 * r, n - 1)))
-            return replace(res, truncation=between(ref, res, r, reduce_tol, [
-                (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
-        if reduce in ("auto", "links"):
-            res, trunc = converge(solve, pool, n, modes=min(first, n - 1), tol=reduce_tol,
-                                  max_basis=max_basis, compress=squeeze, retained=min(st.auto_modes, n - 1))
-            return replace(res, truncation=trunc)
-        r = min(reduce, n - 1) if link_modes(reduce) is None else link_modes(reduce)
-        res = solve(squeeze(pool(r), threshold))
-        if not check_truncation:
-            return res
-        ref = solve(squeeze(pool(min(2 * r, n - 1) if link_modes(reduce) is None else max(2 * r, 1)), threshold))
-        return replace(res, truncation=between(ref, res, r, reduce_tol, [
-            (x.basis, x.max_abs, float(np.max(x.exponents.real))) for x in (res, ref)]))
-    system = PeriodicSystem(model, omega, case, damping=damping, basis=basis, start=start)
+        reduce = default_reduction(system.model, system.omega, system.case, system.damping, system.start, settings)
+    if reduce is None:
+        return _monodromy(system, settings, comm, progress)
+    return _reduced(system, reduce, settings, check_truncation, comm, progress)
+
+
+def _reduced(system: PeriodicSystem, reduce, st: PeriodicSettings, check: bool, comm, progress) -> LinkageFloquet:
+    """The multipliers on the reduction ``reduce`` (resolved, not None): its basis levels on the one
+    ladder (:func:`~fkev_slepc.periodic.truncation.converge`), or a fixed level against its double."""
+    model, omega, case = system.model, system.omega, system.case
+    n = int(model.n_free)
+    pool = lambda r: frozen_pool(model, omega, case, r, st.basis_angles, system.start)  # noqa: E731
+    squeeze, first, fixed, moving = compress, st.auto_modes, None if reduce == "auto" else reduce, False
+    if isinstance(reduce, str) and reduce.startswith("links"):  # link-frame component modes
+        pool, squeeze, first, fixed = link_components(model).basis, _kept, st.link_modes, link_modes(reduce)
+    elif isinstance(reduce, str) and reduce.startswith("moving"):  # the moving frozen-mode basis
+        pool, squeeze, first = moving_pool(model, omega, case, st.moving_angles), _kept, st.moving_modes
+        fixed, moving = moving_modes(reduce), True
+    solve = lambda V: _monodromy(system.on(V), st, comm, progress)  # noqa: E731
+    if fixed is None:  # the moving basis: its error falls an order or more per doubling, one pair decides
+        levels = basis_levels(pool, squeeze, n, min(first, n - 1), st.max_basis or None)
+        res, trunc = converge(solve, levels, n, tol=st.reduce_tol, retained=min(st.auto_modes, n - 1),
+                              confirm=not moving)
+        return replace(res, truncation=trunc)
+    r = fixed if link_modes(reduce) is not None else min(fixed, n - 1)
+    twice = max(2 * r, 1) if link_modes(reduce) is not None else min(2 * r, n - 1)
+    level = lambda k: squeeze(pool(k), st.threshold)  # noqa: E731
+    if not check:
+        return solve(level(r))
+    res, trunc = converge(solve, (level(k) for k in (r, twice)), n, tol=st.reduce_tol, retained=r, fixed=True)
+    return replace(res, truncation=trunc)
+
+
+def _kept(P, tau):
+    """The identity ``compress`` of the link components and the moving basis (each level is its pool)."""
+    return P
+
+
+def _monodromy(system: PeriodicSystem, st: PeriodicSettings, comm=None, progress=None) -> LinkageFloquet:
+    """The multipliers of ``system`` as it is (on its basis, or the full model): the steps of the module
+    docstring, the first level at h·ρ(A) ≈ ``START_H_RHO``."""
+    basis, model, omega = system.basis, system.model, system.omega
     system = system.link_frame() or system  # a lone rotating link: constant in its own frame
-    interp = system.interpolant(samples, interp_tol, st.max_samples)
+    interp = system.interpolant(st.samples, st.interp_tol, st.max_samples)
     gen = interp.generator
     c = system.coefficients(np.array([system.start]))
     if spread(gen.S) <= CONSTANT_TOL:  # constant A: Φ = exp(2π A), by its eigenvalues
@@ -284,8 +275,8 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         # multiplier error, pre-asymptotic levels guarded (magnus.step_doubling_error); the stiff
         # bound h·ρ(A) <= 1/2 of the earlier rule (or 2^16) is the cap: no run takes more steps than it could
         rho = float(np.max(np.abs(la.eigvals(gen.S[0]))))
-        mono = monodromy(gen, TWO_PI, order=order, steps=steps, tol=np.inf, mu_tol=tol,
-                         min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
+        mono = monodromy(gen, TWO_PI, order=st.magnus_order, steps=st.steps or None, tol=np.inf,
+                         mu_tol=st.monodromy_tol, min_steps=int(np.ceil(TWO_PI * rho / START_H_RHO)),
                          max_steps=max(2**16, int(2 ** np.ceil(np.log2(2.0 * TWO_PI * rho)))),
                          comm=comm, progress=progress,  # frequencies: compared by the truncation only
                          second_tol=np.inf if basis is None else FREQUENCY_TOL_SHARE * st.reduce_tol,
@@ -294,7 +285,7 @@ def floquet_multipliers(model_or_scene, omega: float, case: str = "full", *, dam
         mu, X = la.eig(mono.phi)
     mu, s = _unwrapped_exponents(mu, X, c, system.dof_scaling, omega)
     # first-order bound of the interpolation error on Φ over one revolution, ‖δΦ‖ <= 2π ‖δA‖ max|μ|
-    bound = TWO_PI * interp.error * interp.peak * mono.max_abs if interp.error > interp_tol else 0.0
-    return LinkageFloquet(float(omega), case, mu, s, mono, interp.error, interp.samples, int(model.n_free),
+    bound = TWO_PI * interp.error * interp.peak * mono.max_abs if interp.error > st.interp_tol else 0.0
+    return LinkageFloquet(float(omega), system.case, mu, s, mono, interp.error, interp.samples, int(model.n_free),
                           None if basis is None else basis.shape[1], None, bound,
                           getattr(basis, "covered_rad_s", None))

@@ -131,15 +131,10 @@ def reduced_coefficients(model, c, thetas, omega, basis):
     (:class:`CorotatedBasis`, or the link-frame component modes of fkev_slepc/periodic/components.py),
     or whose ``at_angle(θ)`` gives them from the crank angle (the moving frozen-mode basis of
     fkev_slepc/periodic/moving.py)."""
-    kin = solve_kinematics(model.mechanism, thetas)
-    if isinstance(basis, np.ndarray):
-        basis = CorotatedBasis(basis, corotated_pairs(model.mechanism))
     mat = model.pattern.matrix
     w = float(omega)
     out = {k: [] for k in "M C K N V Cd Kd".split()}
-    moving = hasattr(basis, "at_angle")  # a basis given in the crank angle (periodic/moving.py)
-    for i in range(len(thetas)):
-        W, W1, W2 = basis.at_angle(thetas[i]) if moving else basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])
+    for i, (W, W1, W2) in enumerate(basis_frames(model, thetas, basis)):
         Mm = mat(c.M[i])
         MW, MW1 = Mm @ W, Mm @ W1
         Cm, Km = mat(c.C[i]), mat(c.K[i])
@@ -156,3 +151,19 @@ def reduced_coefficients(model, c, thetas, omega, basis):
             out["Cd"].append(W.T @ (Cd @ W))
             out["Kd"].append(w * W.T @ (Cd @ W1) + W.T @ (mat(c.Kd[i]) @ W))
     return tuple(np.stack(v) if v else None for v in out.values())
+
+
+def basis_frames(model, thetas, basis):
+    """(W, W', W'') of ``basis`` (as :func:`reduced_coefficients` takes it) at each crank angle of
+    ``thetas``, one angle at a time."""
+    kin = solve_kinematics(model.mechanism, thetas)
+    if isinstance(basis, np.ndarray):
+        basis = CorotatedBasis(basis, corotated_pairs(model.mechanism))
+    moving = hasattr(basis, "at_angle")  # a basis given in the crank angle (periodic/moving.py)
+    for i in range(len(thetas)):
+        yield basis.at_angle(thetas[i]) if moving else basis.at(kin.phi[i], kin.dphi[i], kin.ddphi[i])
+
+
+def reduced_load(model, f, thetas, basis) -> np.ndarray:
+    """Wᵀ f (len(θ), R): the Galerkin load of ``f`` (len(θ), n) on ``basis`` at the crank angles."""
+    return np.stack([W.T @ f[i] for i, (W, _, _) in enumerate(basis_frames(model, thetas, basis))])

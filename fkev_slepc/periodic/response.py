@@ -30,8 +30,10 @@ from fkev_slepc.periodic.floquet import START_H_RHO
 from fkev_slepc.periodic.interpolant import TrigInterpolant
 from fkev_slepc.periodic.system import CONSTANT_ANGLES, CONSTANT_TOL, PeriodicSystem, spread
 from fkev_slepc.periodic.harmonic_balance import HarmonicResponse, harmonic_balance, harmonics_of
-from fkev_slepc.periodic.settings import DEFAULTS, SAFETY
-from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, periodic_shot, shooting
+from fkev_slepc.periodic.settings import DEFAULTS
+from fkev_slepc.periodic.verdict import DECAYS, GROWS, NEUTRAL, verdict
+from fkev_slepc.periodic.magnus import trajectory
+from fkev_slepc.periodic.shooting import PeriodicShot, ShootingResponse, adapters, periodic_shot
 from fkev_slepc.periodic.component_response import (
     RESPONSE_REDUCE_TOL, ProjectedSystem, ResponseTruncation, converged_response, response_reduction,
 )
@@ -88,15 +90,14 @@ DOES_NOT_ATTRACT = "does not attract"
 
 
 def response_verdict(max_abs: float, error: float, attract_tol: float = DEFAULTS.attract_tol) -> str | None:
-    """The one "does it attract" rule of the periodic response (``PeriodicSettings.attract_tol``):
-    ``"does not attract"`` where max|μ| > 1 + t (the response exists, the machine does not settle on
-    it), ``"neutral"`` where max|μ| >= 1 − t (undamped), else ``"attracts"``; t = max(attract_tol,
-    SAFETY·``error``), the multiplier error counted as in the Floquet verdict. None without
-    multipliers (``max_abs`` NaN: no shooting)."""
-    if not np.isfinite(max_abs):
-        return None
-    t = max(attract_tol, SAFETY * error) if np.isfinite(error) else attract_tol
-    return DOES_NOT_ATTRACT if max_abs > 1.0 + t else "neutral" if max_abs >= 1.0 - t else "attracts"
+    """Does the periodic response attract, by the one verdict rule of the periodic analyses
+    (fkev_slepc/periodic/verdict.py) with the tolerance ``PeriodicSettings.attract_tol``:
+    ``"does not attract"`` where max|μ| − 1 > t (the response exists, the machine does not settle on
+    it), ``"neutral"`` where |max|μ| − 1| <= t (undamped), else ``"attracts"``; t = attract_tol +
+    SAFETY·``error``, as in the Floquet verdict. None without multipliers (``max_abs`` NaN: no
+    shooting) or without their error."""
+    v = verdict(max_abs, error, attract_tol)
+    return None if v is None else {GROWS: DOES_NOT_ATTRACT, NEUTRAL: "neutral", DECAYS: "attracts"}[v]
 
 
 def periodic_response(system, omega: float, case: str = "", *, harmonics: int | None = None, tol: float = 1e-10,
@@ -107,10 +108,12 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
     (an object with ``mck(theta)`` -> (M, C, K) and ``load(theta)``, e.g. a
     :class:`~fkev_slepc.periodic.system.PeriodicSystem`). Where the system and its load are
     constant in the link frame (:func:`static_response`) the harmonic balance is that one static
-    solve, whatever ``harmonics``. ``reduce`` (a PeriodicSystem only): None/"none" the full
-    model, "links"/"links:N" the link-frame component basis (modes per link doubled to
-    ``reduce_tol``, or N measured against 2N: fkev_slepc/periodic/component_response.py),
-    "default" the full model up to ``full_max_dofs`` free DOFs, else "links"; ``link_modes`` and
+    solve, whatever ``harmonics``. ``reduce`` (a PeriodicSystem only; one meaning,
+    :func:`~fkev_slepc.periodic.settings.resolve_reduce`): "none" the full model,
+    "links"/"links:N" the link-frame component basis (modes per link doubled to ``reduce_tol``, or
+    N measured against 2N, on the one ladder: fkev_slepc/periodic/component_response.py),
+    None (not given) or "default" the full model up to ``full_max_dofs`` free DOFs, else "links";
+    with ``shoot`` the cross-check shoots on the system's own generator (:func:`shooting_at`); ``link_modes`` and
     ``full_max_dofs`` are those of ``settings`` (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`).
     ``fallback``: on the full model with H doubled, the response by shooting (to ``tol``) where the
     balance will not converge (module docstring).
@@ -125,16 +128,15 @@ def periodic_response(system, omega: float, case: str = "", *, harmonics: int | 
         hb, trunc = converged_response(system, omega, modes=modes, harmonics=harmonics, tol=tol, reduce_tol=reduce_tol,
                                        link_modes=settings.link_modes)
         target = hb.system
-    sh = None
+    check = None
     if shoot:  # before the full collocation: it refuses an exact resonance before a singular solve
-        sh = shooting(target.mck, target.load, omega, np.zeros(1), tol=shooting_tol)
+        check = _shot(target.reduced if isinstance(target, ProjectedSystem) else target, omega, shooting_tol, settings)
     shot = None
     if hb is None:
         hb = harmonic_balance(system.mck, system.load, omega, harmonics=harmonics, tol=tol, abandon=fallback)
         if hb.abandoned:
             shot = _shot(system, omega, tol, settings)
-    if sh is not None:
-        sh = _resample(sh, hb.theta, target, omega)
+    sh = None if check is None else shooting_at(check, hb.theta, target)
     return PeriodicResponse(float(omega), case, hb, sh, trunc, shot)
 
 
@@ -168,8 +170,6 @@ def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
     same samples, doubled until it too meets ``interp_tol`` at the midpoints (each Magnus node then
     costs a weighted sum, not an assembly); any other system in (q, q') from ``mck`` and ``load``."""
     if not isinstance(system, PeriodicSystem):
-        from fkev_slepc.periodic.shooting import adapters
-
         return periodic_shot(*adapters(system.mck, system.load, omega), omega, tol=tol)
     interp = system.interpolant(settings.samples, settings.interp_tol, settings.max_samples)
     k = interp.samples
@@ -189,13 +189,23 @@ def _shot(system, omega: float, tol: float, settings=DEFAULTS) -> PeriodicShot:
                          sign=float(np.sign(omega)), start=system.start)
 
 
-def _resample(sh: ShootingResponse, theta, system, omega) -> ShootingResponse:
-    """The shooting solution at other angles: integrated again from its periodic initial state."""
-    from fkev_slepc.periodic.shooting import adapters, states_at
-
-    x = states_at(*adapters(system.mck, system.load, omega), np.concatenate([sh.q[0], sh.dq[0]]), theta, sh.steps)
-    n = sh.q.shape[1]
-    q, dq = x[:, :n], x[:, n:]
+def shooting_at(shot: PeriodicShot, theta, system) -> ShootingResponse:
+    """The shooting cross-check at the crank angles ``theta`` (the balance's) from ``shot``, the
+    periodic state shot on the system's own generator (:func:`_shot`: for a linkage its PeriodicSystem's,
+    the one Floquet takes): q from the state, dq/dθ from x' = A x + b there, lifted to the global
+    DOFs on a link-component basis (``system`` a ProjectedSystem), and the closure of one revolution
+    integrated from x₀."""
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    x = shot.state(theta)
+    tau = np.mod(shot.sign * (theta - shot.start), 2.0 * np.pi)
+    dx = np.einsum("kij,kj->ki", shot.generator(tau), x) + shot.forcing(tau)
+    n = x.shape[1] // 2
+    d = 1.0 if shot.dof_scale is None else shot.dof_scale[None, :]
+    q, dq = x[:, :n] / d, shot.sign * dx[:, :n] / d
     if isinstance(system, ProjectedSystem):  # z -> q = W z + Δq
         q, dq = system.lift(theta, q, dq)
-    return ShootingResponse(np.asarray(theta), q, dq, sh.multipliers, sh.error, sh.rcond, sh.steps, sh.closure)
+    end = trajectory(shot.generator, shot.x0, np.array([0.0, 2.0 * np.pi]), forcing=shot.forcing, order=shot.order,
+                     steps=shot.steps)[-1]
+    closure = float(np.linalg.norm(end - shot.x0) / max(np.linalg.norm(shot.x0), 1e-300))
+    return ShootingResponse(theta, q, dq, shot.multipliers, max(shot.error, shot.monodromy_error), shot.rcond,
+                            shot.steps, closure)

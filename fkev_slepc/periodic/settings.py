@@ -82,8 +82,8 @@ class PeriodicSettings:
     shooting_tol: float = _f(1e-11, "relative error asked of the shooting monodromy")
     response_angles_deg: tuple = _f(tuple(float(a) for a in np.arange(0.0, 360.0, 5.0)), "output crank angles, deg")
     full_max_dofs: int = _f(48, "response reduce=default: the full model up to this many free DOFs, links above")
-    attract_tol: float = _f(1e-8, "the response does not attract where max|μ| > 1 + max(attract_tol, "
-                                  "10 (SAFETY) x multiplier error)")
+    attract_tol: float = _f(1e-8, "the response does not attract where max|μ| - 1 > attract_tol + 10 (SAFETY) x "
+                                  "multiplier error (the verdict rule of verdict_tol)")
 
     def __post_init__(self):
         for f in fields(self):
@@ -197,16 +197,21 @@ def _reduce(name, v):
 
 
 def resolve_reduce(value):
-    """None (the full model), "default", "auto", a number of modes per angle, "links" or
-    "links:N" from what a user asked: "default" (decided per speed by
-    ``periodic.floquet.default_reduction``: the full model below ``auto_min_steps`` full-model steps
-    2·2π·ρ(A), above "links" where the link-component level of 4·``link_modes`` modes per link needs at
-    most 1/``links_step_ratio`` of them, else "auto": fields of :class:`PeriodicSettings`; docs/engine.md
-    measures why), "auto", "none"/None, a whole number >= 1 (also as text), "links" (the
-    link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled until
-    converged), "links:N" (N >= 0 fixed-interface modes per link), "moving" (the moving frozen-mode basis of
-    fkev_slepc/periodic/moving.py, its cutoff doubled until converged) or "moving:R" (R modes). ValueError otherwise."""
-    if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
+    """The one resolver of ``reduce`` (Floquet and the response alike): the canonical value of what a
+    user asked. **None means not given: the default**, ``"default"`` (decided per analysis: Floquet per
+    speed by ``periodic.floquet.default_reduction``, the full model below ``auto_min_steps`` full-model
+    steps 2·2π·ρ(A), above "links" where the link-component level of 4·``link_modes`` modes per link needs
+    at most 1/``links_step_ratio`` of them, else "auto"; the response by
+    ``periodic.component_response.response_reduction``, the full model up to ``full_max_dofs`` free DOFs,
+    else "links": fields of :class:`PeriodicSettings`; docs/engine.md measures why); the full model is
+    asked by ``"none"`` (resolved to None); "default", "auto", a whole number >= 1 (also as text),
+    "links" (the link-frame component modes of fkev_slepc/periodic/components.py, modes per link doubled
+    until converged), "links:N" (N >= 0 fixed-interface modes per link), "moving" (the moving frozen-mode
+    basis of fkev_slepc/periodic/moving.py, its cutoff doubled until converged) or "moving:R" (R modes).
+    ValueError otherwise."""
+    if value is None:
+        return "default"
+    if isinstance(value, str) and value.strip().lower() == "none":
         return None
     if isinstance(value, str):
         v = value.strip().lower()

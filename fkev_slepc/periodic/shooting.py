@@ -22,8 +22,12 @@ exact in every harmonic of the load, no trigonometric interpolation of the respo
 generator and forcing of the state: a linkage's are those of its PeriodicSystem (scaled, on the
 interpolant Floquet takes; fkev_slepc/periodic/response.py).
 
-Same generic interface as :mod:`fkev_slepc.periodic.harmonic_balance`: ``coefficients(theta)`` -> dense
-(M, C, K) stacks (k, n, n) in the time form, ``load(theta)`` -> (k, n).
+:func:`shooting` and :func:`adapters` are the generic path of a system given by the interface of
+:mod:`fkev_slepc.periodic.harmonic_balance` (``coefficients(theta)`` -> dense (M, C, K) stacks (k, n, n)
+in the time form, ``load(theta)`` -> (k, n)) that is not a PeriodicSystem (closed-form oscillators):
+their (q, q') generator of (Ω²M, ΩC, K) is no linkage's. A linkage is shot on its PeriodicSystem's
+generator, the one Floquet takes (the response's fallback and its ``--shooting`` cross-check,
+fkev_slepc/periodic/response.py; tests/test_layout.py checks that no other generator is built).
 """
 
 from __future__ import annotations

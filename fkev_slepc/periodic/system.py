@@ -14,7 +14,8 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
     :mod:`~fkev_slepc.periodic.shooting`).
 ``load(θ) -> f (len(θ), n)``
     the rigid-body inertia loads Ω² f₂(θ) and the gravity ``gravity`` = (g_x, g_y) (m/s², ground
-    frame) through :meth:`fkev_slepc.model.loads.LoadPieces.total` (the one gravity of the model).
+    frame) through :meth:`fkev_slepc.model.loads.LoadPieces.total` (the one gravity of the model);
+    with ``basis`` the Galerkin load Wᵀf.
 ``generator(θ) -> A (len(θ), 2n, 2n)``
     the first-order generator in 1/rad (d/dθ = d/dt / |Ω|): canonical (q, p), p = M q̇ + N q, for
     the Lagrangian cases (Hamiltonian undamped), else (q, q̇) by
@@ -42,6 +43,7 @@ start=0.0)`` holds everything both periodic analyses need, built once on the mod
     ``CONSTANT_ANGLES`` angles): a lone rotating link. None otherwise. Then the monodromy is one
     exponential and the periodic response one static solve (issue 24 item 3).
 ``frame(θ) -> W (len(θ), n, n)``: that change of variables at crank angles θ.
+``on(basis) -> PeriodicSystem``: the same system on another basis (the reduction ladder's levels).
 ``spread(X) -> float``: the relative spread of a stack over its first axis (0: constant).
 
 The crank angle runs θ = start + sign(Ω)·τ, τ ∈ [0, 2π] the angle the generator and the
@@ -61,7 +63,7 @@ from fkev_slepc.periodic import hamiltonian
 from fkev_slepc.periodic.magnus import state_matrix
 from fkev_slepc.periodic.interpolant import TrigInterpolant, to_dense
 from fkev_slepc.model.kinematics import solve_kinematics
-from fkev_slepc.periodic.reduce import corotated_pairs, reduced_coefficients, rotate_rows
+from fkev_slepc.periodic.reduce import corotated_pairs, reduced_coefficients, reduced_load, rotate_rows
 from fkev_slepc.periodic.settings import DEFAULTS
 
 TWO_PI = 2.0 * np.pi
@@ -110,6 +112,11 @@ class PeriodicSystem:
         self.gravity = np.asarray(gravity, dtype=float).reshape(2)
         self.n = int(model.n_free) if basis is None else int(basis.shape[1])
 
+    def on(self, basis) -> "PeriodicSystem":
+        """This system (model, speed, case, damping, gravity, start) on ``basis`` (None: the full model)."""
+        return PeriodicSystem(self.model, self.omega, self.case, damping=self.damping, gravity=self.gravity,
+                              basis=basis, start=self.start)
+
     def angle(self, tau) -> np.ndarray:
         """The crank angle θ (rad) of the generator's τ."""
         return self.start + np.sign(self.omega) * np.asarray(tau, dtype=float)
@@ -130,11 +137,12 @@ class PeriodicSystem:
 
     def load(self, theta) -> np.ndarray:
         """f (len(θ), n_free): Ω² f₂(θ) plus gravity (g_x, g_y) (ground frame, m/s²) plus the scene's
-        process loads ``[[loads]]`` (model/process_loads.py; zero without)."""
+        process loads ``[[loads]]`` (model/process_loads.py; zero without); with ``basis`` its Galerkin
+        load Wᵀf (len(θ), R), the load of the reduced coefficients."""
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         gx, gy = self.gravity  # LoadPieces: gravity of 1 m/s² along -X, -Y
-        f = self.model.load_pieces(theta).total(self.omega, 0.0, -gy, -gx)
-        return f + process_load_vectors(self.model, theta)
+        f = self.model.load_pieces(theta).total(self.omega, 0.0, -gy, -gx) + process_load_vectors(self.model, theta)
+        return f if self.basis is None else reduced_load(self.model, f, theta, self.basis)
 
     @cached_property
     def reference(self) -> Coefficients:
@@ -230,8 +238,7 @@ class PeriodicSystem:
         """This system in link-frame coordinates where its generator is constant, else None."""
         if self.basis is not None or self.omega == 0.0 or len(self.model.mechanism.link_names) != 1:
             return None
-        frame = PeriodicSystem(self.model, self.omega, self.case, damping=self.damping, gravity=self.gravity,
-                               basis=np.eye(int(self.model.n_free)), start=self.start)
+        frame = self.on(np.eye(int(self.model.n_free)))
         tau = TWO_PI * np.arange(CONSTANT_ANGLES) / CONSTANT_ANGLES
         return frame if spread(frame.generator(tau)) <= CONSTANT_TOL else None
 

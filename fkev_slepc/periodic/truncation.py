@@ -50,6 +50,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fkev_slepc.periodic.ladder import climb
 from fkev_slepc.periodic.magnus import match_multipliers
 from fkev_slepc.periodic.settings import DEFAULTS, resolve_reduce  # noqa: F401 (resolve_reduce: exported here too)
 
@@ -121,62 +122,44 @@ def frequency_change(coarse, fine, omega: float, retained: int) -> float:
     return float(np.max(rel)) if n else float("inf")
 
 
-def between(coarse, fine, retained: int, tol: float, levels=(), before: Truncation | None = None) -> Truncation:
-    """The :class:`Truncation` of ``fine`` measured against ``coarse`` (and, given the previous
-    pair's ``before``, the larger change of the two pairs, converged only if both are ≤ tol)."""
-    m = measures(coarse, fine, retained)
-    ok = m[0] <= tol and m[2] <= tol
-    if before is not None:
-        ok = ok and before.max_abs <= tol and before.frequency <= tol
-        m = tuple(max(x, y) for x, y in zip(m, (before.max_abs, before.growth_rate, before.frequency)))
-    return Truncation(*m, bool(ok), tol, tuple(levels))
-
-
-def converge(solve, pool, n_dof: int, *, modes: int = AUTO_MODES, tol: float = REDUCE_TOL,
-             max_basis: int | None = None, compress=None, retained: int | None = None, confirm: bool = True,
-             max_modes: int | None = None):
-    """(result, :class:`Truncation`) by the basis rule of the module docstring.
-
-    ``solve(V̂)`` -> a reduced Floquet result on the basis V̂ (n, R); ``pool(r)`` -> the (n, k)
-    pool of r modes per angle; ``compress(pool, τ)`` -> V̂; ``retained``: the Floquet
-    frequencies compared (default ``modes``). The link-frame component modes
-    (fkev_slepc/periodic/components.py) use the same rule with ``pool(r)`` the basis of r modes per
-    link and ``compress`` the identity: the modes per link double level by level. ``confirm`` False:
-    the first level pair within ``tol`` ends the sequence (the moving basis, whose error falls by an
-    order or more per doubling, fkev_slepc/periodic/moving.py), not two in a row; ``max_modes``: the
-    largest r that ``pool`` takes (default n_dof − 1)."""
-    if compress is None:
-        from fkev_slepc.periodic.reduce import compress
-    retained = modes if retained is None else int(retained)
+def basis_levels(pool, compress, n_dof: int, modes: int, max_basis: int | None = None, max_modes: int | None = None):
+    """The bases of the basis rule of the module docstring, coarse to fine, built lazily: ``pool(r)`` ->
+    the (n, k) pool of r modes per angle (or per link, or the moving basis of r modes), ``compress(pool, τ)``
+    -> V̂ (the identity for the link components and the moving basis: r then doubles level by level);
+    each level strictly larger than the last, at most ``max_basis`` vectors (default n_dof), r at most
+    ``max_modes`` (default n_dof − 1)."""
     cap = n_dof if max_basis is None else min(int(max_basis), n_dof)
-    prev, levels, pair, report, r = None, [], None, None, int(modes)
+    top = n_dof - 1 if max_modes is None else int(max_modes)
+    r, last = int(modes), None
     while True:
         P = pool(r)
         for tau in THRESHOLDS:
             V = compress(P, tau)
             size = V.shape[1]
-            if prev is not None and size <= prev.basis:
+            if last is not None and size <= last:
                 continue
             if size > cap:
-                break
-            res = solve(V)
-            levels.append((size, res.max_abs, float(np.max(res.exponents.real))))
-            if size == n_dof:  # the whole space: the full model's multipliers
-                return res, Truncation(0.0, 0.0, 0.0, True, tol, tuple(levels))
-            if prev is not None:
-                report = between(prev, res, retained, tol, levels, before=pair if confirm else None)
-                if (pair is not None or not confirm) and report.converged:
-                    return res, report
-                pair = between(prev, res, retained, tol)
-            prev = res
-        else:
-            top = n_dof - 1 if max_modes is None else int(max_modes)
-            if r < top and (prev is None or prev.basis < cap):
-                r = min(2 * r, top)
-                continue
-        break
-    if prev is None:
-        raise ValueError(f"max_basis: no basis level fits in {cap} vectors (the first has more)")
-    if report is None:
-        report = Truncation(np.inf, np.inf, np.inf, False, tol, tuple(levels))
-    return prev, replace(report, converged=False)
+                return
+            last = size
+            yield V
+        if not (r < top and (last is None or last < cap)):
+            return
+        r = min(2 * r, top)
+
+
+def converge(solve, levels, n_dof: int, *, tol: float = REDUCE_TOL, retained: int = AUTO_MODES, confirm: bool = True,
+             fixed: bool = False):
+    """(result, :class:`Truncation`): the one reduction ladder (fkev_slepc/periodic/ladder.py) over the
+    bases ``levels`` (:func:`basis_levels`, or two bases with ``fixed``: the second measured from the
+    first, the result), ``solve(V̂)`` -> a reduced Floquet result, the changes :func:`measures` of the ``retained``
+    lowest Floquet frequencies, max|μ| and the frequencies deciding; ``confirm`` False: the first level
+    pair within ``tol`` ends the sequence (the moving basis, whose error falls by an order or more per
+    doubling, fkev_slepc/periodic/moving.py), not two in a row. A basis of n_dof vectors is the full model
+    (truncation zero). ValueError when no level fits (``max_basis`` below the first)."""
+    c = climb(levels, solve, lambda a, b: measures(a, b, retained), tol, decisive=(0, 2), confirm=confirm,
+              whole=lambda V: V.shape[1] == n_dof, fixed=fixed)
+    if c is None:
+        raise ValueError("max_basis: no basis level fits in it (the first has more vectors)")
+    levels = tuple((r.basis, r.max_abs, float(np.max(r.exponents.real))) for _, r, _ in c.rungs)
+    m = (0.0, 0.0, 0.0) if c.exact else c.changes or (np.inf, np.inf, np.inf)
+    return c.result, Truncation(*m, bool(c.converged), tol, levels)

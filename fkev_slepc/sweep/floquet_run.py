@@ -42,8 +42,10 @@ from fkev_slepc.periodic.bands import (
     Band, Gap, SpeedPoint, brackets, bands_from, label, margin, unsampled,
 )
 from fkev_slepc.periodic.edges import refine_edges
+from fkev_slepc.periodic.floquet import floquet_multipliers
 from fkev_slepc.periodic.results import FloquetResults
 from fkev_slepc.periodic.settings import DEFAULTS, SAFETY, PeriodicSettings, resolve_reduce
+from fkev_slepc.periodic.system import PeriodicSystem
 from fkev_slepc.scene.model import Damping
 from fkev_slepc.status import Status
 from fkev_slepc.sweep.floquet_samples import PURPOSES, Sampler, add_sample_rows, read_samples
@@ -67,7 +69,7 @@ class FloquetRequest(ProductRequest):
     frozen sweep (``analysis.crank_angles_deg``) and the one case (``analysis.cases``) set.
 
     ``settings``: every tolerance (:class:`~fkev_slepc.periodic.settings.PeriodicSettings`; None: its
-    defaults with ``reduce`` none, the full model); a field below that is given (not None) overrides
+    defaults, ``reduce`` "default"); a field below that is given (not None) overrides
     its setting: ``tol`` verdict_tol, ``rtol`` edge_rtol, ``monodromy_tol``, ``resonance_order``,
     ``probe``, ``reduce``. :attr:`periodic` is the result, archived whole in ``/floquet/settings``."""
 
@@ -81,7 +83,7 @@ class FloquetRequest(ProductRequest):
 
     @property
     def periodic(self) -> PeriodicSettings:
-        base = self.settings or replace(DEFAULTS, reduce="none")
+        base = self.settings or DEFAULTS
         return base.with_overrides(verdict_tol=self.tol, edge_rtol=self.rtol, monodromy_tol=self.monodromy_tol,
                                    resonance_order=self.resonance_order, probe=self.probe, reduce=self.reduce)
 
@@ -93,13 +95,12 @@ def _evaluator(model, case: str, settings: PeriodicSettings, progress: bool = Fa
     ``not_converged``, never ok: issue 27 item 1) and ``evaluate.reduction[speed]`` keeps the basis size
     and the truncation measures. With ``progress`` each speed's Magnus runs are reported on stderr
     (:class:`_SpeedProgress`). ``comm``: the ranks that share each monodromy's steps (collective evaluation)."""
-    from fkev_slepc.periodic.floquet import floquet_multipliers
     from fkev_slepc.sweep.runner import recoverable_errors
 
     def evaluate(speed: float) -> tuple[SpeedPoint, str]:
         report = _SpeedProgress(float(speed)) if progress else None
         try:
-            res = floquet_multipliers(model, float(speed), case, settings=settings, comm=comm, progress=report)
+            res = floquet_multipliers(PeriodicSystem(model, float(speed), case), settings, comm=comm, progress=report)
         except recoverable_errors() as exc:
             return SpeedPoint(float(speed), np.zeros(0, complex), float("nan"), False), f"{type(exc).__name__}: {exc}"
         finally:
