@@ -58,11 +58,13 @@ class Subspace:
         self.d = np.ones(qep.n) if d is None else np.asarray(d, dtype=float)
         self.w = qep.staged.w.reshape(-1)
         self._Vb = np.empty((qep.n, capacity), order="F")  # V/d, orthonormal; column blocks contiguous
+        self._V = np.empty((qep.n, capacity), order="F")
         self._E = np.empty((self.w.size, capacity), order="F")  # element strains of V, flattened
         terms = ("K", "M") if qep.damping is None else ("K", "M", "C")
         self._P = {t: np.empty((capacity, capacity)) for t in terms}
 
     Vb = property(lambda self: self._Vb[:, : self.m])
+    V = property(lambda self: self._V[:, : self.m])
     size = property(lambda self: self.m)
 
     def projected(self, term: str):
@@ -79,27 +81,35 @@ class Subspace:
         W = self.d[:, None] * Wb
         E = q.staged.strains(W).reshape(-1, k)
         wE = self.w[:, None] * E
-        rest = q.stiffness_rest
-        # V's side of every new block in one pass over V: K_rest W, K_restᵀW, M W, C W, CᵀW
-        # ((Wᵀ A)ᵀ: A's transpose without a CSC copy; a gyroscopic K is symmetric, its C skew)
-        RW = rest @ W
-        mats = [RW, RW if q.kind in _SYMMETRIC_K else (W.T @ rest).T, q.mass @ W]
+        AW = {"K": q.stiffness_rest @ W, "M": q.mass @ W}  # K: its assembled rest (K_s from E)
         if "C" in self._P:
-            CW = q.damping @ W
-            mats += [CW, -CW if q.kind == GYROSCOPIC else (W.T @ q.damping).T]
-        VA = self.Vb.T @ (self.d[:, None] * np.hstack(mats))  # Vᵀ A W with V = D V_b
-        G = self._E[:, :a].T @ wE  # K_s is symmetric: its two off-diagonal blocks are G and Gᵀ
-        blocks = {"K": (G + VA[:, :k], VA[:, k:2 * k].T + G.T,
-                        E.T @ wE + W.T @ mats[0]),
-                  "M": (VA[:, 2 * k:3 * k], VA[:, 2 * k:3 * k].T, W.T @ mats[2])}  # M symmetric
-        if "C" in self._P:
-            blocks["C"] = (VA[:, 3 * k:4 * k], VA[:, 4 * k:].T, W.T @ mats[3])
-        for t, (right, below, corner) in blocks.items():
-            P = self._P[t]
-            P[:a, a:b], P[a:b, :a], P[a:b, a:b] = right, below, corner
-        self._Vb[:, a:b], self._E[:, a:b] = Wb, E
+            AW["C"] = q.damping @ W
+        corner = {t: W.T @ AW[t] for t in AW}
+        corner["K"] += E.T @ wE
+        for t, P in self._P.items():
+            P[a:b, a:b] = corner[t]
+        if a:
+            self._cross(W, wE, AW)
+        self._Vb[:, a:b], self._V[:, a:b], self._E[:, a:b] = Wb, W, E
         self.m = b
         return k
+
+    def _cross(self, W: np.ndarray, wE: np.ndarray, AW: dict) -> None:
+        """The blocks VᵀAW and WᵀAV of the projections, with one pass over V for all of them
+        (WᵀAV = (VᵀAᵀW)ᵀ; (WᵀA)ᵀ is Aᵀ W without a CSC copy; M is symmetric, and a gyroscopic
+        problem's K_rest symmetric and its C skew)."""
+        q, a, b, k = self.q, self.m, self.m + W.shape[1], W.shape[1]
+        gyro = q.kind == GYROSCOPIC
+        rest_t = AW["K"] if q.kind in _SYMMETRIC_K else (W.T @ q.stiffness_rest).T
+        mats = [AW["K"], rest_t, AW["M"]]
+        if "C" in AW:
+            mats += [AW["C"], -AW["C"] if gyro else (W.T @ q.damping).T]
+        VA = self.V.T @ np.hstack(mats)
+        G = self._E[:, :a].T @ wE  # K_s is symmetric: its two off-diagonal blocks are G and Gᵀ
+        right = {"K": G + VA[:, :k], "M": VA[:, 2 * k:3 * k], "C": VA[:, 3 * k:4 * k]}
+        below = {"K": G.T + VA[:, k:2 * k].T, "M": VA[:, 2 * k:3 * k].T, "C": VA[:, 4 * k:].T}
+        for t, P in self._P.items():
+            P[:a, a:b], P[a:b, :a] = right[t], below[t]
 
     def ritz(self, count: int, alpha: float):
         """The ``count`` Ritz pairs nearest 0: (λ, Z) with x = V Z; the projected QEP is solved as
@@ -118,7 +128,7 @@ class Subspace:
 
     def vectors(self, Z: np.ndarray) -> np.ndarray:
         """x = V z per column of the complex Z (one real product: Z's parts side by side)."""
-        return self.d[:, None] * real_times(self.Vb, Z)
+        return real_times(self.V, Z)
 
 
 def residuals(qep: QEP, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
