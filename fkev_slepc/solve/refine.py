@@ -192,7 +192,7 @@ def refine(qep: QEP, lam: np.ndarray, X: np.ndarray, n_modes: int, solve,
     sub = Subspace(qep, 2 * int(upper.sum()) + 2 * n_rep * settings.polish_max_steps, d)
     sub.add(np.hstack([X[:, upper].real, X[:, upper].imag]))
     alpha = float(np.median(np.abs(lam[lam != 0]))) if np.any(lam != 0) else 1.0
-    worst_before, steps = np.inf, 0
+    best, steps = None, 0  # best: (worst correction, λ, Z, used, their corrections)
     while True:
         lam, Z = sub.ritz(min(count, 2 * sub.size), alpha)
         osc, is_real = reported(lam, max(n_modes, 1), settings.imag_tol)
@@ -202,11 +202,16 @@ def refine(qep: QEP, lam: np.ndarray, X: np.ndarray, n_modes: int, solve,
         err_used = corrections(Xu, C)
         open_ = err_used > settings.polish_above
         worst = float(err_used.max()) if used.size else 0.0
-        if not open_.any() or steps >= settings.polish_max_steps or not worst < _STALL * worst_before:
-            break
+        stalled = best is not None and not worst < _STALL * best[0]
+        if best is None or worst < best[0]:
+            best = (worst, lam, Z, used, err_used)
+        if not open_.any() or steps >= settings.polish_max_steps or stalled:
+            break  # stalled: the round-off floor of the accurate operator; the best step is kept
         if not sub.add(np.hstack([C[:, open_].real, C[:, open_].imag])):
             break
-        worst_before, steps = worst, steps + 1
+        steps += 1
+    _, lam, Z, used, err_used = best
     errors = np.full(lam.size, np.nan)  # the pairs a point does not report are not judged
     errors[used] = err_used
+    Z = np.vstack([Z, np.zeros((sub.size - Z.shape[0], Z.shape[1]))])  # the best step's basis: a leading part
     return lam, sub.vectors(Z), errors, steps
