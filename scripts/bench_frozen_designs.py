@@ -64,12 +64,7 @@ def accurate_st(q, n_modes: int, ksp_type: str, rtol: float, alpha: float):
     ksp.setTolerances(rtol=rtol, atol=0.0, max_it=500)
     ksp.getPC().setType("lu")
     ksp.getPC().setFactorSolverType("umfpack")
-    pep.setTarget(0.0)
-    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
-    nev = 2 * n_modes + 2
-    pep.setDimensions(nev=nev, ncv=max(nev + 16, 2 * nev))
-    pep.setTolerances(1e-14)
-    pep.setScale(SLEPc.PEP.Scale.SCALAR, alpha=float(alpha))
+    benchlib.bare_toar_settings(pep, n_modes, alpha, SLEPc)
     pep.solve()
     lam = np.array([pep.getEigenpair(i) for i in range(pep.getConverged())])
     for obj in (pep, shell):

@@ -134,12 +134,7 @@ def bare_solve(mats, lam1, n_modes, package) -> tuple[float, int, float]:
     st.getKSP().setType("preonly")
     st.getKSP().getPC().setType("lu")
     st.getKSP().getPC().setFactorSolverType(package)
-    pep.setTarget(0.0)
-    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
-    nev = 2 * n_modes + 2
-    pep.setDimensions(nev=nev, ncv=max(nev + 16, 2 * nev))
-    pep.setTolerances(1e-14)
-    pep.setScale(SLEPc.PEP.Scale.SCALAR, alpha=float(lam1))
+    benchlib.bare_toar_settings(pep, n_modes, lam1, SLEPc)
     pep.solve()
     n = pep.getConverged()
     pep.destroy()
