@@ -29,3 +29,14 @@ def parse(ap: argparse.ArgumentParser, argv=None) -> tuple[argparse.Namespace, l
 
     init_petsc(petsc)
     return args, petsc
+
+
+def bare_toar_settings(pep, n_modes: int, alpha: float, SLEPc) -> None:
+    """What the engine sets on its PEP (target 0, nearest first, nev = 2·n_modes + 2, an even
+    ncv, tolerance 1e-14, scalar scale α), for the benchmarks' own PEPs."""
+    pep.setTarget(0.0)
+    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+    nev = 2 * n_modes + 2
+    pep.setDimensions(nev=nev, ncv=max(nev + 16, 2 * nev))
+    pep.setTolerances(1e-14)
+    pep.setScale(SLEPc.PEP.Scale.SCALAR, alpha=float(alpha))

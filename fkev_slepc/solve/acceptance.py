@@ -74,7 +74,17 @@ def _apply(A, X: np.ndarray) -> np.ndarray:
     """A @ X, or column by column when A stacks one matrix per column of X: (k, n, n)."""
     if getattr(A, "ndim", 2) == 3:
         return np.matmul(A, X.T[:, :, None])[:, :, 0].T
-    return A @ X
+    return real_times(A, X)
+
+
+def real_times(A, X: np.ndarray) -> np.ndarray:
+    """A @ X for a real (sparse or dense) A and a real or complex (n, k) X: a complex X as the
+    real (n, 2k) array of its parts side by side (a view), so A is not cast to complex (at 50,400
+    DOFs a sparse K times 7 complex columns: 8.1 ms cast, 5.0 ms this way)."""
+    if not np.iscomplexobj(X) or np.iscomplexobj(getattr(A, "data", A)):
+        return A @ X
+    X = np.ascontiguousarray(X, dtype=complex)
+    return np.ascontiguousarray(A @ X.view(float)).view(complex)
 
 
 def pair_error_floor(qep, lam: np.ndarray, X: np.ndarray) -> np.ndarray:

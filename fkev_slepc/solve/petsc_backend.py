@@ -124,6 +124,38 @@ class PetscOperators:
             mat.destroy()
 
 
+class FactoredSolve:
+    """K⁻¹B for a real or complex (n, k) block B, with a KSP that holds the factorization of the
+    balanced K_b = D K D (``d`` its diagonal): K⁻¹ = D K_b⁻¹ D. PETSc here has real scalars, so a
+    complex column is two solves. Used by solve/refine.py, with the factorization SLEPc's
+    shift-and-invert about 0 already computed (no new factorization). Raises RuntimeError when
+    PETSc fails (the caller's fallback, as for an exactly singular SuperLU factor).
+    """
+
+    def __init__(self, ksp: PETSc.KSP, d: np.ndarray):
+        self.ksp, self.d = ksp, np.asarray(d, dtype=float)
+        self.solves = 0
+
+    def __call__(self, B: np.ndarray) -> np.ndarray:
+        B = np.asarray(B)
+        k = B.shape[1]
+        cols = np.hstack([B.real, B.imag]) if np.iscomplexobj(B) else B
+        b, x = self.ksp.getOperators()[0].createVecs()
+        out = np.empty(cols.shape)
+        try:
+            for j in range(cols.shape[1]):
+                b.setArray(self.d * cols[:, j])
+                self.ksp.solve(b, x)
+                out[:, j] = self.d * x.getArray(readonly=True)
+        except PETSc.Error as err:  # e.g. a zero pivot: the caller falls back (as for scipy's splu)
+            raise RuntimeError(f"solve with the factorization of K failed ({describe_error(err)})") from None
+        finally:
+            b.destroy()
+            x.destroy()
+        self.solves += cols.shape[1]
+        return out[:, :k] + 1j * out[:, k:] if np.iscomplexobj(B) else out
+
+
 def _option_key(name: str) -> str:
     """``-fkev_pep_type`` / ``fkev_pep_type`` / ``pep_type`` -> ``pep_type``."""
     return name.lstrip("-").removeprefix(PREFIX)

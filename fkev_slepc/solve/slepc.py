@@ -34,9 +34,9 @@ import logging
 import numpy as np
 
 from fkev_slepc.solve.petsc_backend import (  # noqa: F401 (OptionsError re-exported)
-    PREFIX, OptionsError, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name,
+    PREFIX, FactoredSolve, OptionsError, PatternMismatch, PETSc, PetscOperators, describe_error, enum_name,
 )
-from fkev_slepc.solve.slepc_options import DEFAULTS, LU_PACKAGE, SLEPc, configured, make_solver  # noqa: F401
+from fkev_slepc.solve.slepc_options import DEFAULTS, LU_PACKAGE, SLEPc, configured, factors_k, make_solver  # noqa: F401
 from fkev_slepc.solve.polish import polish_reported
 from fkev_slepc.solve.acceptance import check_pairs, pair_error
 from fkev_slepc.solve.completeness import far_modes_possible, missed_modes, uncertified
@@ -147,8 +147,13 @@ class SlepcEngine:
         X = d[:, None] * X
         st = self.solve_settings
         err = pair_error(qep, lam, X) if lam.size else np.zeros(0)
-        # TOAR's pairs are 2-3 digits short of their conditioning: polished by the floor too (polish.py)
-        lam, X, err, note = polish_reported(qep, lam, X, err, n_modes, st, by_floor=True)
+        # TOAR's pairs are 2-3 digits short of their conditioning, and on fine meshes the assembled
+        # K's round-off: made pairs of the accurate operator with K's factorization (refine.py),
+        # the one SLEPc's shift-and-invert about 0 just computed, else the engine's own
+        solver = self._solver_for(qep.kind)
+        solve = FactoredSolve(solver.getST().getKSP() if factors_k(solver) else self._own_ksp(), d)
+        lam, X, err, note = polish_reported(qep, lam, X, err, n_modes, st, by_floor=True, solve=solve, d=d)
+        self._last["refine_solves"] = solve.solves
         worst, bad = check_pairs(qep, lam, X, err, n_modes, st)
         bad = "; ".join(m for m in (note, bad) if m)
         if ok and bad:

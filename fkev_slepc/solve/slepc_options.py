@@ -144,3 +144,16 @@ def make_solver(options: OptionsManager, user: set, kind: str):
         obj.setProblemType({LINEAR_SYMMETRIC: types.GHEP, LINEAR: types.GNHEP}.get(kind) if linear
                            else (types.GYROSCOPIC if gyro else types.GENERAL))
     return obj
+
+
+# Solver types whose shift-and-invert about 0 factorizes K itself (P(0) = K; EPS: K - 0·M)
+_K_FACTORING = {"PEP": ("toar", "stoar", "qarnoldi"), "EPS": ("krylovschur", "arnoldi", "lanczos")}
+
+
+def factors_k(solver) -> bool:
+    """Whether ``solver`` (a PEP or EPS after its solve) holds the factorization of K in its ST's
+    KSP: one of the types above, shift-and-invert about 0, a direct solve (preonly, LU or Cholesky)."""
+    st = solver.getST()
+    ksp = st.getKSP()
+    return (solver.getType() in _K_FACTORING.get(type(solver).__name__, ()) and st.getType() == SLEPc.ST.Type.SINVERT
+            and solver.getTarget() == 0 and ksp.getType() == "preonly" and ksp.getPC().getType() in ("lu", "cholesky"))
