@@ -35,15 +35,25 @@ def close(quoted: str, printed: str, units: float, rtol: float) -> bool:
     return abs(float(printed) - float(quoted)) <= tolerance(quoted, units, rtol)
 
 
+ELIDED = "\u2026"  # "…" in a quoted line: printed text left out there (any text, numbers included)
+
+
+def _piece(text: str) -> str:
+    """The regex of a quoted piece: its text exact, each number a group; a piece that starts or
+    ends with a number does not match a piece of a longer one ("1" in "11")."""
+    parts = _NUM.split(text)
+    body = "".join(re.escape(t) + (f"({NUM})" if i < len(parts) - 1 else "") for i, t in enumerate(parts))
+    return ("(?<![\\d.])" if not parts[0] and len(parts) > 1 else "") + body + (
+        "(?![\\d.])" if not parts[-1] and len(parts) > 1 else "")
+
+
 def line_in(quoted: str, printed_lines: list[str], units: float = 3, rtol: float = 0.0) -> bool:
     """Whether ``quoted`` (one line, whitespace already normalised) occurs in one of the printed
-    lines with the same text and its numbers within :func:`tolerance`."""
+    lines with the same text and its numbers within :func:`tolerance`; an ``…`` in it stands for
+    printed text left out (a round-off digit string, a timing, the rest of a long line)."""
     quoted = _plain(quoted)
-    parts = _NUM.split(quoted)
     nums = _NUM.findall(quoted)
-    body = "".join(re.escape(t) + (f"({NUM})" if i < len(nums) else "") for i, t in enumerate(parts))
-    # a line that starts or ends with a number: not a piece of a longer one ("1" in "11")
-    pattern = re.compile(("(?<![\\d.])" if not parts[0] else "") + body + ("(?![\\d.])" if not parts[-1] else ""))
+    pattern = re.compile(".*?".join(_piece(piece) for piece in quoted.split(ELIDED)))
     for line in map(_plain, printed_lines):
         pos = 0
         while (m := pattern.search(line, pos)) is not None:
