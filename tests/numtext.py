@@ -38,13 +38,15 @@ def close(quoted: str, printed: str, units: float, rtol: float) -> bool:
 ELIDED = "\u2026"  # "…" in a quoted line: printed text left out there (any text, numbers included)
 
 
-def _piece(text: str) -> str:
-    """The regex of a quoted piece: its text exact, each number a group; a piece that starts or
-    ends with a number does not match a piece of a longer one ("1" in "11")."""
+def _piece(text: str, first: bool, last: bool) -> str:
+    """The regex of a quoted piece: its text exact, each number a group; a line that starts or
+    ends with a number does not match a piece of a longer one ("1" in "11"), but a number next
+    to an ``…`` may continue into the text left out ("4434.59…" for 4434.596506)."""
     parts = _NUM.split(text)
     body = "".join(re.escape(t) + (f"({NUM})" if i < len(parts) - 1 else "") for i, t in enumerate(parts))
-    return ("(?<![\\d.])" if not parts[0] and len(parts) > 1 else "") + body + (
-        "(?![\\d.])" if not parts[-1] and len(parts) > 1 else "")
+    numeric = len(parts) > 1
+    return ("(?<![\\d.])" if first and numeric and not parts[0] else "") + body + (
+        "(?![\\d.])" if last and numeric and not parts[-1] else "")
 
 
 def line_in(quoted: str, printed_lines: list[str], units: float = 3, rtol: float = 0.0) -> bool:
@@ -53,7 +55,8 @@ def line_in(quoted: str, printed_lines: list[str], units: float = 3, rtol: float
     printed text left out (a round-off digit string, a timing, the rest of a long line)."""
     quoted = _plain(quoted)
     nums = _NUM.findall(quoted)
-    pattern = re.compile(".*?".join(_piece(piece) for piece in quoted.split(ELIDED)))
+    pieces = quoted.split(ELIDED)
+    pattern = re.compile(".*?".join(_piece(t, i == 0, i == len(pieces) - 1) for i, t in enumerate(pieces)))
     for line in map(_plain, printed_lines):
         pos = 0
         while (m := pattern.search(line, pos)) is not None:
