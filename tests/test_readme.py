@@ -189,6 +189,12 @@ def test_the_block_reader_finds_marks_and_misses():
     assert quoted_runs(text) == [("fkev check a.toml", ["  ok"]), ("fkev info b.h5", ["  one"])]
     assert unmarked_runs(text) == ["$ fkev verify b.h5"]
     assert program(["mpirun", "-n", "2", "fkev", "run", "s.toml"])[:4] == ["mpirun", "-n", "2", sys.executable]
+    printed = ["fkev run: wrote bw.h5: 234 points (ok 159, unstable 75) in 0.5 s on 1 rank(s)",
+               "  divergence (K singular): from 4434.596506 rad/s (42347.3 rpm) at θ = 180°"]
+    assert line_in("fkev run: wrote bw.h5: 234 points (ok 159, unstable 75) in … s on 1 rank(s)", printed)
+    assert not line_in("fkev run: wrote bw.h5: 234 points (ok 159, unstable 76) in … s on 1 rank(s)", printed)
+    assert line_in("divergence (K singular): from 4434.5965… rad/s", printed)  # the left-out digits
+    assert not line_in("divergence (K singular): from 4434.5975… rad/s", printed)
 
 
 # --- the worked design study -------------------------------------------------------------------
