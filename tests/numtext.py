@@ -35,15 +35,28 @@ def close(quoted: str, printed: str, units: float, rtol: float) -> bool:
     return abs(float(printed) - float(quoted)) <= tolerance(quoted, units, rtol)
 
 
+ELIDED = "\u2026"  # "…" in a quoted line: printed text left out there (any text, numbers included)
+
+
+def _piece(text: str, first: bool, last: bool) -> str:
+    """The regex of a quoted piece: its text exact, each number a group; a line that starts or
+    ends with a number does not match a piece of a longer one ("1" in "11"), but a number next
+    to an ``…`` may continue into the text left out ("4434.59…" for 4434.596506)."""
+    parts = _NUM.split(text)
+    body = "".join(re.escape(t) + (f"({NUM})" if i < len(parts) - 1 else "") for i, t in enumerate(parts))
+    numeric = len(parts) > 1
+    return ("(?<![\\d.])" if first and numeric and not parts[0] else "") + body + (
+        "(?![\\d.])" if last and numeric and not parts[-1] else "")
+
+
 def line_in(quoted: str, printed_lines: list[str], units: float = 3, rtol: float = 0.0) -> bool:
     """Whether ``quoted`` (one line, whitespace already normalised) occurs in one of the printed
-    lines with the same text and its numbers within :func:`tolerance`."""
+    lines with the same text and its numbers within :func:`tolerance`; an ``…`` in it stands for
+    printed text left out (a round-off digit string, a timing, the rest of a long line)."""
     quoted = _plain(quoted)
-    parts = _NUM.split(quoted)
     nums = _NUM.findall(quoted)
-    body = "".join(re.escape(t) + (f"({NUM})" if i < len(nums) else "") for i, t in enumerate(parts))
-    # a line that starts or ends with a number: not a piece of a longer one ("1" in "11")
-    pattern = re.compile(("(?<![\\d.])" if not parts[0] else "") + body + ("(?![\\d.])" if not parts[-1] else ""))
+    pieces = quoted.split(ELIDED)
+    pattern = re.compile(".*?".join(_piece(t, i == 0, i == len(pieces) - 1) for i, t in enumerate(pieces)))
     for line in map(_plain, printed_lines):
         pos = 0
         while (m := pattern.search(line, pos)) is not None:

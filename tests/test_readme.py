@@ -1,18 +1,27 @@
-"""The README's new-user design-study path (issue 20), run as written.
+"""The README's quoted runs and the worked design study, run as written (issues 20 and 34).
 
-The "## Design studies" section of README.md is read here, not copied: its ```sh block (fkev
-check, fkev point --sensitivity, fkev run, fkev margins, fkev design on the slider-crank
-benchmark) is run command by command in a temporary directory holding the scene at the path the
-README types, every output block the README quotes must appear in what the commands print, and
-its ```python block (Study.replace, PointResult.sensitivity) must print what its comments say.
-So the test breaks when the README drifts from the program, or the program from the README.
+Two kinds of quoted output are checked against what the commands print, numbers to their printed
+digits (tests/numtext.py: text and integers exactly, a decimal number to within 3 units of its last
+quoted digit, since the last digit of a finite-difference or solver result moves with the CPU; the
+sensitivity -66.1246 printed -66.1245 on an AMD EPYC; an ``…`` in a quoted line stands for printed
+text left out, such as round-off digits, a timing or the rest of a long line):
 
-Quoted numbers are compared to their printed digits (tests/numtext.py): text and integers
-exactly, a decimal number to within 3 units of its last quoted digit, since the last digit of a
-finite-difference or solver result moves with the CPU (the sensitivity -66.1246 printed -66.1245
-on an AMD EPYC). To regenerate a quoted block after a change of the program, run the ```sh block
-of the section from the repository root as written (``PYTHONPATH=$PWD .venv/bin/python -m
-fkev_slepc check ...`` and so on, each command once) and paste what it prints.
+- **Quoted runs.** A fenced block directly after the line ``<!-- output checked by
+  tests/test_readme.py -->`` in README.md or a docs/ page holds ``$ fkev ...`` (or ``$ mpirun -n
+  2 fkev ...``) lines, each followed by lines of what it prints. The commands of one page run in
+  order in one temporary directory laid out like the repository root (``runs/*.toml``), so a later
+  one reads the archive an earlier one wrote; every quoted line must occur in the stdout of its
+  command. Every ``$ `` block of README.md must carry the mark (the tour is checked whole).
+- **The worked design study** ("## Worked example" of docs/design.md, moved there from the
+  README): its ```sh block (fkev check, fkev point --sensitivity, fkev run, fkev margins, fkev
+  design on the slider-crank benchmark) is run command by command, every output block it quotes
+  must appear in what the commands print, and its ```python block (Study.replace,
+  PointResult.sensitivity) must print what its comments say.
+
+So the test breaks when the documents drift from the program, or the program from them. To
+regenerate a quoted block after a change of the program, run its commands from the repository
+root as written (``PYTHONPATH=$PWD .venv/bin/python -m fkev_slepc check ...`` for ``fkev check
+...``, each command once, in order) and paste what they print.
 """
 
 import os
@@ -31,12 +40,16 @@ from numtext import line_in, same_text
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = "runs/slider-crank-benchmark.toml"
+STUDY_PAGE, STUDY_HEADING = ROOT / "docs" / "design.md", "## Worked example: the slider-crank benchmark"
+MARK = "<!-- output checked by tests/test_readme.py -->"
+ENV = {**os.environ, "PYTHONPATH": str(ROOT), "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+       "OMPI_MCA_rmaps_base_oversubscribe": "1"}
 
 
 def section() -> str:
-    text = (ROOT / "README.md").read_text()
-    found = re.search(r"^## Design studies\n(.*?)(?=^## )", text, re.S | re.M)
-    assert found, "README.md has no '## Design studies' section"
+    text = STUDY_PAGE.read_text()
+    found = re.search(rf"^{re.escape(STUDY_HEADING)}\n(.*?)(?=^## )", text, re.S | re.M)
+    assert found, f"{STUDY_PAGE.name} has no '{STUDY_HEADING}' section"
     return found.group(1)
 
 
@@ -66,21 +79,132 @@ def normal(text: str) -> str:
     return re.sub(r"\s+", " ", text).replace("(θ 360)", "(θ 0)").strip()
 
 
+def program(argv: list[str]) -> list[str]:
+    """``fkev ARGS`` or ``mpirun -n N fkev ARGS`` as typed, with this checkout's package."""
+    launcher = argv[:3] if argv[0] in ("mpirun", "mpiexec") else []
+    assert launcher == [] or (argv[1] == "-n" and argv[2].isdigit()), argv
+    assert argv[len(launcher)] == "fkev", argv
+    return [*launcher, sys.executable, "-m", "fkev_slepc", *argv[len(launcher) + 1:]]
+
+
 def run_fkev(argv: list[str], cwd: Path) -> subprocess.Popen:
-    assert argv[0] == "fkev", argv
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "OMPI_ALLOW_RUN_AS_ROOT": "1",
-           "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
-    return subprocess.Popen([sys.executable, "-m", "fkev_slepc", *argv[1:]], cwd=cwd, env=env, text=True,
+    return subprocess.Popen(program(argv), cwd=cwd, env=ENV, text=True, stdin=subprocess.DEVNULL,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+
+def repository_like(cwd: Path) -> Path:
+    """A directory laid out like the repository root for the scenes the documents type."""
+    (cwd / "runs").mkdir()
+    for scene in (ROOT / "runs").glob("*.toml"):
+        shutil.copy(scene, cwd / "runs" / scene.name)
+    return cwd
+
+
+# --- quoted runs ------------------------------------------------------------------------------
+
+def quoted_runs(text: str) -> list[tuple[str, list[str]]]:
+    """(command, quoted output lines) of every marked block of a page, in page order."""
+    runs, lines = [], text.splitlines()
+    for i, line in enumerate(lines):
+        if line.strip() != MARK:
+            continue
+        assert lines[i + 1] == "```", f"the line after {MARK!r} opens no bare fenced block: {lines[i + 1]!r}"
+        end = lines.index("```", i + 2)
+        assert lines[i + 2].startswith("$ "), f"a marked block starts with a '$ ' command: {lines[i + 2]!r}"
+        for body in lines[i + 2:end]:
+            if body.startswith("$ "):
+                runs.append((body[2:], []))
+            elif body.strip():
+                runs[-1][1].append(body)
+    return runs
+
+
+def unmarked_runs(text: str) -> list[str]:
+    """The first line of every bare fenced block that starts with '$ ' but carries no mark."""
+    lines, bad, inside = text.splitlines(), [], False
+    for i, line in enumerate(lines):
+        if line.startswith("```"):
+            if not inside and line == "```" and lines[i + 1].startswith("$ ") and lines[i - 1].strip() != MARK:
+                bad.append(lines[i + 1])
+            inside = not inside
+    return bad
+
+
+def pages_with_runs() -> list[Path]:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    return [p for p in pages if MARK in p.read_text()]
+
+
+_printed: dict[tuple[str, ...], str] = {}
+
+
+def printed_by(argv: list[str], cwd: Path) -> str:
+    """stdout of one quoted command; a command that reads and writes no file but the scenes of
+    runs/ is run once per session (the README tour and a docs page may quote the same one)."""
+    key = tuple(argv)
+    pure = not any(re.search(r"\.(h5|png|pdf|svg|gif|csv|json)$", a) for a in argv) and "-o" not in argv
+    if pure and key in _printed:
+        return _printed[key]
+    p = run_fkev(argv, cwd)
+    stdout, stderr = p.communicate(timeout=600)
+    assert p.returncode == 0, (argv, stderr[-2000:])
+    if pure:
+        _printed[key] = stdout
+    return stdout
+
+
+@pytest.fixture(scope="module", params=pages_with_runs(), ids=lambda p: str(p.relative_to(ROOT)))
+def page_runs(request, tmp_path_factory):
+    """[(command, quoted lines, printed lines)] of a page's quoted runs, run in page order."""
+    cwd = repository_like(tmp_path_factory.mktemp("runs"))
+    out = []
+    for command, quoted in quoted_runs(request.param.read_text()):
+        printed = printed_by(shlex.split(command), cwd)
+        out.append((command, quoted, [normal(ln) for ln in printed.splitlines()]))
+    return out
+
+
+def test_every_quoted_run_prints_what_is_quoted(page_runs):
+    assert page_runs
+    for command, quoted, printed in page_runs:
+        assert quoted, f"quotes no output: {command}"
+        for line in quoted:
+            assert line_in(normal(line), printed), f"{command}\nquotes a line it does not print:\n{line}"
+
+
+def test_the_readme_tour_is_checked_whole():
+    """Every '$ ' block of the README is a checked one, and the tour covers the main commands."""
+    text = (ROOT / "README.md").read_text()
+    assert unmarked_runs(text) == []
+    commands = [shlex.split(c) for c, _ in quoted_runs(text)]
+    names = {c[c.index("fkev") + 1] for c in commands}
+    assert {"check", "point", "run", "floquet", "response", "loads", "design", "design-check", "margins", "info",
+            "verify"} <= names, names
+    assert any(c[0] == "mpirun" for c in commands)
+
+
+def test_the_block_reader_finds_marks_and_misses():
+    text = "\n".join(["x", MARK, "```", "$ fkev check a.toml", "  ok", "", "$ fkev info b.h5", "  one",
+                      "```", "", "```", "$ fkev verify b.h5", "```", "```sh", "$ fkev run", "```"])
+    assert quoted_runs(text) == [("fkev check a.toml", ["  ok"]), ("fkev info b.h5", ["  one"])]
+    assert unmarked_runs(text) == ["$ fkev verify b.h5"]
+    assert program(["mpirun", "-n", "2", "fkev", "run", "s.toml"])[:4] == ["mpirun", "-n", "2", sys.executable]
+    printed = ["fkev run: wrote bw.h5: 234 points (ok 159, unstable 75) in 0.5 s on 1 rank(s)",
+               "  divergence (K singular): from 4434.596506 rad/s (42347.3 rpm) at θ = 180°"]
+    assert line_in("fkev run: wrote bw.h5: 234 points (ok 159, unstable 75) in … s on 1 rank(s)", printed)
+    assert not line_in("fkev run: wrote bw.h5: 234 points (ok 159, unstable 76) in … s on 1 rank(s)", printed)
+    assert line_in("divergence (K singular): from 4434.5965… rad/s", printed)  # the left-out digits
+    assert not line_in("divergence (K singular): from 4434.5975… rad/s", printed)
+
+
+# --- the worked design study -------------------------------------------------------------------
 
 
 @pytest.fixture(scope="module")
 def outputs(tmp_path_factory):
     """{command name: stdout} of the section's commands, run in a directory laid out like the
     repository root (the design study, independent of the others, runs beside them)."""
-    cwd = tmp_path_factory.mktemp("readme")
-    (cwd / "runs").mkdir()
-    shutil.copy(ROOT / SCENE, cwd / SCENE)
+    cwd = repository_like(tmp_path_factory.mktemp("study"))
     cmds = commands()
     names = [c[1] for c in cmds]
     assert names == ["check", "point", "run", "margins", "design"], names
@@ -116,7 +240,7 @@ def test_every_quoted_output_is_printed(outputs):
     for block in quoted:
         for line in block.splitlines():
             if line.strip():
-                assert line_in(normal(line), printed), f"README quotes a line no command printed:\n{line}"
+                assert line_in(normal(line), printed), f"{STUDY_PAGE.name} quotes a line no command printed:\n{line}"
 
 
 @pytest.mark.parametrize("line, wrong", [
@@ -130,7 +254,7 @@ def test_every_quoted_output_is_printed(outputs):
 ])
 def test_a_wrong_quote_is_caught(outputs, line, wrong):
     """The comparison to printed digits still fails a wrong number: 4 units of the last digit off,
-    a wrong exponent, a wrong mode or crank order (the right line, quoted in the README, passes)."""
+    a wrong exponent, a wrong mode or crank order (the right line, quoted in docs/design.md, passes)."""
     printed = printed_lines(outputs)
     assert any(line in block for block in blocks("")), line
     assert line_in(normal(line), printed)
@@ -157,7 +281,7 @@ def test_python_block_prints_what_its_comments_say(outputs, monkeypatch):
     monkeypatch.chdir(outputs["cwd"])
     buf = StringIO()
     with redirect_stdout(buf):
-        exec(compile(code, "README.md", "exec"), {})
+        exec(compile(code, str(STUDY_PAGE), "exec"), {})
     expected = [m.group(1) for m in re.finditer(r"print\(.*\)\s+# (\[.*?\])", code)]
     assert len(expected) == 2
     got = [normal(ln) for ln in buf.getvalue().splitlines()]
