@@ -199,3 +199,41 @@ class _Pieces:
         flat = np.zeros(self.width)
         flat[self.keep] = (w @ self.interp.coefficients) * self.scale
         return [flat[a:b] for a, b in zip(self.edges[:-1], self.edges[1:])]
+
+
+RUNUP_REDUCE = "none, links, links:N, N or moving:R"
+
+
+def runup_reduction(value):
+    """The resolved ``reduce`` of a run-up (``periodic.settings.resolve_reduce``), or ValueError: one fixed
+    basis for the whole history, so none of the convergence sequences (auto, default, moving)."""
+    from fkev_slepc.periodic.settings import resolve_reduce
+
+    r = resolve_reduce(value)
+    if r in ("auto", "default", "moving"):
+        raise ValueError(f"the run-up takes one fixed basis: {RUNUP_REDUCE} (got {value!r})")
+    return r
+
+
+def runup_basis(model, reduce, case: str, omega: float, settings=None):
+    """The basis of a resolved run-up ``reduce`` (None: the full model): the link-frame component modes
+    (``links``: ``settings.link_modes`` per link, ``links:N``; independent of the speed), or at the
+    reference speed ``omega`` (rad/s) the co-rotated pool of N frozen modes compressed as the Floquet
+    map's (``settings.basis_angles``, ``threshold``) or the moving basis of R frozen modes."""
+    from fkev_slepc.periodic.settings import DEFAULTS
+
+    st = settings or DEFAULTS
+    if reduce is None:
+        return None
+    n = int(model.n_free)
+    if isinstance(reduce, str) and reduce.startswith("links"):
+        from fkev_slepc.periodic.components import link_components
+
+        return link_components(model).basis(st.link_modes if reduce == "links" else int(reduce[6:]))
+    if isinstance(reduce, str) and reduce.startswith("moving:"):
+        from fkev_slepc.periodic.moving import moving_pool
+
+        return moving_pool(model, omega, case, st.moving_angles)(min(int(reduce[7:]), n - 1))
+    from fkev_slepc.periodic.reduce import compress, frozen_pool
+
+    return compress(frozen_pool(model, omega, case, min(int(reduce), n - 1), st.basis_angles), st.threshold)

@@ -106,11 +106,10 @@ def initial_state(system, history, start: str = "static"):
 
 
 def default_step(history, steps_per_revolution: int = DEFAULT_STEPS_PER_REVOLUTION) -> float:
-    """2π/(|Ω|max · steps) (s); at constant speed the revolution is a whole number of steps."""
+    """About 2π/(|Ω|max · steps) (s), a whole number of steps in the duration (at constant speed a
+    revolution is exactly ``steps_per_revolution`` steps)."""
     w = max(abs(history.w0), abs(history.w1))
-    if history.constant_speed:
-        return history.duration / (round(history.duration * w / TWO_PI * steps_per_revolution))
-    return TWO_PI / (w * steps_per_revolution)
+    return history.duration / max(1, round(history.duration * w / TWO_PI * steps_per_revolution))
 
 
 def make_ts(residual, n: int, dt: float, duration: float, prefix: str = OPTIONS_PREFIX):
@@ -139,43 +138,104 @@ def make_ts(residual, n: int, dt: float, duration: float, prefix: str = OPTIONS_
     return ts
 
 
-def integrate(system, history, *, steps_per_revolution: int = DEFAULT_STEPS_PER_REVOLUTION, dt: float | None = None,
-              start: str = "static", state=None, t0: float = 0.0, first_revolution: int = 0,
-              on_revolution=None, progress=None, prefix: str = OPTIONS_PREFIX, until: float | None = None) -> Runup:
-    """Integrate ``system`` (a MotionSystem) along ``history`` (a CrankHistory); see the module
-    docstring. ``state`` (η, η̇) at time ``t0`` (the start of revolution ``first_revolution``)
-    continues a run (a checkpoint) instead of ``start``; ``until`` stops at that time (s)."""
-    residual = _Residual(system, history)
-    n = system.n
-    step = default_step(history, steps_per_revolution) if dt is None else float(dt)
-    end = history.duration if until is None else min(float(until), history.duration)
-    ts = make_ts(residual, n, step, end, prefix)
-    ts.setTime(float(t0))
-    q0, v0 = initial_state(system, history, start) if state is None else state
+def is_adaptive(prefix: str = OPTIONS_PREFIX) -> bool:
+    """Whether the options database asks for adaptive steps (``-<prefix>ts_adapt_type`` other than none)."""
     from petsc4py import PETSc
 
-    u, v = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF), PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
-    u.setArray(q0)
-    v.setArray(v0)
-    ts.setSolution2(u, v)
-    out = Runup(history, 0, ts.getType())
-    gather = _Gather(system, history, out, on_revolution, first_revolution)
-    gather.add(float(t0), np.array(q0, float), np.array(v0, float))
+    kind = PETSc.Options(prefix).getString("ts_adapt_type", "none")
+    return kind.lower() != "none"
 
-    def post_step(ts):
+
+class Integration:
+    """``system`` (a MotionSystem) along ``history`` (a CrankHistory) by PETSc TS, in segments of at
+    most ``segment_steps`` steps, each a fresh TS from the state where the last one ended (so that a
+    run resumed from a checkpoint takes the same steps and gives the same numbers bit for bit). With
+    fixed steps (the default) the run takes N = ⌈duration/dt⌉ steps of ``dt``; with adaptive steps it
+    runs to the duration (the last step matched). See the module docstring."""
+
+    def __init__(self, system, history, *, steps_per_revolution: int = DEFAULT_STEPS_PER_REVOLUTION,
+                 dt: float | None = None, start: str = "static", on_revolution=None, progress=None,
+                 prefix: str = OPTIONS_PREFIX):
+        self.system, self.history, self.prefix, self.progress = system, history, prefix, progress
+        self.dt = default_step(history, steps_per_revolution) if dt is None else float(dt)
+        self.adaptive = is_adaptive(prefix)
+        self.total = int(np.ceil(history.duration / self.dt - 1e-9))
+        self.t, self.steps, self.rejected, self.ts_type = 0.0, 0, 0, "alpha2"
+        self.residual = _Residual(system, history)
+        self.out = Runup(history, 0, self.ts_type)
+        self.gather = _Gather(system, history, self.out, on_revolution, 0)
+        self.state = initial_state(system, history, start)
+        self.gather.add(0.0, *(np.array(x, float) for x in self.state))
+
+    @property
+    def done(self) -> bool:
+        if self.adaptive:
+            return self.t >= self.history.duration * (1.0 - 1e-12)
+        return self.steps >= self.total
+
+    def advance(self, max_steps: int) -> None:
+        """At most ``max_steps`` more steps (fewer at the end), from the current state."""
+        from petsc4py import PETSc
+
+        n = self.system.n
+        remaining = max_steps if self.adaptive else min(max_steps, self.total - self.steps)
+        ts = make_ts(self.residual, n, self.dt, self.history.duration if self.adaptive else 2.0 * self.history.duration
+                     + 1.0, self.prefix)
+        ts.setTime(self.t)
+        ts.setMaxSteps(int(remaining))
+        u, v = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF), PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
+        u.setArray(self.state[0])
+        v.setArray(self.state[1])
+        ts.setSolution2(u, v)
+
+        def post_step(ts):
+            U, V = ts.getSolution2()  # writable access would restart the step
+            t = ts.getTime()
+            self.gather.add(t, U.getArray(readonly=True).copy(), V.getArray(readonly=True).copy())
+            if self.progress is not None:
+                self.progress(t, self.history.duration)
+
+        ts.setPostStep(post_step)
+        ts.solve(u)
         U, V = ts.getSolution2()
-        t = ts.getTime()
-        gather.add(t, U.getArray(readonly=True).copy(), V.getArray(readonly=True).copy())  # writable access would restart the step
-        if progress is not None:
-            progress(t, history.duration)
+        self.t, self.state = ts.getTime(), (U.getArray(readonly=True).copy(), V.getArray(readonly=True).copy())
+        self.steps += ts.getStepNumber()
+        self.rejected += ts.getStepRejections()
+        self.ts_type = ts.getType()
+        self.dt = self.dt if not self.adaptive else ts.getTimeStep()
 
-    ts.setPostStep(post_step)
-    ts.solve(u)
-    gather.close()
-    out.steps, out.rejected = ts.getStepNumber(), ts.getStepRejections()
-    return out
+    def run(self, segment_steps: int = 2**31 - 1, after_segment=None) -> Runup:
+        """Segments until the end; ``after_segment(self)`` after each (a checkpoint)."""
+        while not self.done:
+            self.advance(segment_steps)
+            if self.done:
+                self.gather.close()
+            if after_segment is not None:
+                after_segment(self)
+        self.out.steps, self.out.rejected, self.out.ts_type = self.steps, self.rejected, self.ts_type
+        return self.out
+
+    # -- checkpoints -----------------------------------------------------------------------
+    def checkpoint(self) -> dict:
+        """The arrays that continue this run: time, steps, state and the open revolution's samples."""
+        buf, n = self.gather.buf, self.system.n
+        return {"t": self.t, "steps": self.steps, "rejected": self.rejected, "dt": self.dt,
+                "revolution": self.gather.index, "q": self.state[0], "q_dot": self.state[1],
+                "buffer_t": np.array([b[0] for b in buf]), "buffer_q": np.array([b[1] for b in buf]).reshape(len(buf), n),
+                "buffer_q_dot": np.array([b[2] for b in buf]).reshape(len(buf), n)}
+
+    def restore(self, cp: dict) -> None:
+        """Continue from :meth:`checkpoint`'s arrays (the revolutions before it already reported)."""
+        self.t, self.steps, self.rejected, self.dt = float(cp["t"]), int(cp["steps"]), int(cp["rejected"]), float(cp["dt"])
+        self.state = (np.array(cp["q"], float), np.array(cp["q_dot"], float))
+        self.gather.index = int(cp["revolution"])
+        self.gather.buf = [(float(t), np.array(a), np.array(b)) for t, a, b in
+                           zip(cp["buffer_t"], cp["buffer_q"], cp["buffer_q_dot"])]
 
 
+def integrate(system, history, *, segment_steps: int = 2**31 - 1, **options) -> Runup:
+    """One :class:`Integration` run to the end (``options`` as there)."""
+    return Integration(system, history, **options).run(segment_steps)
 class _Gather:
     """Samples grouped by revolution (a sample at a revolution's end closes it and opens the next)."""
 
@@ -209,5 +269,6 @@ class _Gather:
         self.buf = []
 
     def close(self):
-        if len(self.buf) > 1:
+        if len(self.buf) > 1:  # the last, possibly partial, revolution
             self.flush()
+        self.buf = []
