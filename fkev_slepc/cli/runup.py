@@ -33,15 +33,15 @@ def add_parser(sub) -> None:
     p.add_argument("--ramp", metavar="W0:W1", help="a linear speed ramp from W0 to W1, rad/s (with --duration): "
                    "θ = W0 t + (W1 - W0) t²/(2T)")
     p.add_argument("--duration", type=float, metavar="T", help="duration of the --ramp, s")
-    p.add_argument("--case", default="full", help="case name or Table 3.1 number (default full)")
+    p.add_argument("--case", default="full", help="case name or Table 3.1 number")
     p.add_argument("--reduce", default=None, metavar="none|links|links:N|N|moving:R",
                    help="the Floquet map's bases, one for the whole run: links (component modes in link frames, "
                    "the default modes per link), links:N, N frozen modes per angle or moving:R, the frozen ones at "
                    "the largest speed of the history (default none: the full model)")
     p.add_argument("--steps-per-revolution", type=int, default=256, metavar="K",
-                   help="fixed step 2π/(|Ω|max K) (default 256; at constant speed a revolution is K steps)")
+                   help="fixed step 2π/(|Ω|max K) (at constant speed a revolution is K steps)")
     p.add_argument("--start", choices=("static", "zero"), default="static",
-                   help="initial state: the rest deflection K⁻¹f with zero rate (default), or zero")
+                   help="initial state: the rest deflection K⁻¹f with zero rate, or zero")
     add_elements_argument(p)
     p.add_argument("--output", "-o", metavar="PATH.h5", help="HDF5 product, rewritten at every checkpoint")
     p.add_argument("--resume", action="store_true", help="with -o: continue an interrupted run from its checkpoint")
