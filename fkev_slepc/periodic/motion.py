@@ -135,10 +135,11 @@ class MotionSystem:
         return np.concatenate([[0], np.cumsum(sizes)])
 
     def _interpolate(self):
-        """The interpolant of the pieces (each scaled by its largest sample), samples doubled from
-        START_SAMPLES until the midpoint error <= tol."""
+        """The interpolant of the coefficient and load pieces (each scaled by its largest sample),
+        samples doubled from START_SAMPLES until their midpoint error <= tol; a reduced basis's W from
+        the same samples, in an interpolant of its own (read once per revolution, not per step)."""
         edges = self._layout()
-        k = START_SAMPLES
+        k, cut = START_SAMPLES, edges[len(MATRICES) + len(LOADS)]
         S = self.exact(TWO_PI * np.arange(k) / k)
         while True:
             scale = np.ones(S.shape[1])
@@ -147,14 +148,17 @@ class MotionSystem:
                 scale[a:b] = peak if peak > 0 else 1.0
             mid = TWO_PI * (np.arange(k) + 0.5) / k
             exact = self.exact(mid)
-            err = float(np.max(np.abs(TrigInterpolant(0.0, S / scale)(mid) - exact / scale)))
+            err = float(np.max(np.abs(TrigInterpolant(0.0, S[:, :cut] / scale[:cut])(mid) - exact[:, :cut] / scale[:cut])))
             both = np.empty((2 * k, S.shape[1]))
             both[0::2], both[1::2] = S, exact
             S, k = both, 2 * k
             if err <= self.tol or k >= MAX_SAMPLES:
+                if self.basis is not None:
+                    self._frame = TrigInterpolant(0.0, S[:, cut:], drop=0.1 * self.tol)
+                S = S[:, :cut]
                 keep = np.flatnonzero(np.any(S != 0.0, axis=0))  # the pattern's zeros stay zero
                 return _Pieces(TrigInterpolant(0.0, S[:, keep] / scale[keep], drop=0.1 * self.tol),
-                               keep, scale[keep], S.shape[1], edges), err, k
+                               keep, scale[keep], cut, edges[: len(MATRICES) + len(LOADS) + 1]), err, k
 
     # -- one instant -----------------------------------------------------------------------
     def at(self, theta: float, omega: float, accel: float):
@@ -169,21 +173,22 @@ class MotionSystem:
         f = f0 + (omega * omega) * f2 + accel * fa
         if self.process:
             fp = process_load_vectors(self.model, [theta])[0]
-            f = f + (fp if self.basis is None else self.frame(theta).T @ fp)
+            f = f + (fp if self.basis is None else self.frame(theta)[0].T @ fp)
         return M, C, K, f
 
-    def frame(self, theta: float) -> np.ndarray:
-        """W (n_free, n) at ``theta``: q = W η (the identity on the full model)."""
+    def frame(self, theta) -> np.ndarray:
+        """W (len(θ), n_free, n) at crank angles ``theta``: q = W η (the identity on the full model)."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
         if self.basis is None:
-            return np.eye(self.n)
-        return self.interpolant.parts(theta)[-1].reshape(int(self.model.n_free), self.n)
+            return np.broadcast_to(np.eye(self.n), (theta.size, self.n, self.n))
+        return self._frame(theta).reshape(theta.size, int(self.model.n_free), self.n)
 
     def expand(self, theta, eta) -> np.ndarray:
         """q (len(θ), n_free) of coordinates ``eta`` (len(θ), n) at crank angles ``theta``."""
         eta = np.atleast_2d(eta)
         if self.basis is None:
             return eta
-        return np.stack([self.frame(t) @ e for t, e in zip(np.atleast_1d(theta), eta)])
+        return np.einsum("kij,kj->ki", self.frame(theta), eta)
 
 
 class _Pieces:
