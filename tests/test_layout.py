@@ -269,7 +269,7 @@ def test_links_to_headings_resolve():
 
 # the speed-weighted pieces of the periodic coefficients (model/periodic.py, PeriodicPieces): summed into
 # the coefficients at a speed in one place, PeriodicPieces.at_speed, which PeriodicSystem calls
-SPEED_PIECES = {"gyro", "speed_stiffness", "potential", "coupling", "damping_stiffness"}
+SPEED_PIECES = {"gyro", "speed_stiffness", "potential", "coupling", "damping_stiffness", "accel_stiffness"}
 OMEGA_SUM_HOME = PKG / "model" / "periodic.py"
 
 

@@ -9,11 +9,12 @@ from fkev_slepc.api.floquet import study_floquet
 from fkev_slepc.api.loads import study_loads
 from fkev_slepc.api.response import study_response
 from fkev_slepc.api.response_speeds import response_vs_speed
+from fkev_slepc.api.runup import study_runup
 from fkev_slepc.design.check import design_check
 
 
 class RunningSpeed:
-    """``Study.loads``, ``Study.response``, ``Study.design_check`` and ``Study.floquet`` (``self.scene`` is
+    """``Study.loads``, ``Study.response``, ``Study.design_check``, ``Study.floquet`` and ``Study.runup`` (``self.scene`` is
     the study's scene; their models come from ``self.pool``, fkev_slepc/api/pool.py; ``loads`` needs none)."""
 
     def loads(self, speed_rad_s: float, angles_deg=None, accel_rad_s2=None, gravity_m_s2=None):
@@ -54,3 +55,12 @@ class RunningSpeed:
         resonance_order, probe, reduce, ``settings``: a :class:`~fkev_slepc.periodic.settings.PeriodicSettings`
         that those override, archived whole in ``/floquet/settings`` and compared whole on ``resume``, ...)."""
         return study_floquet(self, speeds_rad_s, case, output, **options)
+
+    def runup(self, speed_rad_s=None, revolutions=None, *, ramp_rad_s=None, duration_s=None, case="full", **options):
+        """The run-up in time (``fkev runup``): a constant ``speed_rad_s`` for ``revolutions``, or a linear
+        ``ramp_rad_s`` (W0, W1) over ``duration_s``: :func:`fkev_slepc.api.runup.study_runup` (options
+        ``reduce``, ``start``, ``steps_per_revolution``, ``gravity_m_s2``, ``damping``, ``output``, ``resume``,
+        ``progress``); ``.as_dict()`` has ``time_s``, ``speed_rad_s`` and per link ``peak_stress_pa``,
+        ``peak_deflection_m``, one value per revolution."""
+        return study_runup(self.scene, speed=speed_rad_s, revolutions=revolutions, ramp=ramp_rad_s,
+                           duration=duration_s, case=case, model_for=self.pool.model_for, **options)

@@ -1,4 +1,4 @@
-"""Command line: ``fkev run | point | check | info | verify | plot | export | critical | loads | floquet | response | design-check``. Wiring only.
+"""Command line: ``fkev run | point | check | info | verify | plot | export | critical | loads | floquet | response | design-check | runup``. Wiring only.
 
 Each subcommand lives in its own module exposing ``add_parser(subparsers)``, which registers
 the parser and sets ``func`` (args -> exit code). PETSc/SLEPc options (``-fkev_pep_type toar``)
@@ -20,7 +20,7 @@ from fkev_slepc.cli import pipes
 from fkev_slepc.solve.petsc_init import init_petsc
 from fkev_slepc.sweep.parallel import configure_logging, software_versions, world
 SUBCOMMANDS = ("run", "point", "check", "info", "verify", "plot", "export", "critical", "margins", "design",
-               "design-check", "loads", "drive", "floquet", "response")
+               "design-check", "loads", "drive", "floquet", "response", "runup")
 COLLECTIVE = ("run", "design", "floquet")  # every rank of mpiexec takes part; any other command runs on rank 0 alone
 GLOBAL_FLAGS = {"-v": ("verbose", 1), "--verbose": ("verbose", 1), "-q": ("quiet", 1), "--quiet": ("quiet", 1)}
 

@@ -27,7 +27,8 @@ Public API: ``periodic_pieces(model, thetas, case) -> PeriodicPieces`` (every ar
 CSR data on ``model.pattern``, shape (len(thetas), nnz); θ in rad), and
 ``PeriodicPieces.coefficients(omega) -> (M, C, K)`` data stacks for Ω in rad/s (M q̈ + C q̇ +
 K q = 0 in time t). A scene with a crank acceleration is refused (ValueError naming
-``driver.acceleration_rad_s2``).
+``driver.acceleration_rad_s2``); a run-up's varying speed takes ``accel=True`` and
+``at_speed(Ω, accel=α)`` instead (docs/theory.md §21: φ̈ = φ''Ω² + φ'α adds α K_α).
 
 Out of plane (``Model(..., plane="out")``, §19.9) the same formulas hold with m_a = 0 (no
 Coriolis, no tangential term), the propeller matrix for the normal term's m, and E acting on each
@@ -61,19 +62,26 @@ class PeriodicPieces:
     potential: np.ndarray | None  # V₂ (Lagrangian cases), per Ω²
     damping: np.ndarray | None  # C_d
     damping_stiffness: np.ndarray | None  # K_d, per Ω
+    accel_stiffness: np.ndarray | None = None  # K_α, per crank acceleration α (``periodic_pieces(..., accel=True)``)
 
     @property
     def lagrangian(self) -> bool:
         return self.coupling is not None
 
-    def at_speed(self, omega: float, damping: bool = True) -> SpeedCoefficients:
+    def at_speed(self, omega: float, damping: bool = True, accel: float = 0.0) -> SpeedCoefficients:
         """The one Ω-sum of the periodic coefficients: CSR data stacks at crank speed ``omega``
         (rad/s), with the structural damping where ``damping`` and the model has it
-        (``tests/test_layout.py`` fails on a sum of these pieces anywhere else)."""
-        w = float(omega)
+        (``tests/test_layout.py`` fails on a sum of these pieces anywhere else). ``accel``: the crank
+        acceleration α (rad/s²) of a run-up (docs/theory.md §21): K gains α K_α and V the α part of the
+        axial-force stiffness (needs the pieces built with ``accel=True``)."""
+        w, a = float(omega), float(accel)
+        if a and self.accel_stiffness is None:
+            raise ValueError("accel: these periodic pieces were built without the crank-acceleration piece")
         damped = damping and self.damping is not None
         C = w * self.gyro
         K = self.stiffness + w * w * self.speed_stiffness
+        if a:
+            K = K + a * self.accel_stiffness
         N = V = Cd = Kd = None
         if damped:
             C = C + self.damping
@@ -81,6 +89,8 @@ class PeriodicPieces:
             Cd, Kd = self.damping, w * self.damping_stiffness
         if self.lagrangian:
             N, V = w * self.coupling, self.stiffness + w * w * self.potential
+            if a:  # K_α = N₁ + c_p k_g^(α): its potential part is K_α - N₁ (docs/theory.md §21)
+                V = V + a * (self.accel_stiffness - self.coupling)
         return SpeedCoefficients(self.mass, C, K, N, V, Cd, Kd)
 
     def coefficients(self, omega: float):
@@ -111,9 +121,11 @@ def frame_rate(n_dof: int) -> np.ndarray:
     return E
 
 
-def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
+def periodic_pieces(model, thetas, case: str = "full", accel: bool = False) -> PeriodicPieces:
     """Exact periodic coefficient pieces of ``model`` at crank angles ``thetas`` (rad), built on
-    its element stacks and vectorised angle state (model/stacks.py) in one batched product."""
+    its element stacks and vectorised angle state (model/stacks.py) in one batched product.
+    ``accel``: also the piece K_α per crank acceleration of a run-up (docs/theory.md §21),
+    K_α = Σ Tᵀ[φ'(c_t m_a − m E) + c_p k_g^(α)]T."""
     if case not in CASES:
         raise ValueError(f"case: unknown case {case!r}; known: {', '.join(CASE_NAMES)}")
     acc = model.scene.driver.acceleration
@@ -154,8 +166,12 @@ def periodic_pieces(model, thetas, case: str = "full") -> PeriodicPieces:
         damping_k = pat.scatter(g(-dp * ((a_d * m + b_d * ks) @ E)))
         if mech.mass_value.size and a_d:
             damping_k = _lumped_frame_damping(pat, damping_k, mech, state.kinematics, a_d)
+    accel_k = None
+    if accel:
+        kga = st.axial_force(state.axial[1]) if cp else 0.0
+        accel_k = pat.scatter(g(dp * (ct * ma - mE) + kga))
     # compliant joints (in K_s of the stack): a potential, not damped (§19.8)
-    return PeriodicPieces(thetas, case, mass, gyro, stiff, speed, coupling, potential, damping, damping_k)
+    return PeriodicPieces(thetas, case, mass, gyro, stiff, speed, coupling, potential, damping, damping_k, accel_k)
 
 
 def _lumped_frame_damping(pat, data, mech, kin, a_d):

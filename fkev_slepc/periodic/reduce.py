@@ -16,7 +16,9 @@ of model/periodic.py is again Lagrangian (so symplectic steps still apply):
 
     M_r = WᵀMW,  N_r = Ω WᵀMW' + WᵀNW,  V_r = WᵀVW - Ω² W'ᵀMW' - 2Ω sym(W'ᵀNW),
     C_d,r = WᵀC_dW,  K_d,r = Ω WᵀC_dW' + WᵀK_dW,
-    C_r = 2Ω WᵀMW' + WᵀCW,  K_r = Ω² WᵀMW'' + Ω WᵀCW' + WᵀKW   (second-order form).
+    C_r = 2Ω WᵀMW' + WᵀCW,  K_r = Ω² WᵀMW'' + Ω WᵀCW' + WᵀKW   (second-order form),
+
+and along a run-up with crank acceleration α, K_r gains α WᵀMW' (docs/theory.md §21).
 
 For the lone crank the co-rotated system has constant coefficients, so its lowest frozen modes
 span an invariant subspace and the reduction is exact for them.
@@ -123,14 +125,15 @@ class CorotatedBasis:
         return basis_derivatives(self.Vhat, self.pairs, phi, dphi, ddphi)
 
 
-def reduced_coefficients(model, c, thetas, omega, basis):
+def reduced_coefficients(model, c, thetas, omega, basis, accel: float = 0.0):
     """Dense reduced (M, C, K, N, V, C_d, K_d) stacks (see the module docstring) of the full model's
     coefficients ``c`` at crank speed ``omega`` (:meth:`PeriodicPieces.at_speed
     <fkev_slepc.model.periodic.PeriodicPieces.at_speed>`) on ``basis``: a co-rotated V̂ (n, R), or any
     object whose ``at(φ, φ', φ'')`` gives (W, W', W'') at one crank angle from the link angles and rates
     (:class:`CorotatedBasis`, or the link-frame component modes of fkev_slepc/periodic/components.py),
     or whose ``at_angle(θ)`` gives them from the crank angle (the moving frozen-mode basis of
-    fkev_slepc/periodic/moving.py)."""
+    fkev_slepc/periodic/moving.py). ``accel``: the crank acceleration α (rad/s²) of a run-up at which
+    ``c`` was taken; K_r gains α WᵀMW' (docs/theory.md §21)."""
     mat = model.pattern.matrix
     w = float(omega)
     out = {k: [] for k in "M C K N V Cd Kd".split()}
@@ -140,7 +143,7 @@ def reduced_coefficients(model, c, thetas, omega, basis):
         Cm, Km = mat(c.C[i]), mat(c.K[i])
         out["M"].append(W.T @ MW)
         out["C"].append(2 * w * W.T @ MW1 + W.T @ (Cm @ W))
-        out["K"].append(w * w * W.T @ (Mm @ W2) + w * W.T @ (Cm @ W1) + W.T @ (Km @ W))
+        out["K"].append(w * w * W.T @ (Mm @ W2) + w * W.T @ (Cm @ W1) + W.T @ (Km @ W) + accel * (W.T @ MW1))
         if c.N is not None:
             NW = mat(c.N[i]) @ W
             X = W1.T @ NW
