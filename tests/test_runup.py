@@ -16,6 +16,7 @@ from fkev_slepc.model.operators import Model
 from fkev_slepc.model.periodic import periodic_pieces
 from fkev_slepc.model.pieces import combine
 from fkev_slepc.periodic.floquet import floquet_multipliers
+from fkev_slepc.periodic.system import PeriodicSystem
 from fkev_slepc.periodic.motion import CrankHistory, MotionSystem
 from fkev_slepc.periodic.runup import integrate
 from fkev_slepc.scene import SceneError
@@ -97,7 +98,7 @@ def test_growth_inside_a_band_is_floquets_rate():
     growth from revolution 10 to 20 at 1024 steps per revolution is that rate to 1e-3 (measured 3.6e-4;
     4.0e-3 at 256 steps, 1.1e-3 at 512)."""
     _, m = _model(UNDAMPED)
-    fl = floquet_multipliers(m, 1900.0, "full")
+    fl = floquet_multipliers(PeriodicSystem(m, 1900.0, "full"))
     rate = float(np.max(fl.exponents.real))
     assert fl.max_abs > 5.0
     r = integrate(MotionSystem(m, "full"), CrankHistory.constant(1900.0, 20), steps_per_revolution=1024)

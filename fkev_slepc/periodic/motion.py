@@ -211,9 +211,12 @@ RUNUP_REDUCE = "none, links, links:N, N or moving:R"
 
 def runup_reduction(value):
     """The resolved ``reduce`` of a run-up (``periodic.settings.resolve_reduce``), or ValueError: one fixed
-    basis for the whole history, so none of the convergence sequences (auto, default, moving)."""
+    basis for the whole history, so none of the convergence sequences (auto, default, moving). Not given
+    (None), the run-up's default: the full model."""
     from fkev_slepc.periodic.settings import resolve_reduce
 
+    if value is None:
+        return None
     r = resolve_reduce(value)
     if r in ("auto", "default", "moving"):
         raise ValueError(f"the run-up takes one fixed basis: {RUNUP_REDUCE} (got {value!r})")
