@@ -17,6 +17,7 @@ import h5py
 import numpy as np
 
 from fkev_slepc.archive.labelled import write_labelled
+from fkev_slepc.archive.product_types import CASE, SPEED
 from fkev_slepc.archive.store import ArchiveMismatch
 
 RUNUP_FORMAT = "fkev-runup"
@@ -35,7 +36,7 @@ def write_runup(path, result, run) -> None:
     table = lambda x: np.array(x, float).reshape(len(rev), n_link)  # noqa: E731
     variables = {
         "time_s": (("revolution",), np.array(result.time_s, float), "s", "time at the revolution's end"),
-        "speed_rad_s": (("revolution",), np.array(result.speed_rad_s, float), "rad/s", "crank speed at its end"),
+        SPEED: (("revolution",), np.array(result.speed_rad_s, float), "rad/s", "crank speed at its end"),
         "peak_stress_pa": (("revolution", "link"), table(result.peak_stress_pa), "Pa",
                            "peak extreme-fibre |stress| over the revolution (NaN without fibre distance)"),
         "peak_deflection_m": (("revolution", "link"), table(result.peak_deflection_m), "m",
@@ -46,7 +47,7 @@ def write_runup(path, result, run) -> None:
         "open_q": (("sample", "coordinate"), cp["buffer_q"].reshape(-1, n), "m or rad", "its states"),
         "open_q_dot": (("sample", "coordinate"), cp["buffer_q_dot"].reshape(-1, n), "m/s or rad/s", "its rates"),
     }
-    attrs = {"title": result.title, "scene_toml": result.scene_text, "case": result.case,
+    attrs = {"title": result.title, "scene_toml": result.scene_text, CASE: result.case,
              "arguments": json.dumps(result.arguments, sort_keys=True), "complete": bool(run.done),
              "steps_total": int(run.steps), "ts_type": run.ts_type,
              **{f"checkpoint_{k}": cp[k] for k in CHECKPOINT_ATTRS}}
@@ -59,13 +60,13 @@ def read_checkpoint(path, result, run) -> None:
     with h5py.File(path, "r") as f:
         if f.attrs.get("format") != RUNUP_FORMAT:
             raise ArchiveMismatch(f"--resume: {path} is not a run-up product (format {f.attrs.get('format')!r})")
-        for key, want in (("scene_toml", result.scene_text), ("case", result.case),
+        for key, want in (("scene_toml", result.scene_text), (CASE, result.case),
                           ("arguments", json.dumps(result.arguments, sort_keys=True))):
             if f.attrs.get(key) != want:
                 raise ArchiveMismatch(f"--resume: {path} was run with another {key.replace('_toml', '')} "
                                       "(use another -o, or run without --resume to replace it)")
         result.time_s = [float(x) for x in f["time_s"][()]]
-        result.speed_rad_s = [float(x) for x in f["speed_rad_s"][()]]
+        result.speed_rad_s = [float(x) for x in f[SPEED][()]]
         result.peak_stress_pa = [list(map(float, r)) for r in f["peak_stress_pa"][()]]
         result.peak_deflection_m = [list(map(float, r)) for r in f["peak_deflection_m"][()]]
         cp = {k: f.attrs[f"checkpoint_{k}"] for k in CHECKPOINT_ATTRS}
