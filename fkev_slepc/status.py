@@ -1,12 +1,14 @@
 """Constants shared by every stage, defined once: per-point statuses and the exit codes (and the
 one NaN/∞ -> None rule of every JSON number, :func:`json_number`).
 
-This module imports nothing from the package, so any stage may import it.
+This module imports nothing from the package (numpy only), so any stage may import it.
 """
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from enum import StrEnum
 
@@ -82,3 +84,8 @@ def converged_codes() -> list[int]:
 def json_number(x) -> float | None:
     """``float(x)``, or None for None, NaN and ±∞ (JSON has neither: ``null``)."""
     return None if x is None or not math.isfinite(x) else float(x)
+
+
+def json_list(a) -> list:
+    """:func:`json_number` of every entry of ``a`` (flattened; numpy arrays, sequences)."""
+    return [json_number(v) for v in np.asarray(a, dtype=float).ravel()]

@@ -11,7 +11,7 @@ import numpy as np
 from fkev_slepc.model.mechanism import node_displacement
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
-from fkev_slepc.status import json_number
+from fkev_slepc.status import json_list, json_number
 
 RESPONSE_FORMAT = "fkev-response"
 
@@ -106,8 +106,6 @@ class ResponseResult:
                 "crank_angle_deg": float(self.angle_deg[a])}
 
     def as_dict(self) -> dict:
-        from fkev_slepc.model.joint_loads import json_list
-
         from fkev_slepc.periodic.link_stress import FACES
         from fkev_slepc.periodic.stations import cycle_parts
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from fkev_slepc.api.pool import ModelPool
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.status import json_list
 
 
 @dataclass(frozen=True)
@@ -29,8 +30,6 @@ class SpeedResponse:
     solutions: tuple[dict, ...] = ()  # per speed: how it was solved and its truncation (ResponseResult.solution)
 
     def as_dict(self) -> dict:
-        from fkev_slepc.model.joint_loads import json_list
-
         return {"scene": self.title, "case": self.case, "speed_rad_s": json_list(self.speeds),
                 "stations": [{"station": lab, "peak_transverse_m": json_list(self.peak_transverse[:, k]),
                               "peak_transverse_chord_m": json_list(self.peak_chord[:, k]),

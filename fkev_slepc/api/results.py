@@ -12,7 +12,7 @@ import numpy as np
 from fkev_slepc.archive import reader
 from fkev_slepc.solve import modes as _modes
 from fkev_slepc.solve.stability import FROZEN_TIME
-from fkev_slepc.status import CONVERGED
+from fkev_slepc.status import CONVERGED, json_number
 from fkev_slepc.model.operators import Model
 from fkev_slepc.model.plane import Plane
 from fkev_slepc.solve.sensitivity import point_sensitivity, point_solver
@@ -192,7 +192,8 @@ class PointResult:
     def as_dict(self) -> dict:
         """JSON-ready summary (None for missing values), as ``fkev point --json`` prints it."""
         def num(v):
-            return None if not np.isfinite(v) else float(v) + 0.0  # + 0.0: no -0.0 (an exact zero Re λ)
+            x = json_number(v)
+            return None if x is None else x + 0.0  # + 0.0: no -0.0 (an exact zero Re λ)
 
         out = {"scene": self.title, "angle_deg": self.angle_deg, "speed_rad_s": self.speed_rad_s,
                "case": self.case, "plane": self.plane, "n_free": self.n_free, "kind": self.kind, "solver": self.solver,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from fkev_slepc.periodic import limits
 from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError, with_elements
 from fkev_slepc.scene.units import RAD_S_PER_RPM
 from fkev_slepc.sweep.grid import modes_problem  # noqa: F401 (re-exported to the subcommands)
@@ -125,9 +126,7 @@ def load_checked(path, elements=None, check_angles: bool = True) -> Scene:
 
 
 PLOT_FORMATS = (".png", ".pdf", ".svg")  # every --plot of every command
-MAX_FREE_DOFS = 100_000  # a mesh beyond: refused before meshing (docs/cli.md, "Limits"; 50,400 DOFs measured in docs/engine.md)
-MAX_PERIODIC_DOFS = 1_000  # floquet and response integrate dense 2n x 2n states: beyond, refused
-MAX_COMPONENT_DOFS = 2_000  # the response on link components (54 s, 1.7 GB at 999 DOFs, docs/engine.md): beyond, refused
+CLI_NAMES = {"elements": "--elements", "harmonics": "--harmonics"}  # how periodic/limits.py names them on the command line
 
 
 def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", plots: tuple[str, ...] = ("plot",),
@@ -137,20 +136,16 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
     commands): the figure paths (``plots``: attribute names of ``args``, e.g. ``plot_stations`` for
     ``--plot-stations``; a format matplotlib writes, an existing folder), the ``output`` file of a
     labelled result (``-o``: not a directory), the mesh size (``--elements``: at most
-    :data:`MAX_FREE_DOFS` free DOFs, :data:`MAX_PERIODIC_DOFS` for the ``periodic`` commands floquet
-    and response; a response on link components, ``reduce``, up to the memory its estimate allows:
-    :func:`fkev_slepc.periodic.component_response.memory_problem`), the harmonic-balance size
-    (``harmonics``), the damping (ζ over-critical,
-    :func:`fkev_slepc.scene.plausible.damping_warnings`) and ``speeds`` whose operators overflow
-    double precision (named by ``speed_flag``).
+    :func:`fkev_slepc.periodic.limits.size_problems`, the limits the Python API checks
+    too), the harmonic-balance size (``harmonics``), the damping (ζ over-critical) and ``speeds`` whose
+    operators overflow double precision (named by ``speed_flag``;
+    :func:`fkev_slepc.periodic.limits.plausibility_problems`).
 
     Raises
     ------
     SceneError
         Every problem found, each naming its flag and value.
     """
-    from dataclasses import replace
-
     from fkev_slepc.archive.paths import PathProblem, check_output
 
     bad: list[Problem] = []
@@ -167,53 +162,12 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
             check_output(output, (".h5",), "-o", make_parent=True)
         except PathProblem as exc:
             bad.append(Problem("-o", str(exc).removeprefix("-o ")))
-    bad += _size_problems(scene, periodic, harmonics, reduce)
+    bad += limits.size_problems(scene, periodic, harmonics, reduce, CLI_NAMES)
     if bad:  # nothing below is worth computing
         raise SceneError(scene.source, bad)
-    if periodic:
-        from fkev_slepc.scene.plausible import damping_warnings, summarize_scene
-
-        bad += [Problem("damping", w.removeprefix("damping: ")) for w in damping_warnings(scene, summarize_scene(scene))]
-    if speeds is not None and len(speeds):
-        from fkev_slepc.solve.finite import overflow_problems
-
-        top = max((float(w) for w in speeds), key=abs)
-        at = replace(scene, driver=replace(scene.driver, speeds=(top,)))
-        bad += [Problem(speed_flag if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(at)]
+    bad += limits.plausibility_problems(scene, speeds, periodic, {**CLI_NAMES, "speed_rad_s": speed_flag})
     if bad:
         raise SceneError(scene.source, bad)
-
-
-def _size_problems(scene: Scene, periodic: bool, harmonics: int | None, reduce=None) -> list[Problem]:
-    """The mesh (and harmonic balance) too large to be worth starting, with the numbers and the way out."""
-    from fkev_slepc.model.mechanism import build_mechanism
-
-    mech = build_mechanism(scene)
-    n = mech.n_free
-    limit, what = (MAX_PERIODIC_DOFS, "the periodic solvers integrate dense states of 2n") if periodic else (
-        MAX_FREE_DOFS, "the limit of one command")
-    if periodic and reduce is not None and n > MAX_COMPONENT_DOFS:
-        limit, what = MAX_COMPONENT_DOFS, "the response on link components: 54 s and 1.7 GB at 999 DOFs"
-    elif periodic and reduce is not None:
-        from fkev_slepc.periodic.component_response import memory_problem
-
-        try:
-            text = memory_problem(mech, reduce, harmonics)
-        except ValueError:
-            text = None  # a bad --reduce: named by the response's own check
-        if text != "full":
-            return [] if text is None else [Problem("--elements", text)]
-    if n > limit:
-        return [Problem("--elements", f"{n} free DOFs exceed {limit} ({what}; docs/cli.md, Limits): use fewer "
-                                      "--elements")]
-    if harmonics is not None:
-        from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS
-
-        if (2 * harmonics + 1) * n > MAX_UNKNOWNS:
-            return [Problem("--harmonics", f"{harmonics} harmonics x {n} DOFs = {(2 * harmonics + 1) * n} unknowns "
-                                           f"exceed the dense limit {MAX_UNKNOWNS}: use at most "
-                                           f"{max(MAX_UNKNOWNS // n - 1, 0) // 2} harmonics (got {harmonics})")]
-    return []
 
 
 def report_scene_error(err: SceneError) -> int:

@@ -31,6 +31,7 @@ from fkev_slepc.model.kinematics import Kinematics, perp, unit_vector, point_loc
 from fkev_slepc.model.kinetostatics import solve_loads
 from fkev_slepc.model.mechanism import Mechanism
 from fkev_slepc.model.process_loads import process_kinetostatics, process_points
+from fkev_slepc.status import json_list
 
 POINT_NAMES = ("root", "tip", "third")
 
@@ -160,12 +161,6 @@ class JointLoads:
                               for i, name in enumerate(self.process_names)},
             "process_power_w": json_list(self.process_power),
         }
-
-
-def json_list(a) -> list:
-    """JSON-ready list, NaN as None."""
-    a = np.asarray(a, dtype=float)
-    return [None if not np.isfinite(v) else float(v) for v in a.ravel()]
 
 
 def gravity_kinematics(kin: Kinematics, gravity: np.ndarray) -> Kinematics:

@@ -109,7 +109,7 @@ class Band:
         """JSON: an edge that was not located is null: open (the band reaches the end of the
         speeds examined, ``lower_open``/``upper_open``, which end: ``unstable_down_to_rad_s`` /
         ``unstable_up_to_rad_s``) or not refined (a monodromy inside did not converge)."""
-        num = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
+        num = json_number
         return {"lower_rad_s": None if self.lower_open else num(self.lower),
                 "upper_rad_s": None if self.upper_open else num(self.upper), "resonance": self.resonance or None,
                 "lower_open": self.lower_open, "upper_open": self.upper_open,

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.periodic.stations import cycle_parts
+from fkev_slepc.status import json_list
 
 FACES = ("plus", "minus")  # the faces at +c and −c along the link's left normal
 
@@ -58,8 +59,6 @@ class LinkStress:
 
     def as_dict(self) -> dict:
         """Per link: the peak and, per point, s and the cycle parts of both faces (lists)."""
-        from fkev_slepc.model.joint_loads import json_list
-
         parts = dict(zip(("stress_max_pa", "stress_min_pa", "stress_mean_pa", "stress_alternating_pa"), self.parts()))
         out = {}
         for lk, name in enumerate(self.link_names):

@@ -11,7 +11,7 @@ import numpy as np
 from fkev_slepc.periodic.bands import Band, Gap, survives_damping
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene.model import Damping
-from fkev_slepc.status import Status
+from fkev_slepc.status import Status, json_list, json_number
 
 INTEGER_ROWS = ("basis_size", "truncation_converged")  # reduction rows given as integers in the JSON
 
@@ -51,7 +51,7 @@ class FloquetResults:
         full = np.asarray(self.reduction.get("basis_size", ()), dtype=float) == 0
         out = {}
         for k, col in self.reduction.items():
-            vals = [None if not np.isfinite(v) else (int(v) if k in INTEGER_ROWS else float(v)) for v in col]
+            vals = [v if v is None or k not in INTEGER_ROWS else int(v) for v in json_list(col)]
             out[k] = [None if k.startswith("truncation_") and i < full.size and full[i] else v
                       for i, v in enumerate(vals)]
         return out
@@ -79,7 +79,7 @@ class FloquetResults:
         return len(self.grid_inside(band))
 
     def as_dict(self) -> dict:
-        num = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
+        num = json_number
         return {
             "scene": self.title, "case": self.case, "archive": str(self.path),
             "speed_rad_s": [float(w) for w in self.speed_rad_s],

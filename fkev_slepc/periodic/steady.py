@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fkev_slepc.periodic import limits
 from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings, checked_settings
 from fkev_slepc.scene import Problem, Scene, SceneError
 
@@ -21,7 +22,9 @@ DEFAULT_ANGLES_DEG = DEFAULTS.response_angles_deg  # output angles of a response
 def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
                   harmonics=None, names=None, reduce=None, settings: PeriodicSettings = DEFAULTS, model_for=None):
     """``(model, case, angles_deg, gravity)`` of a response at ``speed_rad_s``, or one SceneError
-    naming every bad argument: a speed or gravity that is not finite, and every problem of
+    naming every bad argument: a speed or gravity that is not finite, over-critical damping or
+    operators that overflow at the speed (:func:`fkev_slepc.periodic.limits.plausibility_problems`),
+    and every problem of
     :func:`checked_model` (``settings`` and ``model_for`` as there); then the output angles (default
     :data:`DEFAULT_ANGLES_DEG`) where the linkage does not assemble. ``case`` is returned by name."""
     from fkev_slepc.model.operating_point import checked_angles, operating_point_problems
@@ -29,8 +32,9 @@ def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None
 
     names = names or {}
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
-    model = checked_model(scene, case, harmonics, names, operating_point_problems(speed_rad_s, 0.0, gravity, names),
-                          reduce=reduce, settings=settings, model_for=model_for)
+    bad = operating_point_problems(speed_rad_s, 0.0, gravity, names)
+    bad = bad or limits.plausibility_problems(scene, [speed_rad_s], periodic=True, names=names)
+    model = checked_model(scene, case, harmonics, names, bad, reduce=reduce, settings=settings, model_for=model_for)
     a = checked_angles(scene, model.mechanism, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
                        names.get("angles_deg", "angles_deg"))
     return model, case_name(case), a, np.asarray(gravity, float)
@@ -45,7 +49,8 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     ``periodic.harmonic_balance.MAX_UNKNOWNS`` ((2H + 1)·R unknowns at the fixed H, or at H = 16, the
     first level doubled from 8; R = n for the full model, the first level's basis on link
     components: :func:`fkev_slepc.periodic.component_response.first_level_size`; not asked of a
-    lone rotating link, one static solve). ``settings``: its ``full_max_dofs`` and ``link_modes``
+    lone rotating link, one static solve), after the mesh and memory limits of
+    :func:`fkev_slepc.periodic.limits.size_problems`. ``settings``: its ``full_max_dofs`` and ``link_modes``
     decide the reduction and its first level. ``model_for(scene, cases, plane)`` gives the model once
     the arguments are checked (default ``Model``: a new one; a Study passes its pool's
     :meth:`~fkev_slepc.api.pool.ModelPool.model_for`, whose model may assemble more terms than the
@@ -83,6 +88,9 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     if turn is not None:
         bad.append(turn)
     if bad:
+        raise SceneError(scene.source, bad)
+    bad = limits.size_problems(scene, True, harmonics, "default" if reduce is None else reduce, names)
+    if bad:  # the limits of fkev response, in its words (fkev_slepc/periodic/limits.py)
         raise SceneError(scene.source, bad)
     model = (Model if model_for is None else model_for)(scene, (case,), "in")
     H = 16 if harmonics is None else int(harmonics)

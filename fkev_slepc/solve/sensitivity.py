@@ -37,6 +37,7 @@ from fkev_slepc.model.operators import AssemblyError, Model
 from fkev_slepc.solve.engines import make_engine
 from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.solve.thresholds import SolveSettings
+from fkev_slepc.status import json_list
 
 REL_STEP = 1e-6  # operator differences: truncation h² ~ 1e-12, round-off ε/h ~ 1e-10 of the derivative
 REPEATED_RTOL = 1e-9  # eigenvalues this close (relative) are taken as one double eigenvalue
@@ -70,7 +71,7 @@ class Sensitivity:
 
     def as_dict(self) -> dict:
         """The JSON of ``fkev point --sensitivity KEY --json`` (None for a missing mode)."""
-        num = lambda a: [None if not np.isfinite(v) else float(v) for v in a]  # noqa: E731
+        num = json_list
         return {"value": self.value, "step": self.step, "method": self.method,
                 "frequency_hz": num(self.frequency_hz), "damping_ratio": num(self.damping_ratio),
                 "relative_frequency": num(self.relative_frequency), "repeated_modes": list(self.repeated),
