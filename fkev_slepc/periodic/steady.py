@@ -23,8 +23,8 @@ def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None
                   harmonics=None, names=None, reduce=None, settings: PeriodicSettings = DEFAULTS, model_for=None):
     """``(model, case, angles_deg, gravity)`` of a response at ``speed_rad_s``, or one SceneError
     naming every bad argument: a speed or gravity that is not finite, over-critical damping or
-    operators that overflow at the speed (:func:`fkev_slepc.periodic.limits.plausibility_problems`),
-    and every problem of
+    operators that overflow at the speed (:func:`fkev_slepc.periodic.limits.plausibility_problems`,
+    once the sizes are checked, on ``model_for``'s model of every case of the scene), and every problem of
     :func:`checked_model` (``settings`` and ``model_for`` as there); then the output angles (default
     :data:`DEFAULT_ANGLES_DEG`) where the linkage does not assemble. ``case`` is returned by name."""
     from fkev_slepc.model.operating_point import checked_angles, operating_point_problems
@@ -33,8 +33,11 @@ def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None
     names = names or {}
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
     bad = operating_point_problems(speed_rad_s, 0.0, gravity, names)
-    bad = bad or limits.plausibility_problems(scene, [speed_rad_s], periodic=True, names=names)
+    bad = bad or limits.plausibility_problems(scene, periodic=True, names=names)  # damping
     model = checked_model(scene, case, harmonics, names, bad, reduce=reduce, settings=settings, model_for=model_for)
+    bad = limits.plausibility_problems(scene, [speed_rad_s], names=names, model_for=model_for)  # after the sizes
+    if bad:
+        raise SceneError(scene.source, bad)
     a = checked_angles(scene, model.mechanism, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
                        names.get("angles_deg", "angles_deg"))
     return model, case_name(case), a, np.asarray(gravity, float)
