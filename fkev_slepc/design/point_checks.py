@@ -7,7 +7,8 @@ its speeds.
   peak wrist-pin force of every prismatic joint, and per link the weak-axis Euler factor
   P_cr/|N_min| (fkev_slepc/model/buckling.py) with its N_min.
 - With ``stress`` (one periodic response per speed and case: far more than the frozen sweep of a
-  point; all of them, and their checks, on the point's one Model, :class:`PointModels`), per link the design check's peak |σ|, static and fatigue factors
+  point; all of them, and their checks, on the point's one Model:
+  :class:`~fkev_slepc.periodic.steady.SharedModel`), per link the design check's peak |σ|, static and fatigue factors
   (:func:`fkev_slepc.design.check.check_links`, the code path of ``fkev design-check``).
 - With ``sensitivity``, d/dp of the kinetostatic columns for every design key p: central
   differences of the whole kinetostatics of the scene at p ± h, h = 10⁻⁶|p| (10⁻⁶ for p = 0;
@@ -25,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.model.operators import Model
+from fkev_slepc.periodic.steady import SharedModel
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
-from fkev_slepc.scene.cases import terms_used
 
 REL_STEP = 1e-6  # the sensitivities' relative step (as fkev_slepc/solve/sensitivity.py)
 
@@ -46,27 +47,6 @@ class CheckOptions:
     def needs(self) -> tuple[str, ...]:
         """The archive options (:attr:`fkev_slepc.archive.products.Var.needs`) of these columns."""
         return tuple(n for n, on in (("stress", self.stress), ("sensitivity", self.sensitivity)) if on)
-
-
-class PointModels:
-    """The ``model_for`` (:func:`fkev_slepc.periodic.steady.checked_point`) of one design point:
-    one in-plane Model of the point's scene for every speed and case of its checks. A Model
-    depends on neither: the speed enters the coefficients (PeriodicSystem, the QEP) and the case
-    the solves, which keep only the case's terms of a model that may assemble more
-    (fkev_slepc/api/pool.py). ``model``: the point's sweep model (of ``cases``), else built at the
-    first call (after the caller's checks) with the terms of ``cases``; a plane or case outside
-    them gets a Model of its own. Only for the point's scene and its copies at other speeds."""
-
-    def __init__(self, cases, model: Model | None = None):
-        self.cases, self.model = tuple(cases), model
-
-    def __call__(self, scene: Scene, cases, plane: str = "in") -> Model:
-        cases = tuple(cases)
-        if self.model is None and plane == "in":
-            self.model = Model(scene, tuple(dict.fromkeys((*self.cases, *cases))), plane)
-        if self.model is not None and plane == self.model.plane and terms_used(cases) <= terms_used(self.model.cases):
-            return self.model
-        return Model(scene, cases, plane)
 
 
 def _factor(x) -> float:
@@ -105,7 +85,7 @@ def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOption
     """Per (speed, case, link) the design check's peak |σ|, static and fatigue factors (NaN where
     the check gives none, or at an exact resonance, where the response has no periodic solution),
     keyed by the design product's dataset paths; every response on ``model`` (the point's sweep
-    model; default one built for them all, :class:`PointModels`)."""
+    model; default one built for them all, :class:`~fkev_slepc.periodic.steady.SharedModel`)."""
     from fkev_slepc.archive import products as P
     from fkev_slepc.design.check import check_links
     from fkev_slepc.model.joint_loads import joint_loads
@@ -114,7 +94,7 @@ def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOption
     n_link = len(scene.links)
     out = {v.path: np.full((len(speeds), len(cases), n_link), np.nan)
            for v in (P.D_PEAK_STRESS, P.D_STATIC_SF, P.D_FATIGUE_SF)}
-    models = PointModels(cases, model)
+    models = SharedModel(cases, model)
     for js, w in enumerate(np.asarray(speeds, float)):
         for jc, case in enumerate(cases):
             model, case, a, gravity = checked_point(scene, float(w), case, angles_deg, harmonics=options.harmonics,
@@ -167,7 +147,7 @@ def stress_problems(scenes, angles_deg, cases, options: CheckOptions, names=None
     names = names or {}
     bad = check_problems(options.criterion, 1.0, names)
     for i, sc in enumerate(scenes):
-        models = PointModels(cases)  # one model per design point for all its cases (dropped after its checks)
+        models = SharedModel(cases)  # one model per design point for all its cases (dropped after its checks)
         for case in cases:
             try:
                 checked_point(sc, 0.0, case, angles_deg, harmonics=options.harmonics, names=names, model_for=models)
