@@ -8,8 +8,8 @@ its speeds.
   P_cr/|N_min| (fkev_slepc/model/buckling.py) with its N_min.
 - With ``stress`` (one periodic response per speed and case: far more than the frozen sweep of a
   point; all of them, and their checks, on the point's one Model:
-  :class:`~fkev_slepc.periodic.steady.SharedModel`), per link the design check's peak |σ|, static and fatigue factors
-  (:func:`fkev_slepc.design.check.check_links`, the code path of ``fkev design-check``).
+  :class:`~fkev_slepc.periodic.steady.SharedModel`), per link the design check's peak |σ|, static
+  and fatigue factors (:func:`fkev_slepc.design.check.check_links`, the code path of ``fkev design-check``).
 - With ``sensitivity``, d/dp of the kinetostatic columns for every design key p: central
   differences of the whole kinetostatics of the scene at p ± h, h = 10⁻⁶|p| (10⁻⁶ for p = 0;
   truncation O(h²) ~ 10⁻¹² relative). A peak is the largest of the sampled angles, so its

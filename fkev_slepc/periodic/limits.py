@@ -71,6 +71,7 @@ def plausibility_problems(scene: Scene, speeds=None, periodic: bool = False, nam
         top = max((float(w) for w in speeds), key=abs)
         at = replace(scene, driver=replace(scene.driver, speeds=(top,)))
         speed = (names or {}).get("speed_rad_s", "speed_rad_s")
-        model = None if model_for is None else model_for(at, tuple(dict.fromkeys(("structure", *at.analysis.cases))), "in")
+        every = tuple(dict.fromkeys(("structure", *at.analysis.cases)))
+        model = None if model_for is None else model_for(at, every, "in")
         bad += [Problem(speed if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(at, model)]
     return bad

@@ -56,7 +56,7 @@ def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None
     from fkev_slepc.scene.cases import case_name
 
     names = names or {}
-    model_for = SharedModel(scene.analysis.cases) if model_for is None else model_for  # the response's and overflow's
+    model_for = SharedModel(scene.analysis.cases) if model_for is None else model_for  # response and overflow
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
     bad = operating_point_problems(speed_rad_s, 0.0, gravity, names)
     bad = bad or limits.plausibility_problems(scene, periodic=True, names=names)  # damping
