@@ -138,3 +138,62 @@ def test_cli_json_and_csv_rows_and_bad_input(study, tmp_path):
     shutil.copy(out, copy)
     with pytest.raises(RunRefused, match="other design-check columns"):
         fk.load(SCENE).design({WIDTH: [0.005, 0.006]}, output=copy, resume=True, **GRID)
+
+
+# The stress columns of the study below at c0c0b0b (a Model per speed x case), indexed
+# [width, speed, case, link] (widths 5, 6, 7 mm; 60, 100 rad/s; full, no_coriolis; crank, rod).
+BEFORE = {
+    "peak_stress_pa": [[[[17366554.462132234, 9712424.079261968], [17369964.75535877, 9708130.625087794]],
+                        [[48383842.65468414, 26862681.646092623], [48410549.9635251, 26829011.607873216]]],
+                       [[[18449695.396461047, 9394403.32375965], [18453922.515386023, 9389785.166890625]],
+                        [[51409526.083738565, 25990327.91890848], [51442651.264250875, 25954062.803076968]]],
+                       [[[19533142.880596824, 9167166.65099138], [19538238.713691037, 9162230.019719139]],
+                        [[54437385.88476209, 25366235.79529164], [54477343.41252115, 25327424.576560117]]]],
+    "static_sf": [[[[30.51843134201806, 54.56928112639351], [30.512439573977307, 54.593414578742035]],
+                   [[10.954070014294112, 19.729973611070672], [10.94802683298017, 19.75473445486403]]],
+                  [[[28.726761532424142, 56.416568645670345], [28.72018128168202, 56.44431587943418]],
+                   [[10.309373386105678, 20.392201347117844], [10.302734928600161, 20.42069498025435]]],
+                  [[[27.133370356209987, 57.81502837004532], [27.126293611541993, 57.84617924449548]],
+                   [[9.735956115195377, 20.89391600224642], [9.728815077979446, 20.925933404634492]]]],
+    "fatigue_sf": [[[[18.392110132775294, 34.087262916137874], [18.388442891772247, 34.09443002072764]],
+                    [[6.601175569367843, 12.308241255653916], [6.597477750770228, 12.31556397180553]]],
+                   [[[17.312160861965925, 34.925052288790944], [17.30812702661041, 34.933268232020865]],
+                    [[6.2125808551593655, 12.606317918554108], [6.208512240731409, 12.614721186185465]]],
+                   [[[16.35173943319716, 35.54912001888356], [16.347395930091697, 35.5583237617999]],
+                    [[5.866953603531431, 12.828380366695026], [5.862571558841158, 12.837803264951024]]]],
+}
+
+
+def test_stress_study_builds_one_model_per_design_point_for_its_solve(tmp_path, monkeypatch):
+    """Issue 34 item 2: a --stress study over 3 design points x 2 speeds x 2 cases solves every
+    design point's frequencies and its 4 periodic responses (and their overflow checks) on one Model
+    (every construction counted by a wrapper of the real Model.__init__): 3 in the design points'
+    solve (c0c0b0b: 15), 10 in all = 1 for the base sweep (the study's pool) + 2 per point for the
+    checks of every point before anything is solved (assembly and overflow as `fkev check`; the
+    periodic limits, on one model for all its cases; dropped after). The stress columns are those
+    of c0c0b0b (a Model per speed x case) to 1e-12."""
+    from fkev_slepc.design.study import DesignSolver
+    from fkev_slepc.model.operators import Model
+
+    built, in_solve = [], []
+    real_init, real_solve = Model.__init__, DesignSolver.solve
+
+    def counted(self, *args, **kwargs):
+        real_init(self, *args, **kwargs)
+        built.append(bool(in_solve))
+
+    def solving(self, *args, **kwargs):
+        in_solve.append(1)
+        try:
+            return real_solve(self, *args, **kwargs)
+        finally:
+            in_solve.pop()
+
+    monkeypatch.setattr(Model, "__init__", counted)
+    monkeypatch.setattr(DesignSolver, "solve", solving)
+    ds = fk.load(SCENE).design({WIDTH: [0.005, 0.006, 0.007]}, output=tmp_path / "s.h5", stress=True, harmonics=8,
+                               speeds=[60.0, 100.0], cases=["full", "no_coriolis"], angles=ANGLES, modes=1)
+    assert sum(built) <= 3 and len(built) <= 1 + 3 + 2 * 3, built
+    for key, want in BEFORE.items():
+        got = ds[key].transpose(WIDTH, "speed_rad_s", "case", "link").values
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0, err_msg=key)

@@ -7,8 +7,9 @@ its speeds.
   peak wrist-pin force of every prismatic joint, and per link the weak-axis Euler factor
   P_cr/|N_min| (fkev_slepc/model/buckling.py) with its N_min.
 - With ``stress`` (one periodic response per speed and case: far more than the frozen sweep of a
-  point), per link the design check's peak |σ|, static and fatigue factors
-  (:func:`fkev_slepc.design.check.check_links`, the code path of ``fkev design-check``).
+  point; all of them, and their checks, on the point's one Model:
+  :class:`~fkev_slepc.periodic.steady.SharedModel`), per link the design check's peak |σ|, static
+  and fatigue factors (:func:`fkev_slepc.design.check.check_links`, the code path of ``fkev design-check``).
 - With ``sensitivity``, d/dp of the kinetostatic columns for every design key p: central
   differences of the whole kinetostatics of the scene at p ± h, h = 10⁻⁶|p| (10⁻⁶ for p = 0;
   truncation O(h²) ~ 10⁻¹² relative). A peak is the largest of the sampled angles, so its
@@ -24,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.model.operators import Model
+from fkev_slepc.periodic.steady import SharedModel
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
 
@@ -77,10 +80,12 @@ def kinetostatic_columns(scene: Scene, angles_deg, speeds) -> dict[str, np.ndarr
     return {v.path: np.array([r[i] for r in rows], dtype=float) for i, v in enumerate(cols)}
 
 
-def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOptions) -> dict[str, np.ndarray]:
+def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOptions,
+                   model: Model | None = None) -> dict[str, np.ndarray]:
     """Per (speed, case, link) the design check's peak |σ|, static and fatigue factors (NaN where
     the check gives none, or at an exact resonance, where the response has no periodic solution),
-    keyed by the design product's dataset paths."""
+    keyed by the design product's dataset paths; every response on ``model`` (the point's sweep
+    model; default one built for them all, :class:`~fkev_slepc.periodic.steady.SharedModel`)."""
     from fkev_slepc.archive import products as P
     from fkev_slepc.design.check import check_links
     from fkev_slepc.model.joint_loads import joint_loads
@@ -89,9 +94,11 @@ def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOption
     n_link = len(scene.links)
     out = {v.path: np.full((len(speeds), len(cases), n_link), np.nan)
            for v in (P.D_PEAK_STRESS, P.D_STATIC_SF, P.D_FATIGUE_SF)}
+    models = SharedModel(cases, model)
     for js, w in enumerate(np.asarray(speeds, float)):
         for jc, case in enumerate(cases):
-            model, case, a, gravity = checked_point(scene, float(w), case, angles_deg, harmonics=options.harmonics)
+            model, case, a, gravity = checked_point(scene, float(w), case, angles_deg, harmonics=options.harmonics,
+                                                    model_for=models)
             try:
                 r = steady_solve(model, float(w), case, gravity, harmonics=options.harmonics, tol=options.tol,
                                  shoot=False)
@@ -140,9 +147,10 @@ def stress_problems(scenes, angles_deg, cases, options: CheckOptions, names=None
     names = names or {}
     bad = check_problems(options.criterion, 1.0, names)
     for i, sc in enumerate(scenes):
+        models = SharedModel(cases)  # one model per design point for all its cases (dropped after its checks)
         for case in cases:
             try:
-                checked_point(sc, 0.0, case, angles_deg, harmonics=options.harmonics, names=names)
+                checked_point(sc, 0.0, case, angles_deg, harmonics=options.harmonics, names=names, model_for=models)
             except SceneError as err:
                 bad += [Problem(f"design point {i}: {p.path}" if len(scenes) > 1 else p.path, p.message)
                         for p in err.problems]

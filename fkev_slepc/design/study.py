@@ -185,15 +185,16 @@ class DesignSolver:
                 k = int(np.nanargmin(div[jc]))
                 lowest[jc], angle[jc] = div[jc, k], grid.angles_deg[k]
         data[P.D_DIVERGENCE.path], data[P.D_DIVERGENCE_ANGLE.path] = lowest, angle
-        data.update(self.check_columns(ip))
+        data.update(self.check_columns(ip, model))
         return Block((ip,), np.asarray(mask, bool), data, status, errors)
 
-    def check_columns(self, ip: int) -> dict:
-        """The design-check columns of design point ``ip`` (fkev_slepc/design/point_checks.py)."""
+    def check_columns(self, ip: int, model: Model | None = None) -> dict:
+        """The design-check columns of design point ``ip`` (fkev_slepc/design/point_checks.py), the
+        stresses on ``model`` (the point's sweep model; default a new one)."""
         scene, grid = self.scenes[ip], self.grid
         out = pc.kinetostatic_columns(scene, grid.angles_deg, grid.speeds)
         if self.checks.stress:
-            out.update(pc.stress_columns(scene, grid.angles_deg, grid.speeds, grid.cases, self.checks))
+            out.update(pc.stress_columns(scene, grid.angles_deg, grid.speeds, grid.cases, self.checks, model))
         if self.checks.sensitivity and self.design is not None:
             out.update(pc.sensitivity_columns(scene, self.design.keys, self.design.points[ip], grid.angles_deg,
                                               grid.speeds, out))

@@ -55,10 +55,12 @@ def size_problems(scene: Scene, periodic: bool, harmonics: int | None = None, re
     return []
 
 
-def plausibility_problems(scene: Scene, speeds=None, periodic: bool = False, names: dict | None = None) -> list[Problem]:
+def plausibility_problems(scene: Scene, speeds=None, periodic: bool = False, names: dict | None = None,
+                          model_for=None) -> list[Problem]:
     """Over-critical damping (the ``periodic`` commands; :func:`fkev_slepc.scene.plausible.damping_warnings`)
     and ``speeds`` whose operators overflow double precision at the top one
-    (:func:`fkev_slepc.solve.finite.overflow_problems`, named ``names["speed_rad_s"]``)."""
+    (:func:`fkev_slepc.solve.finite.overflow_problems`, named ``names["speed_rad_s"]``), on the model
+    ``model_for(scene, cases, "in")`` of every case of the scene (default: a new one)."""
     from fkev_slepc.scene.plausible import damping_warnings, summarize_scene
     from fkev_slepc.solve.finite import overflow_problems
 
@@ -69,5 +71,7 @@ def plausibility_problems(scene: Scene, speeds=None, periodic: bool = False, nam
         top = max((float(w) for w in speeds), key=abs)
         at = replace(scene, driver=replace(scene.driver, speeds=(top,)))
         speed = (names or {}).get("speed_rad_s", "speed_rad_s")
-        bad += [Problem(speed if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(at)]
+        every = tuple(dict.fromkeys(("structure", *at.analysis.cases)))
+        model = None if model_for is None else model_for(at, every, "in")
+        bad += [Problem(speed if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(at, model)]
     return bad

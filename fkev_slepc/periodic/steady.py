@@ -12,29 +12,58 @@ from __future__ import annotations
 
 import numpy as np
 
+from fkev_slepc.model.operators import Model
 from fkev_slepc.periodic import limits
 from fkev_slepc.periodic.settings import DEFAULTS, PeriodicSettings, checked_settings
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.scene.cases import terms_used
 
 DEFAULT_ANGLES_DEG = DEFAULTS.response_angles_deg  # output angles of a response
+
+
+class SharedModel:
+    """A ``model_for`` (:func:`checked_point`) of one scene: one Model for every speed and case asked
+    (a design point's responses, fkev_slepc/design/point_checks.py; the response and its overflow
+    check, the default of :func:`checked_point`). A Model
+    depends on neither: the speed enters the coefficients (PeriodicSystem, the QEP) and the case
+    the solves, which keep only the case's terms of a model that may assemble more
+    (fkev_slepc/api/pool.py). ``model``: one already built (of ``cases``), else built at the
+    first call (after the caller's checks) in its plane with the terms of ``cases``; another plane
+    or a case outside them gets a Model of its own. Only for that scene and its copies at other speeds."""
+
+    def __init__(self, cases, model: Model | None = None):
+        self.cases, self.model = tuple(cases), model
+
+    def __call__(self, scene: Scene, cases, plane: str = "in") -> Model:
+        cases = tuple(cases)
+        if self.model is None:
+            self.model = Model(scene, tuple(dict.fromkeys((*self.cases, *cases))), plane)
+        if plane == self.model.plane and terms_used(cases) <= terms_used(self.model.cases):
+            return self.model
+        return Model(scene, cases, plane)
+
 
 
 def checked_point(scene: Scene, speed_rad_s, case: str = "full", angles_deg=None, *, gravity_m_s2=None,
                   harmonics=None, names=None, reduce=None, settings: PeriodicSettings = DEFAULTS, model_for=None):
     """``(model, case, angles_deg, gravity)`` of a response at ``speed_rad_s``, or one SceneError
     naming every bad argument: a speed or gravity that is not finite, over-critical damping or
-    operators that overflow at the speed (:func:`fkev_slepc.periodic.limits.plausibility_problems`),
-    and every problem of
+    operators that overflow at the speed (:func:`fkev_slepc.periodic.limits.plausibility_problems`,
+    once the sizes are checked, on ``model_for``'s model of every case of the scene), and every problem of
     :func:`checked_model` (``settings`` and ``model_for`` as there); then the output angles (default
     :data:`DEFAULT_ANGLES_DEG`) where the linkage does not assemble. ``case`` is returned by name."""
     from fkev_slepc.model.operating_point import checked_angles, operating_point_problems
     from fkev_slepc.scene.cases import case_name
 
     names = names or {}
+    model_for = SharedModel(scene.analysis.cases) if model_for is None else model_for  # response and overflow
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2
     bad = operating_point_problems(speed_rad_s, 0.0, gravity, names)
-    bad = bad or limits.plausibility_problems(scene, [speed_rad_s], periodic=True, names=names)
+    bad = bad or limits.plausibility_problems(scene, periodic=True, names=names)  # damping
     model = checked_model(scene, case, harmonics, names, bad, reduce=reduce, settings=settings, model_for=model_for)
+    bad = limits.plausibility_problems(scene, [speed_rad_s], names=names, model_for=model_for)  # after the sizes
+    if bad:
+        raise SceneError(scene.source, bad)
     a = checked_angles(scene, model.mechanism, DEFAULT_ANGLES_DEG if angles_deg is None else angles_deg,
                        names.get("angles_deg", "angles_deg"))
     return model, case_name(case), a, np.asarray(gravity, float)
@@ -56,7 +85,6 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     :meth:`~fkev_slepc.api.pool.ModelPool.model_for`, whose model may assemble more terms than the
     case keeps: it is solved for ``case``, never for ``model.cases``)."""
     from fkev_slepc.model.operating_point import full_turn_problem
-    from fkev_slepc.model.operators import Model
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.periodic.system import PeriodicSystem
     from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS
