@@ -133,7 +133,7 @@ def link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
     for jj, here in enumerate(jl.attach):
         for link, point in here:
             if link == lk:
-                mag = np.hypot(*np.moveaxis(jl.end_force[:, lk, point], -1, 0))
+                mag = np.hypot(*np.moveaxis(jl.bearing_force[:, lk, point], -1, 0))  # at a slider: the wrist pin
                 a = int(np.nanargmax(mag))
                 pins[jl.joint_names[jj]] = {"peak_n": float(mag[a]), "crank_angle_deg": float(jl.crank_angle_deg[a])}
     return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes),
