@@ -78,3 +78,15 @@ def test_a_safety_factor_below_1_fails_the_check_with_exit_3_and_says_which(tmp_
     assert "link rod" not in r.stderr
     text = fkev("design-check", scene, *SMALL, timeout=120)
     assert text.returncode == 3 and "static SF" in text.stdout  # the table is printed before the verdict
+
+
+def test_a_design_study_with_stress_refuses_part_of_the_revolution_too(tmp_path):
+    """``fkev design --stress`` computes the same fatigue factor at every design point: the same
+    refusal, before the sweep, nothing written."""
+    out = tmp_path / "d.h5"
+    r = fkev("design", SCENE, "--set", "links[rod].section.width_m=0.006", "--speeds", "100", "--cases", "full",
+             "--angles", "0:90:30", "--modes", "1", "--stress", "--harmonics", "8", "-o", out, timeout=60)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "--angles: the fatigue factor needs σm and σa over the whole revolution: the angles leave a gap of " \
+           "270 deg" in r.stderr
+    assert not list(tmp_path.iterdir())
