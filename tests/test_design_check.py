@@ -125,7 +125,7 @@ def test_no_stress_gives_no_factor_and_strict_json():
     compression, and the JSON has no NaN or infinity."""
     import fkev_slepc as fk
 
-    d = fk.load(SCENE, elements=2).design_check(0.0, angles_deg=[0.0, 90.0], harmonics=2).as_dict()
+    d = fk.load(SCENE, elements=2).design_check(0.0, angles_deg=np.arange(0.0, 360.0, 30.0), harmonics=2).as_dict()
     json.dumps(d, allow_nan=False)
     for name in ("crank", "rod"):
         lk = d["links"][name]
@@ -154,3 +154,22 @@ def test_the_check_carries_its_periodic_settings_whole():
     for name in ("crank", "rod"):
         a, b = (c.as_dict()["links"][name]["peak_stress_pa"] for c in (base, links))
         assert abs(a - b) <= 1e-6 * a
+
+
+def test_the_rods_pin_column_at_a_slider_is_the_wrist_pin():
+    """Issue 36: at the slider the rod's pin load was the guide reaction (the block merged into the
+    rod). The wrist pin carries the block's D'Alembert force, m·ẍ_B along the guide and the guide
+    reaction R across it: |P| = hypot(m ẍ_B, R), with ẍ_B = Ω² d²x/dθ² of x = r cos θ + √(l² − r² sin² θ)
+    by hand; the crank pin A is the same force on both links."""
+    angles = np.arange(0.0, 360.0, 30.0)
+    d = small_check().as_dict()["links"]
+    loads = study_loads(with_elements(parse_scene(SCENE.read_text(), str(SCENE)), 2), 100.0, angles)
+    r, l, m, w = 0.15, 0.3, 0.3, 100.0
+    t = np.radians(angles)
+    s, c = np.sin(t), np.cos(t)
+    D = np.sqrt(l * l - r * r * s * s)
+    xdd = w * w * (-r * c - r * r * (c * c - s * s) / D - r**4 * s * s * c * c / D**3)
+    guide = loads.guide_reaction[:, loads.joint_names.index("B")]
+    assert d["rod"]["pin_loads"]["B"]["peak_n"] == pytest.approx(np.hypot(m * xdd, guide).max(), rel=1e-10)
+    assert d["rod"]["pin_loads"]["B"]["peak_n"] > 2 * np.abs(guide).max()  # not the guide reaction
+    assert d["rod"]["pin_loads"]["A"]["peak_n"] == pytest.approx(d["crank"]["pin_loads"]["A"]["peak_n"], rel=1e-12)

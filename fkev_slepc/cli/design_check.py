@@ -1,7 +1,7 @@
 """``fkev design-check SCENE --speed W``: per link the peak |σ| along the whole link, the static
 and fatigue safety factors, the weak-axis buckling factor and the peak pin loads at one crank
 speed, and the lowest out-of-plane frequency over the cycle with its crank-order margin
-(docs/design.md, "Design check"). Wiring only; the computation is in
+(docs/design.md, "Design check"); exit 3 when a safety factor is below 1. Wiring only; the computation is in
 fkev_slepc/design/check.py."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import sys
 from fkev_slepc.archive.paths import PathProblem, check_output
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
-from fkev_slepc.status import EXIT_OK
+from fkev_slepc.status import EXIT_NOT_CONVERGED, EXIT_OK
 from .common import add_elements_argument, angles_and_gravity, load_checked, preflight, report_scene_error
 
 FLAGS = {"speed_rad_s": "--speed", "gravity_m_s2": "--gravity", "angles_deg": "--angles", "case": "--case",
@@ -45,7 +45,8 @@ def add_parser(sub) -> None:
     p.add_argument("--case", help="case name or Table 3.1 number (default: full)")
     p.add_argument("--gravity", metavar="GX,GY", help="gravity in the ground frame, m/s² (default: the scene's "
                    "analysis.gravity_m_s2, else none)")
-    p.add_argument("--angles", metavar="SPEC", help="crank angles of the cycle, deg (default 0:355:5)")
+    p.add_argument("--angles", metavar="SPEC", help="crank angles of the cycle, deg (default 0:355:5; with a "
+                   "fatigue factor no gap over 30 deg around the revolution)")
     p.add_argument("--harmonics", type=int, metavar="H", help="harmonics of the balance (default: doubled from 8 "
                    "until the estimated error is below --tol)")
     p.add_argument("--tol", type=float, default=DEFAULTS.harmonic_tol, help="harmonic-balance tolerance (default 1e-8)")
@@ -95,7 +96,9 @@ def run(args) -> int:
         print()
     elif args.csv != "-":
         _table(d, rpm)
-    return EXIT_OK
+    for f in check.failures:  # after the table, so the numbers are there to read
+        print(f"{args.scene}: error: {f}", file=sys.stderr, flush=True)
+    return EXIT_NOT_CONVERGED if check.failures else EXIT_OK  # 3: a safety factor below 1 is a failed check
 
 
 def _csv(d: dict, path: str) -> None:

@@ -26,6 +26,7 @@ from fkev_slepc.periodic.link_stress import FACES
 from fkev_slepc.status import json_number
 
 STRENGTHS = ("yield_strength", "ultimate_strength", "endurance_limit")
+FULL_CYCLE_MAX_GAP_DEG = 30.0  # σm and σa need the whole revolution: no wider gap between the angles around it
 
 
 @dataclass(frozen=True)
@@ -70,9 +71,17 @@ class DesignCheck:
     def warnings(self) -> list[str]:
         return [w for lc in self.links for w in [lc.buckling.warning(self.threshold)] if w]
 
+    @property
+    def failures(self) -> list[str]:
+        """One line per safety factor below 1 (static, fatigue or weak-axis buckling): the link fails."""
+        return [f"link {lc.link}: {what} SF {sf:.3g} < 1" for lc in self.links
+                for what, sf in (("static", lc.static_sf), ("fatigue", lc.fatigue_sf), ("buckling", lc.buckling.factor))
+                if sf is not None and sf < 1.0]
+
     def as_dict(self) -> dict:
         return {"scene": self.title, "speed_rad_s": self.speed, "case": self.case, "fatigue_criterion": self.criterion,
                 "buckling_threshold": self.threshold, "warnings": self.warnings,
+                "failures": self.failures,
                 "links": {lc.link: lc.as_dict(self.criterion) for lc in self.links},
                 "out_of_plane": ({"checked": False, "note": NOT_CHECKED} if self.out_of_plane is None
                                  else self.out_of_plane.as_dict()),
@@ -124,7 +133,7 @@ def link_check(scene, mech, ls, lk, criterion, buckling, jl) -> LinkCheck:
     for jj, here in enumerate(jl.attach):
         for link, point in here:
             if link == lk:
-                mag = np.hypot(*np.moveaxis(jl.end_force[:, lk, point], -1, 0))
+                mag = np.hypot(*np.moveaxis(jl.bearing_force[:, lk, point], -1, 0))  # at a slider: the wrist pin
                 a = int(np.nanargmax(mag))
                 pins[jl.joint_names[jj]] = {"peak_n": float(mag[a]), "crank_angle_deg": float(jl.crank_angle_deg[a])}
     return LinkCheck(mech.link_names[lk], tuple(names), peak, static, fatigue, critical, buckling, pins, tuple(notes),
@@ -157,6 +166,30 @@ def check_problems(criterion, threshold, names=None) -> list[Problem]:
     return bad
 
 
+def cycle_problems(scene: Scene, angles_deg, criterion: str, names=None) -> list[Problem]:
+    """The problem of crank angles that do not go round the whole revolution (a gap between
+    neighbours, modulo 360° and around the circle, wider than :data:`FULL_CYCLE_MAX_GAP_DEG`) when
+    a fatigue factor is computed (a link's material has the strengths ``criterion`` needs): its
+    σm and σa are the mean and half range over the angles, and a part of the cycle understates σa."""
+    used = {lk.material for lk in scene.links} | {s.material for lk in scene.links for s in lk.segments}
+    if not any(scene.material(n) is not None and not missing_strengths(scene.material(n), criterion)
+               for n in used - {None}):
+        return []
+    try:
+        a = np.unique(np.mod(np.asarray(angles_deg, float).ravel(), 360.0))
+    except (TypeError, ValueError):
+        return []  # bad angles: checked_point names them
+    if not (a.size and np.isfinite(a).all()):
+        return []
+    gap = float(np.diff(np.r_[a, a[0] + 360.0]).max())
+    if gap <= FULL_CYCLE_MAX_GAP_DEG + 1e-9:
+        return []
+    return [Problem((names or {}).get("angles_deg", "angles_deg"),
+                    f"the fatigue factor needs σm and σa over the whole revolution: the angles leave a gap of {gap:g} deg "
+                    f"(at most {FULL_CYCLE_MAX_GAP_DEG:g}; the default 0:355:5 covers it) "
+                    f"(got {a.size} crank angle{'s' if a.size > 1 else ''})")]
+
+
 def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman", case: str = "full",
                  angles_deg=None, gravity_m_s2=None, harmonics=None, tol: float | None = None,
                  threshold: float = WARN_BELOW, names=None, settings=None, model_for=None) -> DesignCheck:
@@ -179,6 +212,9 @@ def design_check(scene: Scene, speed_rad_s: float, *, criterion: str = "goodman"
     if bad:
         raise SceneError(scene.source, bad)
     ps = point_settings(scene, settings, names, harmonics=harmonics, tol=tol, angles_deg=angles_deg)
+    bad = cycle_problems(scene, ps.response_angles_deg if angles_deg is None else angles_deg, criterion, names)
+    if bad:
+        raise SceneError(scene.source, bad)
     harmonics = ps.harmonics or None if harmonics is None else harmonics
     model, case, a, gravity = checked_point(scene, speed_rad_s, case, ps.response_angles_deg if angles_deg is None
                                             else angles_deg, gravity_m_s2=gravity_m_s2, harmonics=harmonics, names=names,

@@ -137,15 +137,16 @@ def sensitivity_columns(scene: Scene, keys, values, angles_deg, speeds, base: di
 
 def stress_problems(scenes, angles_deg, cases, options: CheckOptions, names=None) -> list[Problem]:
     """With ``stress``: the problems of a periodic response at every design point (a crank
-    acceleration, a crank that does not turn fully, angles that do not assemble, a bad
-    criterion or harmonics), before anything is solved."""
-    from fkev_slepc.design.check import check_problems
+    acceleration, a crank that does not turn fully, angles that do not assemble or, with a fatigue
+    factor, do not go round the revolution, a bad criterion or harmonics), before anything is solved."""
+    from fkev_slepc.design.check import check_problems, cycle_problems
     from fkev_slepc.periodic.steady import checked_point
 
     if not options.stress:
         return []
     names = names or {}
     bad = check_problems(options.criterion, 1.0, names)
+    bad += next((p for p in (cycle_problems(sc, angles_deg, options.criterion, names) for sc in scenes) if p), [])
     for i, sc in enumerate(scenes):
         models = SharedModel(cases)  # one model per design point for all its cases (dropped after its checks)
         for case in cases:
