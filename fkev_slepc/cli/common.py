@@ -182,6 +182,10 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
         bad += [Problem(speed_flag if p.path == "driver.speeds" else p.path, p.message) for p in overflow_problems(at)]
     if bad:
         raise SceneError(scene.source, bad)
+    from fkev_slepc.scene.validity import slenderness_warnings
+
+    for w in slenderness_warnings(scene):
+        print(f"warning: {w}", file=sys.stderr, flush=True)
 
 
 def _size_problems(scene: Scene, periodic: bool, harmonics: int | None, reduce=None) -> list[Problem]:
