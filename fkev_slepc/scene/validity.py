@@ -44,7 +44,8 @@ def slenderness_warnings(scene: Scene) -> list[str]:
         if err > MAX_EB_ERROR:
             r = min(math.sqrt(s.second_moment / s.area) for s in lk.pieces)
             out.append(f"links[{i}] {lk.name!r}: slenderness L/r = {lk.length / r:.3g} makes the Euler-Bernoulli "
-                       f"element's bending frequencies about {100 * err:.3g} % high by mode {n} (> "
+                       f"element's bending frequencies some {100 * err:.3g} % high by mode {n} (first-order estimate "
+                       f"½(1 + E/κG)(nπr/L)², > "
                        f"{100 * MAX_EB_ERROR:g} %, shear and rotary inertia left out): use "
                        f'[analysis] element = "{TIMOSHENKO}"')
     return out
