@@ -51,10 +51,18 @@ def _positive_fraction(text: str) -> float:
 
 
 def apply_element(scene: Scene, element: str | None) -> Scene:
-    """``scene`` with ``--element`` applied (None: unchanged)."""
+    """``scene`` with ``--element`` applied (None: unchanged); a Timoshenko element on links without
+    shear data is refused (scene/validity.py)."""
+    from fkev_slepc.scene.validity import timoshenko_problems
     from fkev_slepc.solve.accuracy import with_element
 
-    return scene if element is None else with_element(scene, element)
+    if element is None:
+        return scene
+    new = with_element(scene, element)
+    bad = timoshenko_problems(new, "--element")
+    if bad:
+        raise SceneError(scene.source, bad)
+    return new
 
 
 def add_model_arguments(p: argparse.ArgumentParser) -> None:
