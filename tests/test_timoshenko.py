@@ -217,3 +217,61 @@ element = "{element}"
                                         'height_m = 0.02}', element="thesis"))
     warn = slenderness_warnings(load_scene(path))  # L/r = 17: mode 4 some 20 % off
     assert len(warn) == 1 and "'blade'" in warn[0] and 'element = "timoshenko"' in warn[0]
+
+
+# -- analyses with no Timoshenko form yet: refused before any work (docs/theory.md §22.7) ------------
+IN_PLANE_ONLY = 'analysis.element: "timoshenko" is in-plane only for now'
+
+
+@pytest.fixture
+def flat_rod(tmp_path):
+    """The flat-rod slider-crank (both planes' section data) with ``element = "timoshenko"``."""
+    from clitools import ROOT
+
+    text = (ROOT / "runs/flat-rod-slider-crank.toml").read_text().replace(
+        "modes = 4", 'modes = 4\nelement = "timoshenko"')
+    path = tmp_path / "flat-rod-timo.toml"
+    path.write_text(text)
+    return path
+
+
+def test_out_of_plane_refused(flat_rod):
+    """``fkev point --plane out`` exits 2 naming analysis.element; ``fkev run`` defaults to in plane only;
+    the out-of-plane Model refuses too (it would use the thesis element on the same scene)."""
+    from clitools import fkev
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.scene import load_scene
+    from fkev_slepc.sweep.plane_run import default_plane
+
+    r = fkev("point", flat_rod, "--plane", "out", "--angle", "0")
+    assert r.returncode == 2 and IN_PLANE_ONLY in r.stderr and "out-of-plane bending and torsion" in r.stderr
+    scene = load_scene(flat_rod)
+    assert default_plane(scene, None) == "in"
+    assert default_plane(dataclasses.replace(scene, analysis=dataclasses.replace(scene.analysis, element="thesis")),
+                         None) == "both"
+    with pytest.raises(ValueError, match=IN_PLANE_ONLY):
+        Model(scene, plane="out")
+    assert fkev("point", flat_rod, "--angle", "0").returncode == 0  # in plane: the element's home
+
+
+def test_stations_without_speed_refused(flat_rod):
+    """Station forces by the thesis shape functions (no speed) are refused on a Timoshenko model; with
+    the speed they come from the element's equilibrium, and the deflection at a node is the node's v."""
+    from fkev_slepc.api.runup import study_runup
+    from fkev_slepc.model.operators import Model
+    from fkev_slepc.periodic.stations import default_stations, element_end_stations, station_response
+    from fkev_slepc.scene import SceneError, load_scene
+
+    scene = load_scene(flat_rod)
+    model = Model(scene)
+    theta = np.array([0.3])
+    q = np.random.default_rng(1).standard_normal((1, model.mechanism.n_free)) * 1e-4
+    with pytest.raises(ValueError, match=IN_PLANE_ONLY + r".*station forces without an operating point"):
+        station_response(model, theta, q, default_stations(model.mechanism))
+    ends = element_end_stations(model.mechanism)
+    sr = station_response(model, theta, q, ends, speed=100.0)
+    thesis = Model(dataclasses.replace(scene, analysis=dataclasses.replace(scene.analysis, element="thesis")))
+    se = station_response(thesis, theta, q, ends, speed=100.0)
+    assert np.allclose(sr.transverse, se.transverse, rtol=1e-12, atol=1e-15)  # nodes: v is the DOF, any element
+    with pytest.raises(SceneError, match=r"analysis\.element.*run-up's stress envelope"):
+        study_runup(scene, speed=100.0, revolutions=1)

@@ -8,6 +8,8 @@
   already uses ``element = "timoshenko"``.
 * :func:`timoshenko_problems` -- a Timoshenko scene whose link lacks the shear coefficient or the
   shear modulus, named by its field.
+* :func:`in_plane_only` -- the refusal of an analysis that has no Timoshenko form yet (out-of-plane
+  bending and torsion; station forces without an operating point, §22 limits).
 """
 
 from __future__ import annotations
@@ -19,6 +21,10 @@ from fkev_slepc.scene.model import Problem, Scene
 MAX_EB_ERROR = 0.01  # 1 %: the Euler-Bernoulli frequency error above which a link is flagged
 DEFAULT_KAPPA, DEFAULT_NU = 5.0 / 6.0, 0.3  # where the scene gives no κ or G (steel-like)
 TIMOSHENKO = "timoshenko"
+# the analyses with no Timoshenko form yet (:func:`in_plane_only`)
+OUT_OF_PLANE_THESIS = "out-of-plane bending and torsion use the thesis element"
+STATIONS_WITHOUT_SPEED = ("station forces without an operating point (a crank speed) use the Euler-Bernoulli "
+                          "shape functions")
 
 
 def slenderness_error(link, modes: int) -> float:
@@ -69,3 +75,11 @@ def timoshenko_problems(scene: Scene, field: str = "analysis.element") -> list[P
                 continue
             break
     return out
+
+
+def in_plane_only(scene: Scene, analysis: str, field: str = "analysis.element") -> Problem | None:
+    """The refusal of ``analysis`` (what uses the thesis element's shape functions instead) for a
+    Timoshenko scene, None when the scene's element serves it."""
+    if scene.analysis.element != TIMOSHENKO:
+        return None
+    return Problem(field, f'"{TIMOSHENKO}" is in-plane only for now ({analysis}; docs/theory.md §22)')
