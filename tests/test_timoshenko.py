@@ -275,3 +275,23 @@ def test_stations_without_speed_refused(flat_rod):
     assert np.allclose(sr.transverse, se.transverse, rtol=1e-12, atol=1e-15)  # nodes: v is the DOF, any element
     with pytest.raises(SceneError, match=r"analysis\.element.*run-up's stress envelope"):
         study_runup(scene, speed=100.0, revolutions=1)
+
+
+@pytest.mark.parametrize("a", [0.3, 0.55, 0.8])
+def test_point_load_is_exact_in_statics(a):
+    """One clamped-free Timoshenko element, a force F and a moment C at x = aL (element_types.point_load
+    with Φ): its consistent load gives the exact tip deflection by reciprocity (the interpolation is
+    exact under a tip load, §22.2): F[a²(3L − a)/6EI + a/κGA] + C·a(2L − a)/2EI, a here in metres."""
+    from fkev_slepc.model.element_types import point_load
+
+    L, F, C = 0.08, 1.0, 0.3  # stocky: Φ ≈ 0.2
+    ei, kga = np.array([E * I]), np.array([KAPPA * G * A])
+    phi = 12 * ei / (kga * L**2)
+    k = tim.structural(np.array([E * A]), ei, kga, np.array([L]), phi)[0]
+    f = point_load(np.array([a]), np.array([L]), 6, np.array([[0.0, F, C]]), phi)[0]
+    q = np.linalg.solve(k[3:, 3:], f[3:])
+    x = a * L
+    exact = F * (x**2 * (3 * L - x) / (6 * E * I) + x / kga[0]) + C * x * (2 * L - x) / (2 * E * I)
+    assert q[1] == pytest.approx(exact, rel=1e-12)
+    thesis = np.linalg.solve(k[3:, 3:], point_load(np.array([a]), np.array([L]), 6, np.array([[0.0, F, C]]))[0][3:])
+    assert abs(thesis[1] / exact - 1) > 1e-3  # the Hermite load on Timoshenko DOFs: the wrong number fixed here

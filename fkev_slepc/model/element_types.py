@@ -180,16 +180,21 @@ class ElementType:
         return B, w
 
 
-def point_load(xi: np.ndarray, l: np.ndarray, n_dof: int, f: np.ndarray) -> np.ndarray:
+def point_load(xi: np.ndarray, l: np.ndarray, n_dof: int, f: np.ndarray, phi: np.ndarray | None = None) -> np.ndarray:
     """Consistent element loads Nᵀ(u, v) f_uv + (dN_v/dx)ᵀ m of point forces and moments
     ``f`` (..., n_pt, 3: f_u, f_v along and normal to the element, m) at element coordinates
     ``xi`` (n_pt,) of elements of length ``l`` (n_pt,): (..., n_pt, n_dof) on the local DOFs
-    (docs/theory.md §5.1: the shape functions of the mass matrix; rotations per unit l)."""
+    (docs/theory.md §5.1: the shape functions of the mass matrix; rotations per unit l). With the
+    Timoshenko shear parameters ``phi`` (n_pt,): N_v and, for the moment, N_ψ of docs/theory.md §22.2."""
     xi, l = np.asarray(xi, float), np.asarray(l, float)
     d = dof_scale(l, n_dof)
     Nu = axial_shapes(xi, n_dof, 0) * d
     Nv = bending_shapes(xi, n_dof, 0) * d
     dNv = bending_shapes(xi, n_dof, 1) * d / l[:, None]
+    if phi is not None:
+        s, ph = tim.shapes(xi), np.asarray(phi, float)[:, None]
+        Nv = (s["v"][:, 0] + ph * s["v"][:, 1]) / (1 + ph) * d
+        dNv = (s["psi"][:, 0] + ph * s["psi"][:, 1]) / (1 + ph) * d / l[:, None]
     return f[..., 0:1] * Nu + f[..., 1:2] * Nv + f[..., 2:3] * dNv
 
 
