@@ -13,6 +13,7 @@ from fkev_slepc.api.checks import modes_fit, point_arguments
 from fkev_slepc.api.results import PointResult
 from fkev_slepc.archive.reader import NodeDofMap
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.scene.validity import OUT_OF_PLANE_THESIS, in_plane_only
 from fkev_slepc.solve import modes as _modes
 from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.model.operators import AssemblyError, Model
@@ -83,6 +84,8 @@ def out_of_plane_arguments(sc: Scene, plane, rel_error, asked: str | None = None
     kind = BY_NAME.get(plane)
     if kind is None:
         bad.append(Problem("plane", unknown_plane(plane)))
+    elif kind.section and in_plane_only(sc, OUT_OF_PLANE_THESIS) is not None:
+        bad.append(in_plane_only(sc, OUT_OF_PLANE_THESIS))
     elif kind.section:
         try:
             section_of(build_mechanism(sc))

@@ -16,6 +16,7 @@ import numpy as np
 
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.scene.validity import STATIONS_WITHOUT_SPEED, in_plane_only
 
 SEGMENT_STEPS = 4096  # steps between checkpoints (each segment a fresh TS from the last state)
 MIN_STEPS_PER_REVOLUTION = 8
@@ -128,6 +129,9 @@ def checked_runup(scene: Scene, history_args: dict, case, reduce, steps_per_revo
                            f"must be a whole number >= {MIN_STEPS_PER_REVOLUTION} (got {spr!r})"))
     if start not in STARTS:
         bad.append(Problem(names.get("start", "start"), f"must be one of {', '.join(STARTS)} (got {start!r})"))
+    refusal = in_plane_only(scene, "the run-up's stress envelope: " + STATIONS_WITHOUT_SPEED)
+    if refusal:
+        bad.append(refusal)
     if scene.driver.acceleration != 0.0:
         bad.append(Problem("driver.acceleration_rad_s2", "the run-up prescribes its own crank history; the "
                            f"scene's frozen crank acceleration must be 0 (got {scene.driver.acceleration:g} rad/s²)"))

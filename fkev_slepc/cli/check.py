@@ -73,7 +73,9 @@ def print_links(scene: Scene) -> list[str]:
               f" {_hz(s.pinned_frequency_out_hz, 21)} {_hz(s.torsion_frequency_hz, 17)}")
     if any(None in (s.pinned_frequency_out_hz, s.torsion_frequency_hz) for s in rows):
         print("  - : no out-of-plane section data (second moment out of plane, torsion constant, shear modulus)")
-    return [w for s in rows for w in s.warnings] + damping_warnings(scene, rows)
+    from fkev_slepc.scene.validity import slenderness_warnings
+
+    return [w for s in rows for w in s.warnings] + damping_warnings(scene, rows) + slenderness_warnings(scene)
 
 
 def _hz(f: float | None, width: int) -> str:

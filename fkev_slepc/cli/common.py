@@ -52,10 +52,18 @@ def _positive_fraction(text: str) -> float:
 
 
 def apply_element(scene: Scene, element: str | None) -> Scene:
-    """``scene`` with ``--element`` applied (None: unchanged)."""
+    """``scene`` with ``--element`` applied (None: unchanged); a Timoshenko element on links without
+    shear data is refused (scene/validity.py)."""
+    from fkev_slepc.scene.validity import timoshenko_problems
     from fkev_slepc.solve.accuracy import with_element
 
-    return scene if element is None else with_element(scene, element)
+    if element is None:
+        return scene
+    new = with_element(scene, element)
+    bad = timoshenko_problems(new, "--element")
+    if bad:
+        raise SceneError(scene.source, bad)
+    return new
 
 
 def add_model_arguments(p: argparse.ArgumentParser) -> None:
@@ -168,6 +176,10 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
     bad += limits.plausibility_problems(scene, speeds, periodic, {**CLI_NAMES, "speed_rad_s": speed_flag})
     if bad:
         raise SceneError(scene.source, bad)
+    from fkev_slepc.scene.validity import slenderness_warnings
+
+    for w in slenderness_warnings(scene):
+        print(f"warning: {w}", file=sys.stderr, flush=True)
 
 
 def report_scene_error(err: SceneError) -> int:

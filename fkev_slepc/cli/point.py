@@ -12,6 +12,7 @@ from fkev_slepc.model.plane import Plane
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import CONVERGED, EXIT_NOT_CONVERGED, EXIT_OK
 from fkev_slepc.scene.units import RAD_S_PER_RPM, speeds_given_in_rpm, with_rpm
+from fkev_slepc.scene.validity import slenderness_warnings
 from .sensitivity_table import add_sensitivity_argument, check_sensitivity_keys, print_sensitivities, sensitivities
 from .common import (
     preflight,
@@ -58,9 +59,10 @@ def run(args) -> int:
         if args.speed_rpm is not None:
             speed = args.speed_rpm * RAD_S_PER_RPM
         check_sensitivity_keys(scene, args.sensitivity)
+        scene = apply_element(scene, args.element)
         preflight(scene, args, speeds=[speed], speed_flag="--speed-rpm" if args.speed_rpm is not None else "--speed",
                   plots=())
-        res = Study(apply_element(scene, args.element)).point(
+        res = Study(scene).point(
             an.crank_angles_deg[0] if args.angle is None else args.angle, speed,
             an.cases[0] if args.case is None else args.case,
             modes=args.modes, solver=args.solver, cross_check=args.cross_check, rel_error=args.rel_error,
@@ -76,6 +78,7 @@ def run(args) -> int:
     rpm = args.speed_rpm is not None or (args.speed is None and speeds_given_in_rpm(scene.source_text))
     out = res.as_dict()
     out["speed_rpm"] = res.speed_rad_s / RAD_S_PER_RPM if rpm else None
+    out["validity_warnings"] = slenderness_warnings(scene)  # scene/validity.py: Euler-Bernoulli > 1 % off
     if sens:
         out["sensitivity"] = sens
     if args.json:

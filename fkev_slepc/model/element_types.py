@@ -1,4 +1,6 @@
-"""Element types: the thesis frame element and a frame element with cubic axial interpolation.
+"""Element types: the thesis frame element, a frame element with cubic axial interpolation and
+the Timoshenko frame element (``timoshenko``: shear deformation and rotary inertia, same six DOFs,
+matrices in :mod:`fkev_slepc.model.timoshenko`, docs/theory.md §22).
 
 Both are planar Euler-Bernoulli frame elements with cubic Hermite bending; they differ in the
 axial displacement u(ξ) (docs/accuracy.md §1):
@@ -29,6 +31,7 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss
 
 from fkev_slepc.model import elements as el
+from fkev_slepc.model import timoshenko as tim
 from fkev_slepc.scene.model import ELEMENT_NAMES
 _R3 = 6.0 * np.sqrt(3.0)
 
@@ -114,41 +117,60 @@ class ElementType:
         kg = np.stack([_gram(xi[:, None] ** k * dNv, dNv, w) for k in range(3)])
         return mass, skew, kg
 
-    def mass(self, rho_a: np.ndarray, l: np.ndarray) -> np.ndarray:
-        """Consistent mass m = ρAl∫NᵀN dξ."""
+    def mass(self, rho_a: np.ndarray, l: np.ndarray, shear: tim.Shear | None = None, ei=None) -> np.ndarray:
+        """Consistent mass m = ρAl∫NᵀN dξ (Timoshenko: plus the rotary inertia, docs/theory.md §22)."""
+        if self.name == "timoshenko":
+            return tim.mass(rho_a, shear.rho_i, l, shear.parameter(ei, l))[0]
         if self.name == "thesis":
             return el.mass_local(rho_a, l)
         d = dof_scale(l, self.n_dof)
         return (rho_a * l)[:, None, None] * self._templates[0] * d[:, :, None] * d[:, None, :]
 
-    def skew_mass(self, rho_a: np.ndarray, l: np.ndarray) -> np.ndarray:
+    def normal_mass(self, rho_a: np.ndarray, l: np.ndarray, shear: tim.Shear | None = None, ei=None):
+        """The matrix n of the normal term −φ̇² n: None (the mass m) but for the Timoshenko element,
+        whose rotary inertia has no centripetal term (its translational mass, §22.4)."""
+        if self.name != "timoshenko":
+            return None
+        return tim.mass(rho_a, shear.rho_i, l, shear.parameter(ei, l))[1]
+
+    def skew_mass(self, rho_a: np.ndarray, l: np.ndarray, shear: tim.Shear | None = None, ei=None) -> np.ndarray:
         """Secondary mass m_a = ρAl∫NᵀSN dξ (skew-symmetric)."""
+        if self.name == "timoshenko":
+            return tim.skew_mass(rho_a, l, shear.parameter(ei, l))
         if self.name == "thesis":
             return el.skew_mass_local(rho_a, l)
         d = dof_scale(l, self.n_dof)
         return (rho_a * l)[:, None, None] * self._templates[1] * d[:, :, None] * d[:, None, :]
 
-    def structural(self, ea: np.ndarray, ei: np.ndarray, l: np.ndarray) -> np.ndarray:
+    def structural(self, ea: np.ndarray, ei: np.ndarray, l: np.ndarray, shear: tim.Shear | None = None) -> np.ndarray:
         """Structural stiffness k_s = Bᵀ diag(w) B (= EA/l∫u'² + EI/l³∫v''² in ξ)."""
+        if self.name == "timoshenko":
+            return tim.structural(ea, ei, shear.kga, l, shear.parameter(ei, l))
         if self.name == "thesis":
             return el.structural_local(ea, ei, l)
         B, w = self.strains(ea, ei, l)
         return np.einsum("esi,es,esj->eij", B, w, B)
 
-    def axial_force(self, c: np.ndarray, l: np.ndarray) -> np.ndarray:
-        """Pseudo-normal stiffness k_g = (1/l)∫F(ξ) v'ᵀv' dξ for F = c₀ + c₁ξ + c₂ξ² (c: (n_el, 3))."""
+    def axial_force(self, c: np.ndarray, l: np.ndarray, phi: np.ndarray | None = None) -> np.ndarray:
+        """Pseudo-normal stiffness k_g = (1/l)∫F(ξ) v'ᵀv' dξ for F = c₀ + c₁ξ + c₂ξ² (c: (n_el, 3));
+        ``phi``: the Timoshenko element's shear parameters Φ (n_el,)."""
+        if self.name == "timoshenko":
+            return tim.axial_force(c, l, phi)
         if self.name == "thesis":
             return el.axial_force_local(c, l)
         d = dof_scale(l, self.n_dof)
         kg = np.einsum("ek,kij->eij", c, self._templates[2])
         return kg * (d[:, :, None] * d[:, None, :]) / l[:, None, None]
 
-    def strains(self, ea: np.ndarray, ei: np.ndarray, l: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def strains(self, ea: np.ndarray, ei: np.ndarray, l: np.ndarray, shear: tim.Shear | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
         """Strain operator B (n_el, n_s, n_dof) and weights w (n_el, n_s) with k_s = Bᵀ diag(w) B.
 
         Rows: axial strain u' and curvature v'' at 3 Gauss points (exact for both elements:
-        u' is at most quadratic, v'' linear).
+        u' is at most quadratic, v'' linear); Timoshenko: curvature ψ′ and one shear-strain row.
         """
+        if self.name == "timoshenko":
+            return tim.strains(ea, ei, shear.kga, l, shear.parameter(ei, l))
         xi, wg = _gauss(3)
         d = dof_scale(l, self.n_dof)
         Bu = axial_shapes(xi, self.n_dof, 1)[None] * d[:, None, :] / l[:, None, None]
@@ -158,20 +180,25 @@ class ElementType:
         return B, w
 
 
-def point_load(xi: np.ndarray, l: np.ndarray, n_dof: int, f: np.ndarray) -> np.ndarray:
+def point_load(xi: np.ndarray, l: np.ndarray, n_dof: int, f: np.ndarray, phi: np.ndarray | None = None) -> np.ndarray:
     """Consistent element loads Nᵀ(u, v) f_uv + (dN_v/dx)ᵀ m of point forces and moments
     ``f`` (..., n_pt, 3: f_u, f_v along and normal to the element, m) at element coordinates
     ``xi`` (n_pt,) of elements of length ``l`` (n_pt,): (..., n_pt, n_dof) on the local DOFs
-    (docs/theory.md §5.1: the shape functions of the mass matrix; rotations per unit l)."""
+    (docs/theory.md §5.1: the shape functions of the mass matrix; rotations per unit l). With the
+    Timoshenko shear parameters ``phi`` (n_pt,): N_v and, for the moment, N_ψ of docs/theory.md §22.2."""
     xi, l = np.asarray(xi, float), np.asarray(l, float)
     d = dof_scale(l, n_dof)
     Nu = axial_shapes(xi, n_dof, 0) * d
     Nv = bending_shapes(xi, n_dof, 0) * d
     dNv = bending_shapes(xi, n_dof, 1) * d / l[:, None]
+    if phi is not None:
+        s, ph = tim.shapes(xi), np.asarray(phi, float)[:, None]
+        Nv = (s["v"][:, 0] + ph * s["v"][:, 1]) / (1 + ph) * d
+        dNv = (s["psi"][:, 0] + ph * s["psi"][:, 1]) / (1 + ph) * d / l[:, None]
     return f[..., 0:1] * Nu + f[..., 1:2] * Nv + f[..., 2:3] * dNv
 
 
-_N_DOF = {"thesis": 6, "cubic": 8}
+_N_DOF = {"thesis": 6, "cubic": 8, "timoshenko": 6}
 ELEMENT_TYPES = {name: ElementType(name, _N_DOF[name]) for name in ELEMENT_NAMES}
 
 

@@ -35,6 +35,7 @@ from fkev_slepc.model.qep import GENERAL, GYROSCOPIC, LINEAR, LINEAR_SYMMETRIC, 
 from fkev_slepc.model.stacks import AngleState, angle_state, element_stacks, node_frames
 from fkev_slepc.scene import Scene
 from fkev_slepc.scene.cases import CASE_NAMES, CASES, terms_used
+from fkev_slepc.scene.validity import OUT_OF_PLANE_THESIS, in_plane_only
 
 __all__ = ["AssemblyError", "LoadPieces", "Model", "OperatorPieces", "PieceStack", "classify", "node_frames"]
 
@@ -87,6 +88,9 @@ class Model:
         if plane not in PLANES:
             raise ValueError(f"plane must be one of {', '.join(PLANES)} (got {plane!r})")
         kind = Plane.parse(plane)
+        refusal = in_plane_only(scene, OUT_OF_PLANE_THESIS) if kind.section else None
+        if refusal:
+            raise ValueError(str(refusal))
         self.scene = scene
         self.plane = plane
         mech = build_mechanism(scene)

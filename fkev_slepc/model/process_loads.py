@@ -141,7 +141,9 @@ def process_load_vectors(model, theta) -> np.ndarray:
     phi = state.phi[:, points.elem]
     c, s = np.cos(phi), np.sin(phi)
     local = np.stack([c * force[..., 0] + s * force[..., 1], c * force[..., 1] - s * force[..., 0], moment], -1)
-    f_e = point_load(points.xi, mech.elem_length[points.elem], model.stacks.n_dof, local)
+    shear = model.stacks.shear_parameter  # Timoshenko: its own N_v, N_ψ (docs/theory.md §22.2)
+    f_e = point_load(points.xi, mech.elem_length[points.elem], model.stacks.n_dof, local,
+                     None if shear is None else shear[points.elem])
     T = state.T[:, points.elem]
     f_dof = (np.swapaxes(T, -1, -2) @ f_e[..., None])[..., 0]
     return model.pattern.scatter_vector(f_dof, mech.elem_dofs[points.elem])

@@ -26,6 +26,7 @@ from fkev_slepc.model.element_types import ElementType
 from fkev_slepc.model.kinematics import Kinematics, solve_kinematics
 from fkev_slepc.model.kinetostatics import Loads, axial_polynomials, solve_loads, unknowns
 from fkev_slepc.model.mechanism import Mechanism
+from fkev_slepc.model.timoshenko import section_shear
 
 
 def node_frames(mech, n_dof: int = 6) -> np.ndarray | None:
@@ -58,6 +59,7 @@ class ElementStacks:
     strain_weight: np.ndarray  # (n_el, n_s) w
     node_frames: np.ndarray | None  # (n_el, n_dof, n_dof) or None (no slider node)
     normal: np.ndarray | None = None  # n of the normal term -φ̇² n; None: the mass m (in plane, §6)
+    shear_parameter: np.ndarray | None = None  # (n_el,) Φ of the Timoshenko element (§22), else None
 
     @property
     def n_el(self) -> int:
@@ -71,16 +73,26 @@ class ElementStacks:
         """k_g stacks (..., n_el, n_dof, n_dof) of the axial-force polynomials c (..., n_el, 3)."""
         lead = c.shape[:-2]
         l = np.broadcast_to(self.length, lead + (self.n_el,)).reshape(-1)
-        k = self.element.axial_force(c.reshape(-1, 3), l)
+        if self.shear_parameter is None:
+            k = self.element.axial_force(c.reshape(-1, 3), l)
+        else:
+            phi = np.broadcast_to(self.shear_parameter, lead + (self.n_el,)).reshape(-1)
+            k = self.element.axial_force(c.reshape(-1, 3), l, phi)
         return k.reshape(lead + (self.n_el, self.n_dof, self.n_dof))
 
 
 def element_stacks(mech: Mechanism, et: ElementType) -> ElementStacks:
     """The element stacks of ``mech`` for element type ``et``."""
-    l = mech.elem_length
-    B, w = et.strains(mech.elem_ea, mech.elem_ei, l)
-    return ElementStacks(et, l, et.mass(mech.elem_rho_a, l), et.skew_mass(mech.elem_rho_a, l),
-                         et.structural(mech.elem_ea, mech.elem_ei, l), B, w, node_frames(mech, et.n_dof))
+    l, ra, ei = mech.elem_length, mech.elem_rho_a, mech.elem_ei
+    if et.name != "timoshenko":
+        B, w = et.strains(mech.elem_ea, ei, l)
+        return ElementStacks(et, l, et.mass(ra, l), et.skew_mass(ra, l), et.structural(mech.elem_ea, ei, l), B, w,
+                             node_frames(mech, et.n_dof))
+    sh = section_shear(mech.elem_piece)
+    B, w = et.strains(mech.elem_ea, ei, l, sh)
+    return ElementStacks(et, l, et.mass(ra, l, sh, ei), et.skew_mass(ra, l, sh, ei),
+                         et.structural(mech.elem_ea, ei, l, sh), B, w, node_frames(mech, et.n_dof),
+                         normal=et.normal_mass(ra, l, sh, ei), shear_parameter=sh.parameter(ei, l))
 
 
 @dataclass(frozen=True)

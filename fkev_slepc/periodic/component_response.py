@@ -242,14 +242,16 @@ def component_response(system, omega: float, modes: int, *, harmonics=None, tol:
     return LiftedResponse(harmonic_balance(proj.mck, proj.load, omega, harmonics=harmonics, tol=tol), proj)
 
 
-def changes(model, coarse: LiftedResponse, fine: LiftedResponse) -> tuple[float, float]:
-    """(stress, deflection) relative changes from ``coarse`` to ``fine`` at ``MEASURE_ANGLES`` angles."""
+def changes(model, coarse: LiftedResponse, fine: LiftedResponse, speed=None) -> tuple[float, float]:
+    """(stress, deflection) relative changes from ``coarse`` to ``fine`` at ``MEASURE_ANGLES`` angles;
+    the stresses by the shape functions, or with the crank ``speed`` (rad/s; what a Timoshenko model
+    needs, periodic/stations.py) by each element's equilibrium."""
     from fkev_slepc.periodic.stations import element_end_stations, station_response
 
     theta = 2.0 * np.pi * np.arange(MEASURE_ANGLES) / MEASURE_ANGLES
     qa, qb = coarse.at(theta), fine.at(theta)
     ends = element_end_stations(model.mechanism)
-    sa, sb = (station_response(model, theta, q, ends) for q in (qa, qb))
+    sa, sb = (station_response(model, theta, q, ends, speed=speed) for q in (qa, qb))
     keys = ("stress_plus", "stress_minus") if np.isfinite(sb.stress).all() else ("moment",)
     xa = np.concatenate([getattr(sa, k) for k in keys], axis=1)
     xb = np.concatenate([getattr(sb, k) for k in keys], axis=1)
@@ -282,7 +284,8 @@ def converged_response(system, omega: float, *, modes: int | None = None, harmon
     def fits(k, prev):
         return (2 * max(prev.harmonics.shape[0] - 1, 16) + 1) * comp.basis(k).shape[1] <= MAX_UNKNOWNS
 
-    c = climb(levels(), solve, lambda a, b: changes(system.model, a, b), reduce_tol, whole=lambda k: k >= top,
+    speed = None if system.model.stacks.shear_parameter is None else omega  # Timoshenko: equilibrium stresses
+    c = climb(levels(), solve, lambda a, b: changes(system.model, a, b, speed), reduce_tol, whole=lambda k: k >= top,
               fits=fits, fixed=modes is not None)
     steps = tuple((k, r.system.basis.shape[1], *m) for k, r, m in c.rungs[1:])
     ds, dd = (0.0, 0.0) if c.exact else c.changes or (np.inf, np.inf)

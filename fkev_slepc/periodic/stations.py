@@ -31,6 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fkev_slepc.model.element_types import axial_shapes, bending_shapes, dof_scale
+from fkev_slepc.model.timoshenko import shapes as timoshenko_shapes
+from fkev_slepc.scene.validity import STATIONS_WITHOUT_SPEED, in_plane_only
 
 
 @dataclass(frozen=True)
@@ -145,7 +147,12 @@ def station_response(model, theta, q, stations=None, rigid_axial=None, *, speed=
     """Station outputs of the global response ``q`` (n_θ, n_free) at crank angles ``theta``;
     ``rigid_axial`` (n_θ, n_el, 3) the kinetostatic axial-force polynomials at the same angles.
     With the crank ``speed`` (rad/s) and ``gravity`` (g_x, g_y) of the response, N, V and M come from
-    each element's equilibrium (:func:`element_forces`); without, from the shape functions."""
+    each element's equilibrium (:func:`element_forces`); without, from the shape functions (the
+    thesis element's: refused, ValueError, for a Timoshenko model, whose u and v come from its own
+    interdependent shapes, docs/theory.md §22)."""
+    refusal = None if speed is not None else in_plane_only(model.scene, STATIONS_WITHOUT_SPEED)
+    if refusal:
+        raise ValueError(str(refusal))
     mech = model.mechanism
     stations = tuple(default_stations(mech) if stations is None else stations)
     links = sorted({st.link for st in stations})
@@ -170,6 +177,10 @@ def station_response(model, theta, q, stations=None, rigid_axial=None, *, speed=
         return np.einsum("sd,asd->as", rows, q_loc)
 
     u, v = at(axial_shapes, 0), at(bending_shapes, 0)
+    phi = model.stacks.shear_parameter
+    if phi is not None:  # Timoshenko: v = (N⁰ + Φ N¹)/(1 + Φ) q (docs/theory.md §22.2)
+        pv, ph = timoshenko_shapes(xi)["v"], phi[e][:, None]
+        v = np.einsum("sd,asd->as", (pv[:, 0] + ph * pv[:, 1]) / (1 + ph), q_loc)
     v_end = {lk: (v[:, n_st + 2 * i], v[:, n_st + 2 * i + 1]) for i, lk in enumerate(links)}
     chord = np.stack([v[:, k] - (1 - st.s / mech.length[st.link]) * v_end[st.link][0]
                       - st.s / mech.length[st.link] * v_end[st.link][1] for k, st in enumerate(stations)], axis=1)

@@ -95,3 +95,13 @@ def shear_modulus(values: dict, materials: dict[str, Material | None] | None) ->
     if material is None or material.poisson_ratio is None or e_mod is None:
         return None
     return e_mod / (2.0 * (1.0 + material.poisson_ratio))
+
+
+def poisson(values: dict, materials: dict[str, Material | None] | None) -> float | None:
+    """ν of a table of link values: its material's Poisson ratio, else E/2G − 1 from an explicit
+    ``shear_modulus_pa`` and its E, else None (Cowper's shear coefficient, docs/theory.md §22.1)."""
+    material = (materials or {}).get(values.get(MATERIAL_KEY))
+    if material is not None and material.poisson_ratio is not None:
+        return material.poisson_ratio
+    g, e_mod = values.get(SHEAR_KEY), values.get("youngs_modulus_pa")
+    return None if g is None or e_mod is None else e_mod / (2.0 * g) - 1.0

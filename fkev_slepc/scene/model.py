@@ -16,8 +16,9 @@ import numpy as np
 
 END_NAMES = ("root", "tip")
 # Element types (model/element_types.py): the thesis frame element (linear axial) and the
-# frame element with cubic axial interpolation (docs/accuracy.md §1).
-ELEMENT_NAMES = ("thesis", "cubic")
+# frame element with cubic axial interpolation (docs/accuracy.md §1), the Timoshenko frame element
+# (shear deformation and rotary inertia, docs/theory.md §22).
+ELEMENT_NAMES = ("thesis", "cubic", "timoshenko")
 THIRD = "third"  # the third joint point of a ternary link (docs/linkages.md)
 # Default analysis.damping_tol. Round-off leaves |ζ| ~ 1e-10..1e-8 on undamped modes (pair
 # errors 1e-14..1e-8, docs/stability.md); ζ = -1e-6 means an amplitude growth of e only after
@@ -66,7 +67,7 @@ class Material:
 # The optional section and material fields of a Segment and a Link (None: the scene does not
 # give them; the out-of-plane ones are the data of out-of-plane bending and torsion).
 SECTION_EXTRAS = ("fibre_distance", "second_moment_out", "torsion_constant", "polar_moment",
-                  "fibre_distance_out", "shear_modulus", "material")
+                  "fibre_distance_out", "shear_modulus", "shear_coefficient", "material")
 
 
 @dataclass(frozen=True)
@@ -85,6 +86,7 @@ class Segment:
     polar_moment: float | None = None  # m^4, I_p = I + I_out (torsional rotary inertia ρ I_p)
     fibre_distance_out: float | None = None  # m, out-of-plane extreme fibre
     shear_modulus: float | None = None  # Pa
+    shear_coefficient: float | None = None  # κ of the Timoshenko element (given, or Cowper's of the shape)
     material: str | None = None  # name of its [materials] entry
 
 
@@ -114,6 +116,7 @@ class Link:
     polar_moment: float | None = None  # m^4
     fibre_distance_out: float | None = None  # m
     shear_modulus: float | None = None  # Pa
+    shear_coefficient: float | None = None  # κ (docs/theory.md §22.1)
     material: str | None = None
     buckling_length_factor: float = 1.0  # K of the Euler load π²EI/(KL)² (1: pinned ends)
 

@@ -21,7 +21,8 @@ SEGMENT_PROPERTIES = {  # TOML key -> Segment field (finite, > 0)
     "second_moment_m4": "second_moment",
 }
 # optional keys of a link and its segments (TOML key -> Link/Segment field)
-OPTIONAL = {shapes.FIBRE_KEY: "fibre_distance", **shapes.OUT_KEYS, materials.SHEAR_KEY: "shear_modulus"}
+OPTIONAL = {shapes.FIBRE_KEY: "fibre_distance", **shapes.OUT_KEYS, materials.SHEAR_KEY: "shear_modulus",
+            shapes.KAPPA_KEY: "shear_coefficient"}
 SEGMENT_KEYS = ("length_m", *SEGMENT_PROPERTIES, "elements", shapes.SECTION_KEY, *OPTIONAL, materials.MATERIAL_KEY)
 TERNARY_KEYS = ("third_joint_m", "third_elements")
 PRISMATIC_KEYS = ("guide_angle_deg", "slider_mass_kg")
@@ -38,6 +39,8 @@ def read_optional(r: Reader, item, path: str, values: dict, defaults: dict) -> b
     for key in OPTIONAL:
         values[key] = r.number(item, key, path, positive=True, default=defaults.get(key))
         ok = ok and (values[key] is not None or (key not in item and not shapes.reported(item, key)))
+    own = shapes.SHAPE_MARK in item or any(k in item for k in shapes.EXPLICIT)
+    values[shapes.SHAPE_MARK] = item.get(shapes.SHAPE_MARK) if own else defaults.get(shapes.SHAPE_MARK)
     return ok
 
 
@@ -45,6 +48,8 @@ def complete(values: dict, mats) -> None:
     """Fill the derived optional values of one uniform piece: I_p = I + I_out, G from ν."""
     shapes.polar_default(values)
     values[materials.SHEAR_KEY] = materials.shear_modulus(values, mats)
+    if values.get(shapes.KAPPA_KEY) is None:
+        values[shapes.KAPPA_KEY] = shapes.cowper(values.get(shapes.SHAPE_MARK), materials.poisson(values, mats))
 
 
 def read_segments(r: Reader, item, path: str, link_values: dict, inherited: dict, mats=None) -> tuple | None:

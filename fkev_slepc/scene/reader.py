@@ -9,6 +9,7 @@ import re
 import tomllib
 from pathlib import Path
 
+from fkev_slepc.scene.validity import timoshenko_problems
 from fkev_slepc.scene import parts
 from fkev_slepc.scene import sections as sec
 from fkev_slepc.scene import settings
@@ -123,7 +124,7 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
         sec.check_topology(r, links, joints)
     if r.problems:
         raise SceneError(source, r.compacted())
-    return Scene(
+    scene = Scene(
         title=title,
         links=tuple(links),
         joints=tuple(joints),
@@ -138,6 +139,10 @@ def _parse_document(doc: dict, text: str, source: str) -> Scene:
         source_text=text,
         source=source,
     )
+    bad = timoshenko_problems(scene)
+    if bad:
+        raise SceneError(source, bad)
+    return scene
 
 
 def _syntax_problem(exc: tomllib.TOMLDecodeError) -> Problem:

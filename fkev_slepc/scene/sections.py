@@ -77,6 +77,7 @@ def read_links(r: Reader, doc, mats=None) -> tuple[list[Link | None], list[str] 
             if key in table or shapes.reported(table, key):
                 defaults[key] = r.number(table, key, "link_defaults", positive=True)
         defaults[materials.MATERIAL_KEY] = table.get(materials.MATERIAL_KEY)
+        defaults[shapes.SHAPE_MARK] = table.get(shapes.SHAPE_MARK)
     out: list[Link | None] = []
     seen: dict[str, str] = {}
     ternary: set[str] = set()

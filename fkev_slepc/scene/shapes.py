@@ -40,6 +40,9 @@ OUT_KEYS = {
     "polar_moment_m4": "polar_moment",
     "fibre_distance_out_of_plane_m": "fibre_distance_out",
 }
+KAPPA_KEY = "shear_coefficient"  # κ of the Timoshenko element (docs/theory.md §22.1)
+# the shape a section was given by, (shape, inner/outer diameter ratio), kept for Cowper's κ
+SHAPE_MARK = "\0shape"
 EXPLICIT = ("area_m2", "second_moment_m4", FIBRE_KEY, *OUT_KEYS)
 # Marks a table whose section (or material, scene/materials.py) was bad and already reported:
 # it holds the keys its readers take as absent-and-reported (None), so no "missing required key
@@ -167,4 +170,24 @@ def expand(r: Reader, table, path: str):
     for key, value in zip(OUT_KEYS, out_of_plane(shape, dims)):
         out[key] = value
     out[REPORTED] = tuple(k for k in out[REPORTED] if k not in EXPLICIT)
+    out[SHAPE_MARK] = (shape, dims["inner_diameter_m"] / dims["outer_diameter_m"] if shape == "tube" else 0.0)
     return out
+
+
+def cowper(mark, nu: float | None) -> float | None:
+    """Cowper's shear coefficient κ (J. Appl. Mech. 33, 1966; docs/theory.md §22.1) of a section
+    shape ``mark`` = (shape, inner/outer diameter ratio) at Poisson ratio ``nu``; None if either
+    is unknown.
+
+    Examples
+    --------
+    >>> round(cowper(("rectangle", 0.0), 0.3), 6), round(cowper(("circle", 0.0), 0.3), 6)
+    (0.849673, 0.886364)
+    """
+    if mark is None or nu is None:
+        return None
+    shape, m = mark
+    if shape == "rectangle":
+        return 10 * (1 + nu) / (12 + 11 * nu)
+    q = (1 + m * m) ** 2
+    return 6 * (1 + nu) * q / ((7 + 6 * nu) * q + (20 + 12 * nu) * m * m)

@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from fkev_slepc.scene.validity import timoshenko_problems
 from fkev_slepc.scene import ELEMENT_NAMES, Problem, Scene, SceneError
 from fkev_slepc.scene.cases import CASE_NAMES, case_name
 from fkev_slepc.scene.units import RAD_S_PER_RPM
@@ -232,6 +233,7 @@ def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=
     if element is not None:
         if element in ELEMENT_NAMES:
             an = replace(an, element=element)
+            problems += timoshenko_problems(replace(scene, analysis=an), names["element"])
         else:
             problems.append(Problem(names["element"], f"must be one of {', '.join(ELEMENT_NAMES)} (got {element!r})"))
     if rel_error is not None:

@@ -30,6 +30,7 @@ import numpy as np
 from fkev_slepc.archive import products as P
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.status import RETRYABLE
+from fkev_slepc.scene.validity import OUT_OF_PLANE_THESIS, in_plane_only
 
 PLANE_CHOICES = ("in", "out", "both")
 
@@ -57,11 +58,13 @@ def both_planes_possible(scene) -> bool:
 
 def default_plane(scene, plane: str | None, rel_error: float | None = None) -> str:
     """``plane`` as asked, or the default: ``both`` when the scene gives every link's out-of-plane
-    section data and no accuracy plan is asked (``rel_error``: in plane only), else ``in``."""
+    section data and no accuracy plan is asked (``rel_error``: in plane only) nor the in-plane-only
+    Timoshenko element (scene/validity.py), else ``in``."""
     if plane is not None:
         return plane
     planned = rel_error is not None or scene.analysis.rel_error is not None
-    return "both" if not planned and both_planes_possible(scene) else "in"
+    in_only = in_plane_only(scene, OUT_OF_PLANE_THESIS) is not None
+    return "both" if not planned and not in_only and both_planes_possible(scene) else "in"
 
 
 def run_out_of_plane(request, comm=None, notify=None, progress: bool = False, model=None) -> PlaneOutcome:
