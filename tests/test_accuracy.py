@@ -104,7 +104,7 @@ def test_scene_element_and_rel_error_are_validated():
     from fkev_slepc.scene import SceneError, parse_scene
 
     text = BW.source_text
-    for bad, msg in (('element = "quintic"', r"analysis.element: must be one of 'thesis', 'cubic' \(got 'quintic'\)"),
+    for bad, msg in (('element = "quintic"', r"analysis.element: must be one of 'thesis', 'cubic', 'timoshenko' \(got 'quintic'\)"),
                      ("rel_error = 0", r"analysis.rel_error: must be > 0"),
                      ("rel_error = 1.5", r"analysis.rel_error: must be < 1")):
         with pytest.raises(SceneError, match=msg):

@@ -233,7 +233,7 @@ def test_study_sweep_rel_error_and_element_write_what_fkev_run_writes(tmp_path):
     bad = tmp_path / "bad.h5"
     with pytest.raises(SceneError, match=r"rel_error: must be a number in \(0, 1\) \(got 2\)") as err:
         fk.load(BW).sweep([0], [0], ["full"], output=bad, rel_error=2, element="quad")
-    assert "element: must be one of thesis, cubic (got 'quad')" in str(err.value) and not bad.exists()
+    assert "element: must be one of thesis, cubic, timoshenko (got 'quad')" in str(err.value) and not bad.exists()
 
 
 def test_sweep_refusals_are_exceptions(tmp_path):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fkev_slepc.scene import ELEMENT_NAMES, Scene, with_elements
+from fkev_slepc.scene import Scene, with_elements
 from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.model.operators import Model
 from fkev_slepc.solve.engines import engine_kind, make_engine
@@ -27,7 +27,10 @@ from fkev_slepc.solve.modes import postprocess
 from fkev_slepc.solve.thresholds import SolveSettings
 
 RATE_AGREEMENT = 0.5
-START = {"thesis": 4, "cubic": 2}  # first mesh of the sequence (elements per link)
+START = {"thesis": 4, "cubic": 2, "timoshenko": 4}  # first mesh of the sequence (elements per link)
+# the meshes a plan chooses between discretise one beam theory: Euler–Bernoulli (thesis or cubic
+# element) or Timoshenko (its own element, another model: never swapped for a mesh choice)
+PLANNED = {"thesis": ("thesis", "cubic"), "cubic": ("thesis", "cubic"), "timoshenko": ("timoshenko",)}
 MAX_MEASURED = 256  # finest mesh solved to measure the rate
 MAX_ELEMENTS = 8192  # finest mesh a plan may ask for
 SAFETY = 1.1  # N* is rounded up after scaling by this (the estimate is not exact)
@@ -154,11 +157,12 @@ def choose(candidates, rel_error: float) -> Plan:
     return Plan(rel_error, c.element, c.elements, c.n_free, c.predicted, tuple(candidates))
 
 
-def plan_point(scene: Scene, points, n_modes: int, rel_error: float, engine_for, elements=ELEMENT_NAMES) -> Plan:
+def plan_point(scene: Scene, points, n_modes: int, rel_error: float, engine_for, elements=None) -> Plan:
     """Plan the element and mesh so that ``n_modes`` frequencies at every one of ``points``
     ((angle_deg, speed, case) triples) meet ``rel_error``; the finest need over the points wins.
 
-    ``engine_for(n_free)`` returns an engine for a model of that size (reused, not closed here).
+    ``engine_for(n_free)`` returns an engine for a model of that size (reused, not closed here);
+    ``elements`` the element types compared (default: those of the scene's beam theory, :data:`PLANNED`).
     """
     cases = tuple(dict.fromkeys(c for _, _, c in points))
 
@@ -174,6 +178,7 @@ def plan_point(scene: Scene, points, n_modes: int, rel_error: float, engine_for,
     def n_free_of(element, n):
         return build_mechanism(with_elements(with_element(scene, element), n)).n_free
 
+    elements = PLANNED[scene.analysis.element] if elements is None else elements
     return choose([plan_element(solve, e, rel_error, n_free_of) for e in elements], rel_error)
 
 
