@@ -1,8 +1,8 @@
 """When the Euler-Bernoulli element is outside its validity, and what the Timoshenko element needs
 (docs/theory.md §22.1, §22.6). One place for both rules.
 
-* :func:`slenderness_error` -- the first-order estimate of how far the Euler-Bernoulli element's
-  bending frequency of mode n lies above Timoshenko's, ½(1 + E/κG)(nπ r/L)², r = sqrt(I/A).
+* :func:`slenderness_error` -- how far the Euler-Bernoulli bending frequency of mode n lies above
+  Timoshenko's, ω_EB/ω_T - 1, from the simply supported beam's exact dispersion relation (§22.6).
 * :func:`slenderness_warnings` -- a warning per link where it exceeds :data:`MAX_EB_ERROR` for
   the modes the scene asks for (n = ``analysis.modes``, a conservative bound), unless the scene
   already uses ``element = "timoshenko"``.
@@ -28,13 +28,19 @@ STATIONS_WITHOUT_SPEED = ("station forces without an operating point (a crank sp
 
 
 def slenderness_error(link, modes: int) -> float:
-    """½(1 + E/κG)(nπ r/L)² of ``link`` at mode n = ``modes`` (its most slender-critical segment)."""
+    """ω_EB/ω_T - 1 of ``link``'s bending mode n = ``modes`` (its most critical segment), from the
+    pinned-pinned dispersion relation (κGAk² − ρAω²)(EIk² + κGA − ρIω²) = (κGAk)², k = nπ/L, its lower
+    root (docs/theory.md §22.6); ρ cancels."""
     worst = 0.0
     for s in link.pieces:
         kappa = s.shear_coefficient or DEFAULT_KAPPA
         e_over_g = s.youngs_modulus / s.shear_modulus if s.shear_modulus else 2 * (1 + DEFAULT_NU)
-        r = math.sqrt(s.second_moment / s.area)
-        worst = max(worst, 0.5 * (1 + e_over_g / kappa) * (modes * math.pi * r / link.length) ** 2)
+        ei, ga = s.second_moment, kappa * s.area / e_over_g  # E = 1: EI and κGA in units of E
+        k2 = (modes * math.pi / link.length) ** 2
+        b = s.area * (ei * k2 + ga) + s.second_moment * ga * k2  # A·B, with ρ = 1
+        c = ga * ei * k2 * k2
+        w2 = 2 * c / (b + math.sqrt(b * b - 4 * s.area * s.second_moment * c))  # lower root, stable form
+        worst = max(worst, math.sqrt(ei * k2 * k2 / s.area / w2) - 1.0)
     return worst
 
 
@@ -50,8 +56,8 @@ def slenderness_warnings(scene: Scene) -> list[str]:
         if err > MAX_EB_ERROR:
             r = min(math.sqrt(s.second_moment / s.area) for s in lk.pieces)
             out.append(f"links[{i}] {lk.name!r}: slenderness L/r = {lk.length / r:.3g} makes the Euler-Bernoulli "
-                       f"element's bending frequencies some {100 * err:.3g} % high by mode {n} (first-order estimate "
-                       f"½(1 + E/κG)(nπr/L)², > "
+                       f"element's bending frequencies some {100 * err:.3g} % high by mode {n} (pinned-pinned "
+                       f"Timoshenko dispersion relation, > "
                        f"{100 * MAX_EB_ERROR:g} %, shear and rotary inertia left out): use "
                        f'[analysis] element = "{TIMOSHENKO}"')
     return out
