@@ -37,6 +37,15 @@ def test_study_and_cli_refuse_the_same_oversize_model_in_the_same_words():
         assert r.stdout == ""
 
 
+def test_study_runup_and_fkev_runup_refuse_the_same_oversize_model():
+    study = fk.load(SCENE, elements=200)  # 1,200 free DOFs: past MAX_PERIODIC_DOFS (the run-up's full model)
+    msg = _api_message(lambda: study.runup(100.0, 1))
+    assert f"exceed {limits.MAX_PERIODIC_DOFS}" in msg
+    r = fkev("runup", SCENE, "--elements", "200", "--speed", "100", "--revolutions", "1", timeout=60)
+    assert r.returncode == 2 and f"  --elements: {msg}" in r.stderr.splitlines(), r.stderr
+    assert r.stdout == ""
+
+
 def test_full_model_limit_and_harmonics_named_by_the_callers_names():
     study = fk.load(SCENE, elements=200)  # 1,200 free DOFs: past MAX_PERIODIC_DOFS on the full model
     (p,) = limits.size_problems(study.scene, True, None, "none", {"elements": "--elements"})

@@ -109,6 +109,7 @@ def parse_ramp(text: str, flag: str = "--ramp"):
 def checked_runup(scene: Scene, history_args: dict, case, reduce, steps_per_revolution, start, names=None):
     """(history, case name, resolved reduce) or one SceneError naming every bad argument, before any work."""
     from fkev_slepc.model.operating_point import full_turn_problem
+    from fkev_slepc.periodic.limits import size_problems
     from fkev_slepc.periodic.motion import runup_reduction
     from fkev_slepc.periodic.runup import STARTS
     from fkev_slepc.scene.cases import case_name
@@ -138,6 +139,7 @@ def checked_runup(scene: Scene, history_args: dict, case, reduce, steps_per_revo
     turn = full_turn_problem(scene)
     if turn is not None:
         bad.append(turn)
+    bad += size_problems(scene, True, names=names)  # the periodic commands' one set of limits (as fkev runup's preflight)
     if bad:
         raise SceneError(scene.source, bad)
     return history, case, reduce
