@@ -376,3 +376,26 @@ def test_one_verdict_rule():
             for n in ast.walk(tree)
             if isinstance(n, ast.BinOp) and any(getattr(x, "id", None) == "SAFETY" for x in (n.left, n.right))}
     assert uses == {"periodic/verdict.py"}
+
+
+def _private_imports(source: str) -> list[str]:
+    """``module.name`` of every private name (a leading underscore) that ``source`` imports from a
+    package module (``from fkev_slepc.periodic.floquet import _name``; dunders such as ``__version__`` are public), at
+    module level or inside a function; the
+    package's own private modules (``fkev_slepc._version``, ``fkev_slepc._threads``) are whole modules."""
+    return [f"{node.module}.{a.name}" for node in ast.walk(ast.parse(source))
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("fkev_slepc.")
+            for a in node.names if a.name.startswith("_") and not a.name.startswith("__")]
+
+
+def test_no_private_names_are_imported_across_modules():
+    """What another module needs is public (issue 34 item 8): a private helper used elsewhere is renamed,
+    not imported past its underscore."""
+    bad = [f"{p.relative_to(ROOT)}: {name}" for p in sorted(PKG.rglob("*.py")) for name in _private_imports(p.read_text())]
+    assert not bad, bad
+
+
+def test_the_private_import_check_sees_one():
+    source = ("from fkev_slepc.periodic.floquet import _unwrapped, public\nimport fkev_slepc._version\n"
+              "from fkev_slepc import _threads\ndef f():\n    from fkev_slepc.periodic.magnus import _product\n")
+    assert _private_imports(source) == ["fkev_slepc.periodic.floquet._unwrapped", "fkev_slepc.periodic.magnus._product"]

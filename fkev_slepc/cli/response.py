@@ -45,7 +45,7 @@ def add_parser(sub) -> None:
                    "link's Craig-Bampton component modes in its own frame (q = W(θ)z plus the static correction of "
                    "the dropped modes; modes per link doubled until stress and deflection change by < 1e-3, the "
                    "truncation stated); links:N: N modes per link, measured against 2N; none: the full model; "
-                   "default: the full model up to 48 free DOFs, links above")
+                   f"default: the full model up to {DEFAULTS.full_max_dofs} free DOFs, links above")
     shooting = p.add_mutually_exclusive_group()
     shooting.add_argument("--shooting", action="store_true", help="also shoot on the monodromy: the Floquet "
                           "multipliers (does the response attract?) and a second method's cross-check")

@@ -25,10 +25,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fkev_slepc.archive import products as P
+from fkev_slepc.design.check import check_links, check_problems, cycle_problems
+from fkev_slepc.model.buckling import weak_axis_buckling
+from fkev_slepc.model.joint_loads import joint_loads
+from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.model.operators import Model
-from fkev_slepc.periodic.steady import SharedModel
+from fkev_slepc.periodic.steady import SharedModel, checked_point, steady_solve, whole_link_stress
 from fkev_slepc.periodic.settings import DEFAULTS
 from fkev_slepc.scene import Problem, Scene, SceneError
+from fkev_slepc.scene.edit import replace_values
 
 REL_STEP = 1e-6  # the sensitivities' relative step (as fkev_slepc/solve/sensitivity.py)
 
@@ -58,10 +64,6 @@ def kinetostatic_columns(scene: Scene, angles_deg, speeds) -> dict[str, np.ndarr
     """Torque range, joint and wrist-pin peaks, weak-axis factors and N_min of ``scene`` at every
     speed over ``angles_deg`` (the scene's crank acceleration and gravity, as ``fkev loads``),
     keyed by the design product's dataset paths (without the design-point axis)."""
-    from fkev_slepc.archive import products as P
-    from fkev_slepc.model.buckling import weak_axis_buckling
-    from fkev_slepc.model.joint_loads import joint_loads
-    from fkev_slepc.model.mechanism import build_mechanism
 
     mech = build_mechanism(scene)
     theta = np.radians(np.asarray(angles_deg, float))
@@ -86,10 +88,6 @@ def stress_columns(scene: Scene, angles_deg, speeds, cases, options: CheckOption
     the check gives none, or at an exact resonance, where the response has no periodic solution),
     keyed by the design product's dataset paths; every response on ``model`` (the point's sweep
     model; default one built for them all, :class:`~fkev_slepc.periodic.steady.SharedModel`)."""
-    from fkev_slepc.archive import products as P
-    from fkev_slepc.design.check import check_links
-    from fkev_slepc.model.joint_loads import joint_loads
-    from fkev_slepc.periodic.steady import checked_point, steady_solve, whole_link_stress
 
     n_link = len(scene.links)
     out = {v.path: np.full((len(speeds), len(cases), n_link), np.nan)
@@ -118,8 +116,6 @@ def sensitivity_columns(scene: Scene, keys, values, angles_deg, speeds, base: di
     """d/dp of the kinetostatic columns ``base`` (:data:`fkev_slepc.archive.products.D_SMOOTH`)
     for every design key p at ``values`` (central differences, module docstring), stacked over
     the keys; NaN for a key whose p ± h is not a valid scene."""
-    from fkev_slepc.archive import products as P
-    from fkev_slepc.scene.edit import replace_values
 
     here = dict(zip(keys, (float(v) for v in values)))
     out = {v.path: [] for v in P.D_SENSITIVITY}
@@ -135,27 +131,36 @@ def sensitivity_columns(scene: Scene, keys, values, angles_deg, speeds, base: di
     return {path: np.stack(rows) for path, rows in out.items()}
 
 
-def stress_problems(scenes, angles_deg, cases, options: CheckOptions, names=None) -> list[Problem]:
-    """With ``stress``: the problems of a periodic response at every design point (a crank
-    acceleration, a crank that does not turn fully, angles that do not assemble or, with a fatigue
-    factor, do not go round the revolution, a bad criterion or harmonics), before anything is solved."""
-    from fkev_slepc.design.check import check_problems, cycle_problems
-    from fkev_slepc.periodic.steady import checked_point
+def point_named(i: int, points: int, problems) -> list[Problem]:
+    """``problems`` of design point ``i`` of ``points``, their paths prefixed with the point where there are several."""
+    return [Problem(f"design point {i}: {p.path}" if points > 1 else p.path, p.message) for p in problems]
+
+
+def stress_option_problems(scenes, angles_deg, options: CheckOptions, names=None) -> list[Problem]:
+    """With ``stress``, what no design point can mend: a bad fatigue criterion, or crank angles that do
+    not go round the revolution where a point's fatigue factor needs it (the first such point's words)."""
 
     if not options.stress:
         return []
     names = names or {}
     bad = check_problems(options.criterion, 1.0, names)
-    bad += next((p for p in (cycle_problems(sc, angles_deg, options.criterion, names) for sc in scenes) if p), [])
-    for i, sc in enumerate(scenes):
-        models = SharedModel(cases)  # one model per design point for all its cases (dropped after its checks)
-        for case in cases:
-            try:
-                checked_point(sc, 0.0, case, angles_deg, harmonics=options.harmonics, names=names, model_for=models)
-            except SceneError as err:
-                bad += [Problem(f"design point {i}: {p.path}" if len(scenes) > 1 else p.path, p.message)
-                        for p in err.problems]
-                break
-        if bad:
-            break
-    return bad
+    return bad or next((p for p in (cycle_problems(sc, angles_deg, options.criterion, names) for sc in scenes)
+                        if p), [])
+
+
+def stress_point_problems(scene: Scene, angles_deg, cases, options: CheckOptions, names=None,
+                          model_for=None) -> list[Problem]:
+    """With ``stress``: why the periodic responses of one design point cannot start
+    (:func:`fkev_slepc.periodic.steady.checked_point` of every case, up to the first refused), on
+    ``model_for``'s model (default one :class:`SharedModel` for all its cases)."""
+
+    if not options.stress:
+        return []
+    models = model_for or SharedModel(cases)
+    for case in cases:
+        try:
+            checked_point(scene, 0.0, case, angles_deg, harmonics=options.harmonics, names=names or {},
+                          model_for=models)
+        except SceneError as err:
+            return list(err.problems)
+    return []

@@ -35,11 +35,12 @@ from fkev_slepc.archive import products as P
 from fkev_slepc.archive import store
 from fkev_slepc.archive.writer import Block
 from fkev_slepc.design import point_checks as pc
-from fkev_slepc.design.point_checks import CheckOptions, stress_problems
+from fkev_slepc.design.point_checks import CheckOptions, stress_option_problems, stress_point_problems
 from fkev_slepc.design.results import open_design
 from fkev_slepc.design.study_keys import fixed_key_problems
 from fkev_slepc.model.mechanism import build_mechanism
 from fkev_slepc.model.operators import AssemblyError, Model
+from fkev_slepc.periodic.steady import SharedModel
 from fkev_slepc.scene import Problem, Scene, SceneError
 from fkev_slepc.scene.edit import replace_values
 from fkev_slepc.solve.critical import divergence_speed
@@ -118,12 +119,19 @@ def design_grid(params: dict, name: str = "params", names: dict | None = None) -
     return DesignGrid(tuple(keys), tuple(axes))
 
 
-def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
+def design_scenes(scene: Scene, grid: DesignGrid, checks: CheckOptions | None = None, names=None,
+                  models: dict | None = None) -> list[Scene]:
     """The scene of every design point (validated like files, then checked as ``fkev check`` checks
     one: assembly at every crank angle, modes, operator overflow;
-    :func:`fkev_slepc.sweep.grid.scene_problems`), or one SceneError listing every design point that
-    is not a valid scene (nothing computed)."""
-    out, bad = [], []
+    :func:`fkev_slepc.sweep.grid.scene_problems`; with ``checks.stress`` the periodic responses'
+    refusals too, :func:`~fkev_slepc.design.point_checks.stress_point_problems`), or one SceneError listing
+    every design point that is not a valid scene (the stress refusals up to the first point; nothing
+    computed). Each point's checks share one Model (:class:`~fkev_slepc.periodic.steady.SharedModel`),
+    kept in ``models`` (point index -> Model) for its solve for the first :data:`KEEP_CHECKED_MODELS`
+    points (a bound on the memory), dropped after for the rest."""
+    checks = checks or CheckOptions()
+    angles, cases = scene.analysis.crank_angles_deg, scene.analysis.cases
+    out, bad, cycle, stress = [], [], [], []
     for i, values in enumerate(grid.points):
         said = ", ".join(f"{k} = {v:g}" for k, v in zip(grid.keys, values))
         try:
@@ -132,18 +140,30 @@ def design_scenes(scene: Scene, grid: DesignGrid) -> list[Scene]:
         except SceneError as err:
             bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in err.problems]
             continue
-        bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in scene_problems(out[-1])]
+        shared = SharedModel(cases)
+        bad += [Problem(f"design point {i} ({said}): {p.path}", p.message) for p in scene_problems(out[-1], shared)]
+        if checks.stress and not bad:
+            cycle = cycle or stress_option_problems([out[-1]], angles, checks, names)
+            stress = stress or pc.point_named(i, len(grid.points),
+                                              stress_point_problems(out[-1], angles, cases, checks, names, shared))
+        if models is not None and shared.model is not None and len(models) < KEEP_CHECKED_MODELS:
+            models[i] = shared.model
+    bad = bad or cycle or stress
     if bad:
         raise SceneError(scene.source, bad)
     return out
+
+
+KEEP_CHECKED_MODELS = 64  # design points whose checked Model is kept for their solve (the rest build it again)
 
 
 class DesignSolver:
     """Solves one design point (a unit of work of the ``design`` product) into a writer Block."""
 
     def __init__(self, scenes: list[Scene], base: Scene, engine, n_modes: int, grid: DesignGrid | None = None,
-                 checks: CheckOptions | None = None):
+                 checks: CheckOptions | None = None, models: dict | None = None):
         an = base.analysis
+        self.models = models if models is not None else {}  # point index -> its checked Model (design_scenes)
         self.scenes, self.engine = scenes, engine
         self.design, self.checks = grid, checks or CheckOptions()
         self.grid = P.Grid(np.asarray(an.crank_angles_deg, float), np.asarray(base.driver.speeds, float),
@@ -159,7 +179,7 @@ class DesignSolver:
                 for v in rows}
         status = np.zeros((na, ns, nc), dtype=np.uint8)
         errors = []
-        model = Model(self.scenes[ip], cases=grid.cases)
+        model = self.models.pop(ip, None) or Model(self.scenes[ip], cases=grid.cases)
         sweep = Sweep(model, grid, self.engine, None, self.opts, np.full((na, ns, nc), np.nan))
         div = np.full((len(grid.cases), na), np.nan)
         for ia in range(na):
@@ -223,10 +243,8 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     output = Path(output)
     note = notify if (notify is not None and comm.rank == 0) else (lambda _m: None)
     checks = checks or CheckOptions()
-    scenes = design_scenes(scene, grid)  # every design point valid, or nothing is done
-    bad = stress_problems(scenes, scene.analysis.crank_angles_deg, scene.analysis.cases, checks, names)
-    if bad:
-        raise SceneError(scene.source, bad)
+    models: dict = {}  # the design points' checked Models, kept for their solves (design_scenes)
+    scenes = design_scenes(scene, grid, checks, names, models)  # every design point valid, or nothing is done
     base_resume = resume and (output.exists() or store.partial_path(output).exists())
     command_line = command_line or "fkev design"
     run_sweep(SweepRequest(scene, output, resume=base_resume, force=force and not resume, solver=solver,
@@ -244,7 +262,7 @@ def run_design(scene: Scene, grid: DesignGrid, output, comm=None, *, resume: boo
     engine = make_engine(solver or scene.solver.method, _n_free(scenes), scene.solver.petsc,
                          settings=SolveSettings.from_scene(scene))
     try:
-        ds = DesignSolver(scenes, scene, engine, scene.analysis.modes, grid, checks)
+        ds = DesignSolver(scenes, scene, engine, scene.analysis.modes, grid, checks, models)
         report = (lambda done, total: note(f"{done}/{total} design-study points")) if progress else None
         solve_pending(part, output, P.DESIGN, todo, ds.solve, comm, 1, notify, "design points", report)
     finally:

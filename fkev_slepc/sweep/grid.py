@@ -155,15 +155,19 @@ def modes_problem(n_modes: int, n_free: int, name: str | None) -> Problem | None
                    "oscillating modes (refine with --elements or ask fewer)")
 
 
-def scene_problems(scene: Scene) -> list[Problem]:
+def scene_problems(scene: Scene, model_for=None) -> list[Problem]:
     """Every problem that stops a valid scene file from being solved (``fkev check`` and each design
     point of ``fkev design``): the crank angles at which the linkage cannot be assembled, else more
     modes than DOFs, else operators that overflow double precision
-    (:func:`fkev_slepc.solve.finite.overflow_problems`)."""
+    (:func:`fkev_slepc.solve.finite.overflow_problems`, on ``model_for(scene, cases, "in")``'s model
+    of the structure and every case; default a new one)."""
     problems = assembly_problems(scene)
     if not problems:
         problems = [p for p in [modes_problem(scene.analysis.modes, build_mechanism(scene).n_free, None)] if p]
-    return problems or overflow_problems(scene)
+    if problems:
+        return problems
+    every = tuple(dict.fromkeys(("structure", *scene.analysis.cases)))
+    return overflow_problems(scene, None if model_for is None else model_for(scene, every, "in"))
 
 
 def configure(scene: Scene, *, angles=None, speeds=None, speeds_rpm=None, cases=None, modes=None,
