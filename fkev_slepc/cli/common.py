@@ -139,7 +139,7 @@ CLI_NAMES = {"elements": "--elements", "harmonics": "--harmonics"}  # how period
 
 def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", plots: tuple[str, ...] = ("plot",),
               output: str | None = None, periodic: bool = False, harmonics: int | None = None,
-              reduce: str | None = None) -> None:
+              reduce: str | None = None, model_for=None) -> None:
     """Every check of a command's input that needs no solve, before any work (one place for all
     commands): the figure paths (``plots``: attribute names of ``args``, e.g. ``plot_stations`` for
     ``--plot-stations``; a format matplotlib writes, an existing folder), the ``output`` file of a
@@ -147,7 +147,8 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
     :func:`fkev_slepc.periodic.limits.size_problems`, the limits the Python API checks
     too), the harmonic-balance size (``harmonics``), the damping (ζ over-critical) and ``speeds`` whose
     operators overflow double precision (named by ``speed_flag``;
-    :func:`fkev_slepc.periodic.limits.plausibility_problems`).
+    :func:`fkev_slepc.periodic.limits.plausibility_problems`, on ``model_for``'s model: the command's
+    own :class:`~fkev_slepc.periodic.steady.SharedModel`, so that the check costs no Model of its own).
 
     Raises
     ------
@@ -173,7 +174,8 @@ def preflight(scene: Scene, args, *, speeds=None, speed_flag: str = "--speed", p
     bad += limits.size_problems(scene, periodic, harmonics, reduce, CLI_NAMES)
     if bad:  # nothing below is worth computing
         raise SceneError(scene.source, bad)
-    bad += limits.plausibility_problems(scene, speeds, periodic, {**CLI_NAMES, "speed_rad_s": speed_flag})
+    bad += limits.plausibility_problems(scene, speeds, periodic, {**CLI_NAMES, "speed_rad_s": speed_flag},
+                                        model_for)
     if bad:
         raise SceneError(scene.source, bad)
     from fkev_slepc.scene.validity import slenderness_warnings

@@ -11,6 +11,7 @@ import json
 import sys
 
 from fkev_slepc.archive.paths import PathProblem, check_output
+from fkev_slepc.periodic.steady import SharedModel
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.scene.units import RAD_S_PER_RPM, with_rpm
 from fkev_slepc.status import EXIT_NOT_CONVERGED, EXIT_OK
@@ -72,8 +73,9 @@ def run(args) -> int:
         speed = (args.speed_rpm * RAD_S_PER_RPM if args.speed_rpm is not None else
                  max(scene.driver.speeds, key=abs) if args.speed is None else args.speed)
         # the checks of fkev response, before any solve: mesh size, harmonics, memory, overflow, the CSV path
+        models = SharedModel(scene.analysis.cases)  # the overflow check's and the responses'
         preflight(scene, args, speeds=[speed], speed_flag=flags["speed_rad_s"], plots=(), periodic=True,
-                  harmonics=args.harmonics, reduce="default")
+                  harmonics=args.harmonics, reduce="default", model_for=models)
         if args.csv not in (None, "-"):
             try:
                 check_output(args.csv, (".csv", ".txt"), "--csv")
@@ -81,7 +83,7 @@ def run(args) -> int:
                 raise SceneError(args.scene, [Problem("--csv", str(exc).removeprefix("--csv "))]) from None
         check = design_check(scene, speed, criterion=args.criterion, case=args.case or "full", angles_deg=angles,
                              gravity_m_s2=gravity, harmonics=args.harmonics, tol=args.tol,
-                             threshold=args.buckling_threshold, names=flags)
+                             threshold=args.buckling_threshold, names=flags, model_for=models)
     except SceneError as err:
         return report_scene_error(err)
     d = check.as_dict()

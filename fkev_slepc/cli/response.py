@@ -10,6 +10,7 @@ import sys
 import numpy as np
 
 from fkev_slepc.periodic.settings import DEFAULTS
+from fkev_slepc.periodic.steady import SharedModel
 from fkev_slepc.scene import Problem, SceneError
 from fkev_slepc.status import EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OK
 from .common import (
@@ -106,16 +107,17 @@ def run(args) -> int:
         scan = args.speeds is not None or args.speeds_rpm is not None
         flags = dict(FLAGS)
         speed = None if scan else chosen_speed(args, scene, flags)
+        models = None if scan else SharedModel(scene.analysis.cases)  # the overflow check's and the response's
         preflight(scene, args, speeds=args.speed_list if scan else [speed],
                   speed_flag=args.speeds_flag if scan else flags["speed_rad_s"], plots=("plot", "plot_stations"),
                   output=None if scan else args.output, periodic=True, harmonics=args.harmonics,
-                  reduce=args.reduce or "default")
+                  reduce=args.reduce or "default", model_for=models)
         settings = _settings(args, scene)
         if scan:
             return _vs_speed(args, scene, angles, gravity, stations, settings)
         res = study_response(scene, speed, args.case or "full", angles, gravity_m_s2=gravity,
                              harmonics=args.harmonics, stations=stations, names=flags, settings=settings,
-                             reduce=args.reduce)
+                             reduce=args.reduce, model_for=models)
     except SceneError as err:
         return report_scene_error(err)
     missed = not res.error <= args.tol  # NaN (not estimated) misses too
