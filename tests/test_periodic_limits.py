@@ -54,3 +54,24 @@ def test_full_model_limit_and_harmonics_named_by_the_callers_names():
     small = fk.load(SCENE, elements=4).scene
     (h,) = limits.size_problems(small, True, 10_000, "none")
     assert h.path == "harmonics" and "harmonics x" in h.message
+
+
+@pytest.mark.parametrize("command", ["response", "design-check"])
+def test_the_cli_checks_and_solves_a_response_on_one_model(command, monkeypatch, capsys):
+    """The preflight's overflow check of ``fkev response`` / ``fkev design-check`` and the response
+    itself share one in-plane Model (every construction counted by a wrapper of the real
+    Model.__init__; the design check's out-of-plane problem, a plane of its own, builds one more)."""
+    from fkev_slepc.cli import main
+    from fkev_slepc.model.operators import Model
+
+    built = []
+    real = Model.__init__
+
+    def counted(self, scene, cases=None, plane="in", *args, **kwargs):
+        real(self, scene, cases, plane, *args, **kwargs)
+        built.append(self.plane)
+
+    monkeypatch.setattr(Model, "__init__", counted)
+    code = main([command, str(SCENE), "--speed", "100", "--harmonics", "8", "--tol", "0.5", "--json"])
+    assert code == 0, capsys.readouterr().err
+    assert built.count("in") == 1, built  # b8fb00b: 2 (one for the preflight, one for the response)
