@@ -13,7 +13,7 @@ import numpy as np
 
 from fkev_slepc.model.drive_cycle import DriveCycle, DriveError, DriveProblem, flywheel_for
 from fkev_slepc.model.mechanism import build_mechanism
-from fkev_slepc.model.operating_point import full_turn_problem
+from fkev_slepc.model.operating_point import full_turn_problems
 from fkev_slepc.scene import Problem, Scene, SceneError
 
 DRIVE_FORMAT = "fkev-drive"
@@ -91,9 +91,7 @@ def study_drive(scene: Scene, fluctuation: float | None = None, gravity_m_s2=Non
     if fluctuation is not None and not (0.0 < fluctuation < 1.0):
         bad.append(Problem(flag, f"must be > 0 and < 1 (got {fluctuation!r}): δ = (ω_max − ω_min)/ω_mean"))
     mech = build_mechanism(scene)
-    turn = full_turn_problem(scene, mech)
-    if turn is not None:
-        bad.append(turn)
+    bad += full_turn_problems(scene, mech)
     if bad:
         raise SceneError(scene.source, bad)
     gravity = scene.analysis.gravity_m_s2 if gravity_m_s2 is None else gravity_m_s2

@@ -78,7 +78,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     and ``reduce``, when given, override its verdict_tol, edge_rtol, monodromy_tol, resonance_order, probe
     and reduce; ``zeta_floor`` its zeta_floor (an undamped scene's bands listed as surviving real damping
     where their ζ* exceeds it; docs/stability.md). The result is archived whole (``/floquet/settings``) and compared whole on ``resume``."""
-    from fkev_slepc.api.loads import full_turn_problem
+    from fkev_slepc.model.operating_point import full_turn_problems
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.periodic.settings import checked_settings
     from fkev_slepc.periodic.truncation import resolve_reduce
@@ -96,9 +96,7 @@ def study_floquet(study, speeds_rad_s=None, case="full", output=None, *, speeds_
     if sc.driver.acceleration != 0.0:
         bad.append(Problem("driver.acceleration_rad_s2", "the Floquet analysis needs a constant crank speed "
                            f"(got {sc.driver.acceleration:g} rad/s²)"))
-    turn = full_turn_problem(sc)
-    if turn is not None:
-        bad.append(turn)
+    bad += full_turn_problems(sc)
     st = checked_settings(sc.source, settings, dict(verdict_tol=tol, edge_rtol=rtol, monodromy_tol=monodromy_tol,
                                              resonance_order=resonance_order, probe=probe, reduce=reduce,
                                              zeta_floor=zeta_floor),

@@ -11,7 +11,7 @@ import numpy as np
 
 from fkev_slepc.model.joint_loads import POINT_NAMES, JointLoads, joint_loads
 from fkev_slepc.model.operating_point import (  # noqa: F401 (re-exported)
-    checked_angles, full_turn_problem, operating_point_problems,
+    checked_angles, operating_point_problems,
 )
 from fkev_slepc.scene import Scene, SceneError
 from fkev_slepc.model.mechanism import build_mechanism

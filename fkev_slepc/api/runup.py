@@ -108,7 +108,7 @@ def parse_ramp(text: str, flag: str = "--ramp"):
 
 def checked_runup(scene: Scene, history_args: dict, case, reduce, steps_per_revolution, start, names=None):
     """(history, case name, resolved reduce) or one SceneError naming every bad argument, before any work."""
-    from fkev_slepc.model.operating_point import full_turn_problem
+    from fkev_slepc.model.operating_point import full_turn_problems
     from fkev_slepc.periodic.limits import size_problems
     from fkev_slepc.periodic.motion import runup_reduction
     from fkev_slepc.periodic.runup import STARTS
@@ -136,9 +136,7 @@ def checked_runup(scene: Scene, history_args: dict, case, reduce, steps_per_revo
     if scene.driver.acceleration != 0.0:
         bad.append(Problem("driver.acceleration_rad_s2", "the run-up prescribes its own crank history; the "
                            f"scene's frozen crank acceleration must be 0 (got {scene.driver.acceleration:g} rad/s²)"))
-    turn = full_turn_problem(scene)
-    if turn is not None:
-        bad.append(turn)
+    bad += full_turn_problems(scene)
     bad += size_problems(scene, True, names=names)  # the periodic commands' one set of limits (as fkev runup's preflight)
     if bad:
         raise SceneError(scene.source, bad)

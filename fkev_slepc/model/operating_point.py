@@ -42,16 +42,16 @@ def checked_angles(scene: Scene, mech, angles_deg, name="angles_deg") -> np.ndar
 FULL_TURN_STEP_DEG = 0.25  # the crank angles at which a full revolution is checked before a periodic analysis
 
 
-def full_turn_problem(scene: Scene, mech=None) -> Problem | None:
-    """None where the linkage assembles at every crank angle of a revolution (every
-    ``FULL_TURN_STEP_DEG``), else the Problem naming the scene's driver: the periodic analyses
+def full_turn_problems(scene: Scene, mech=None) -> list[Problem]:
+    """[] where the linkage assembles at every crank angle of a revolution (every
+    ``FULL_TURN_STEP_DEG``), else the one Problem naming the scene's driver: the periodic analyses
     (``fkev floquet``, ``fkev response``) need a crank that turns fully, refused before any work."""
     a = np.arange(0.0, 360.0, FULL_TURN_STEP_DEG)
     ok = solve_kinematics(build_mechanism(scene) if mech is None else mech, np.radians(a)).ok
     if ok.all():
-        return None
+        return []
     edges = np.flatnonzero(np.diff(np.r_[True, ok, True].astype(int)))  # starts and ends of the failed runs
     spans = ", ".join(f"{a[i]:g}-{a[j - 1]:g}" for i, j in zip(edges[0::2], edges[1::2]))
-    return Problem("driver.link", f"the crank cannot turn fully: the linkage cannot be assembled at crank angles "
+    return [Problem("driver.link", f"the crank cannot turn fully: the linkage cannot be assembled at crank angles "
                                   f"{spans} deg; the periodic analyses need a full revolution (check the link lengths "
-                                  "against Grashof's condition, or use fkev run/point over the angles it reaches)")
+                                  "against Grashof's condition, or use fkev run/point over the angles it reaches)")]

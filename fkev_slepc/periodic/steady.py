@@ -84,7 +84,7 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     the arguments are checked (default ``Model``: a new one; a Study passes its pool's
     :meth:`~fkev_slepc.api.pool.ModelPool.model_for`, whose model may assemble more terms than the
     case keeps: it is solved for ``case``, never for ``model.cases``)."""
-    from fkev_slepc.model.operating_point import full_turn_problem
+    from fkev_slepc.model.operating_point import full_turn_problems
     from fkev_slepc.scene.cases import case_name
     from fkev_slepc.periodic.system import PeriodicSystem
     from fkev_slepc.periodic.harmonic_balance import MAX_UNKNOWNS
@@ -112,9 +112,7 @@ def checked_model(scene: Scene, case: str, harmonics, names=None, bad=None, redu
     except ValueError as err:
         bad.append(Problem(names.get("reduce", "reduce"), str(err)))
         reduce = "none"
-    turn = full_turn_problem(scene)
-    if turn is not None:
-        bad.append(turn)
+    bad += full_turn_problems(scene)
     if bad:
         raise SceneError(scene.source, bad)
     bad = limits.size_problems(scene, True, harmonics, "default" if reduce is None else reduce, names)
