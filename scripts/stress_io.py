@@ -68,15 +68,30 @@ def _cli(argv) -> tuple[int | None, str, str]:
     return code, out.getvalue(), err.getvalue()
 
 
+# the commands each mutated scene goes through, and which scenes (by their unmutated text): every scene
+# through fkev check and fkev point; the design check and the loads where the scene has [[loads]] or
+# [materials] (issue 36 item 6: what they read is mutated too), the out-of-plane point where its
+# sections are given by shape (both planes' data)
+FUZZ_COMMANDS = (
+    (("check",), lambda text: True),
+    (("point", "--modes", "2"), lambda text: True),
+    (("loads", "--angles", "0:360:90"), lambda text: "[[loads]]" in text or "[materials" in text),
+    (("design-check", "--harmonics", "4", "--elements", "1", "--angles", "0:355:15"),
+     lambda text: "[[loads]]" in text or "[materials" in text),
+    (("point", "--plane", "out", "--modes", "2"), lambda text: "section = {shape" in text),
+)
+
+
 def cmd_fuzz(args) -> Tally:
-    rng, t = np.random.default_rng(args.seed), Tally("mutation fuzz of runs/*.toml (fkev check, fkev point)")
+    rng, t = np.random.default_rng(args.seed), Tally("mutation fuzz of runs/*.toml (fkev check, point, loads, "
+                                                     "design-check, point --plane out)")
     scenes = sorted((ROOT / "runs").glob("*.toml"))
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(args.n):
             for src in scenes:
-                path = Path(tmp) / f"m{i}-{src.name}"
-                path.write_text(mutate(src.read_text(), rng))
-                for argv in (["check", path], ["point", path, "--modes", "2"]):
+                path, text = Path(tmp) / f"m{i}-{src.name}", src.read_text()
+                path.write_text(mutate(text, rng))
+                for argv in ([cmd[0], path, *cmd[1:]] for cmd, wanted in FUZZ_COMMANDS if wanted(text)):
                     code, out, err = _cli(map(str, argv))
                     t.add(f"{argv[0]} runs")
                     if code is None or "Traceback" in err:

@@ -26,6 +26,10 @@ from pathlib import Path
 from stresslib import ROOT, Tally
 
 BW = ROOT / "runs/bahgat-willmert-1976.toml"
+SCD = ROOT / "runs/slider-crank-design.toml"  # [materials] with strengths: a design check with factors
+PACK = ROOT / "runs/packaging-slider-crank.toml"  # [[loads]]: the 800 N cut
+FLAT = ROOT / "runs/flat-rod-slider-crank.toml"  # the out-of-plane problem from section shapes
+SMALL_CHECK = ("--harmonics", "4", "--elements", "1")
 ONE = ("--elements", "1")
 FQ = ("--angles", "0:360:90", "--no-critical")
 ADVERSARIAL = {  # id: (fkev arguments, with {tmp} and the scene builders of SCENES, what the one line names)
@@ -64,6 +68,29 @@ ADVERSARIAL = {  # id: (fkev arguments, with {tmp} and the scene builders of SCE
                                  "--set[solver.petsc.pep_max_it]"),
     "point-sensitivity-typo": (("point", BW, *ONE, "--sensitivity", "links[1].lenght_m"),
                                "did you mean 'links[1].length_m'"),
+    # issue 36 item 6: the design check, [[loads]], [materials] and the out-of-plane keys
+    "design-check-speed-1e155": (("design-check", SCD, *SMALL_CHECK, "--speed", "1e155"), "--speed"),
+    "design-check-elements-100000": (("design-check", SCD, "--elements", "100000"), "--elements"),
+    "design-check-csv-missing-folder": (("design-check", SCD, *SMALL_CHECK, "--csv", "{tmp}/no/x.csv"), "--csv"),
+    "design-check-csv-directory": (("design-check", SCD, *SMALL_CHECK, "--csv", "{tmp}"), "--csv"),
+    "design-check-csv-stdout-json": (("design-check", SCD, *SMALL_CHECK, "--csv", "-", "--json"), "--csv"),
+    "design-check-tol-0": (("design-check", SCD, *SMALL_CHECK, "--tol", "0"), "--tol"),
+    "design-check-one-angle": (("design-check", SCD, *SMALL_CHECK, "--angles", "10"), "--angles"),
+    "design-check-modulus-1e300": (("design-check", "modulus", *SMALL_CHECK), "links"),
+    "design-check-out-of-plane-speed-1e155": (("design-check", FLAT, *SMALL_CHECK, "--speed", "1e155"), "--speed"),
+    "design-stress-one-angle": (("design", SCD, "--set", "links[rod].section.width_m=0.006", "--speeds", "100",
+                                 "--angles", "0:90:30", "--stress", "--harmonics", "8", "-o", "{tmp}/d.h5"), "--angles"),
+    "loads-at-no-joint": (("loads", "load-at", "--speed", "60"), "loads[0].at"),
+    "response-load-at-no-joint": (("response", "load-at", "--speed", "60", "--harmonics", "4"), "loads[0].at"),
+    "design-check-load-at-no-joint": (("design-check", "load-at", *SMALL_CHECK), "loads[0].at"),
+    "loads-force-length": (("loads", "load-length", "--speed", "60"), "loads[0].fx_n"),
+    "design-check-yield-negative": (("design-check", "yield", *SMALL_CHECK), "materials.steel_1045.yield_pa"),
+    "design-check-material-key-typo": (("design-check", "endurance-typo", *SMALL_CHECK),
+                                       "did you mean 'materials.steel_1045.endurance_pa'"),
+    "point-out-of-plane-section-twice": (("point", "out-twice", "--plane", "out", "--speed", "100", "--angle", "0"),
+                                         "links[1].second_moment_out_of_plane_m4"),
+    "point-out-of-plane-bearing-scalar": (("point", "bearing", "--plane", "out", "--speed", "100", "--angle", "0"),
+                                          "joints[2].bearing_stiffness_nm_rad"),
 }
 
 
@@ -85,8 +112,28 @@ def _height(folder: Path) -> Path:
     return path
 
 
+def _edited(folder: Path, base: Path, name: str, old: str, new: str) -> Path:
+    """``base`` with its one line ``old`` replaced by ``new``, written as ``folder/name.toml``."""
+    text = base.read_text()
+    assert text.count(old) == 1, (base, old)
+    path = folder / f"{name}.toml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+FLAT_ROD_SECTION = 'section = {shape = "rectangle", width_m = 0.008, height_m = 0.020}'
 SCENES = {"beta": lambda d: _damped(d, "stiffness_proportional_s", "1e30"),
-          "alpha": lambda d: _damped(d, "mass_proportional_1_s", "1e30"), "height": _height}
+          "alpha": lambda d: _damped(d, "mass_proportional_1_s", "1e30"), "height": _height,
+          "modulus": lambda d: _edited(d, SCD, "modulus", "youngs_modulus_pa = 2.05e11", "youngs_modulus_pa = 1e300"),
+          "load-at": lambda d: _edited(d, PACK, "load-at", 'at = "B"', 'at = "Z"'),
+          "load-length": lambda d: _edited(d, PACK, "load-length", "fx_n = [0.0, 0.0, 800.0, 800.0, 0.0]",
+                                           "fx_n = [0.0, 0.0, 800.0, 800.0]"),
+          "yield": lambda d: _edited(d, SCD, "yield", "yield_pa = 5.30e8", "yield_pa = -5.30e8"),
+          "endurance-typo": lambda d: _edited(d, SCD, "endurance-typo", "endurance_pa = 3.1e8", "endurence_pa = 3.1e8"),
+          "out-twice": lambda d: _edited(d, FLAT, "out-twice", FLAT_ROD_SECTION,
+                                         FLAT_ROD_SECTION + "\nsecond_moment_out_of_plane_m4 = 1e-9"),
+          "bearing": lambda d: _edited(d, FLAT, "bearing", 'assembly = "ahead"',
+                                       'assembly = "ahead"\nbearing_stiffness_nm_rad = -5.0')}
 
 
 def arguments(case: str, folder: Path) -> tuple[list[str], str]:

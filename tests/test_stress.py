@@ -262,7 +262,9 @@ def test_mutated_scenes_never_give_a_traceback(campaigns):
 
     t = stress_io.cmd_fuzz(ns(n=1))
     assert "tracebacks" not in t.counts, t.notes
-    assert sum(v for k, v in t.counts.items() if k.startswith("check exit")) == t.counts["check runs"]
+    for command in ("check", "point", "loads", "design-check"):  # issue 36 item 6: the design check and loads too
+        assert t.counts[f"{command} runs"] > 0
+        assert sum(v for k, v in t.counts.items() if k.startswith(f"{command} exit")) == t.counts[f"{command} runs"]
 
 
 def test_acceptance_rejects_pairs_less_accurate_than_their_conditioning():
@@ -385,3 +387,22 @@ def test_slepc_is_accurate_to_the_floor_with_a_heavy_mass_and_coriolis(campaigns
     with SlepcEngine() as slepc:
         f = postprocess(slepc.solve(q, 4), 4).frequency_hz
     np.testing.assert_allclose(f, ref, rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("name, old, new, plane", [
+    ("stephenson-six-bar.toml", "position_m = [0.30, 0.40]", "position_m = [0.30, -1]", "in"),
+    ("slider-crank-benchmark-stiff-crank.toml", "position_m = [0.0, 0.0]\n", "position_m = [0.0, 3.5]\n", "in")])
+def test_a_scene_that_does_not_assemble_at_its_first_angle_is_refused_not_a_traceback(tmp_path, name, old, new, plane):
+    """Found by ``scripts/stress.py fuzz --n 40 --seed 5`` (issue 36 items 3, 6):
+    a ground joint (the six-bar's) or the slider's guide (the slider-crank's) moved so that the linkage
+    cannot be assembled at 0 deg ended ``fkev point`` in an AssemblyError traceback from the overflow
+    check of the preflight (it judged the operators at the scene's first angle). Now the overflow
+    check takes the first angle that assembles and the point is refused in one line naming --angle."""
+    from clitools import fkev
+
+    text = (ROOT / "runs" / name).read_text()
+    scene = tmp_path / "moved.toml"
+    scene.write_text(text.replace(old, new, 1))
+    r = fkev("point", scene, "--modes", "2", "--plane", plane, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert "  --angle: the linkage cannot be assembled at crank angle 0 deg (got 0)" in r.stderr, r.stderr

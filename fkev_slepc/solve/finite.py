@@ -11,7 +11,7 @@ the companion pencil of the dense engine then overflow).
 from __future__ import annotations
 
 import numpy as np
-from fkev_slepc.model.operators import Model
+from fkev_slepc.model.operators import AssemblyError, Model
 from fkev_slepc.scene import Problem
 
 # λ² up to this size leaves room for the products λ²·‖M‖·‖x‖, λ⁴ (quadratic roots) and the
@@ -59,8 +59,9 @@ def require_finite(qep) -> None:
 
 def overflow_problems(scene, model=None) -> list:
     """Problems (``scene.Problem``) of a scene whose operators overflow: the QEP of every case at
-    the first crank angle and the largest crank speed, judged by :func:`operator_problem`. A
-    problem of the ``structure`` case (no speed in it) names the links, else the crank speeds.
+    the first crank angle of the scene's that assembles and the largest crank speed, judged by
+    :func:`operator_problem` (none where no angle assembles: the command's own assembly check names
+    those). A problem of the ``structure`` case (no speed in it) names the links, else the crank speeds.
     ``model``: an in-plane model of ``scene`` assembling the terms of every case (default a new one)."""
     cases = tuple(scene.analysis.cases)
     speeds = np.abs(np.asarray(scene.driver.speeds, dtype=float))
@@ -68,7 +69,9 @@ def overflow_problems(scene, model=None) -> list:
     with np.errstate(all="ignore"):  # the overflow is the finding, not a warning
         if model is None:
             model = Model(scene, cases=tuple(dict.fromkeys(("structure", *cases))))
-        pieces = model.pieces(np.radians(scene.analysis.crank_angles_deg[0]))
+        pieces = _assembled_pieces(model, scene.analysis.crank_angles_deg)
+        if pieces is None:
+            return []
         still = operator_problem(model.qep(pieces, 0.0, "structure"))
         if still:
             return [Problem("links", f"{still} (the structure at rest, no crank speed involved)")]
@@ -79,3 +82,13 @@ def overflow_problems(scene, model=None) -> list:
                 out.append(Problem("driver.speeds", f"case {case} at {top:g} rad/s: {why}"))
                 break  # one line: the speed is the cause for every case it breaks
     return out
+
+
+def _assembled_pieces(model, angles_deg):
+    """The model's pieces at the first of ``angles_deg`` at which the linkage assembles, else None."""
+    for a in angles_deg:
+        try:
+            return model.pieces(np.radians(a))
+        except AssemblyError:
+            continue
+    return None
